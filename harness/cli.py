@@ -1,0 +1,249 @@
+"""The ``ldbench`` command line (DESIGN.md, "Command line").
+
+Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
+traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .errors import LdbenchError
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own errors: one line, exit 2
+        raise LdbenchError(message)
+
+
+# ---- scenes / methods -----------------------------------------------------------------------------
+def _scenes_args(p):
+    pass
+
+
+def _scenes(args):
+    from .scenes import list_scenes
+
+    for s in list_scenes():
+        params = ", ".join(f"{k}={v!r}" for k, v in s.get("parameters", {}).items())
+        print(f"{s['name']:<10} {s.get('description', '')}")
+        if params:
+            print(f"{'':<10} parameters: {params}")
+    print("Any Mitsuba 3 XML file path, or a .ply/.obj mesh path (mesh-in-a-box), is also a scene.")
+    return 0
+
+
+def _methods_args(p):
+    pass
+
+
+def _methods(args):
+    from methods.base import registry
+
+    for name, cls in registry().items():
+        print(f"{name}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
+        print(cls.Params.table())
+    return 0
+
+
+# ---- reference -------------------------------------------------------------------------------------
+def _effect_args(p):
+    p.add_argument("--effect", required=True, help="ao | direct | indirect")
+    p.add_argument("--d-max", default=None, help="ao: maximum distance (world units, or 'inf')")
+    p.add_argument("--falloff", default=None, help="ao: step | quadratic")
+
+
+def _effect_from(args):
+    from .effects import Effect
+    from .suite import _float_or_inf
+
+    opts = {}
+    if args.d_max is not None:
+        opts["d_max"] = _float_or_inf(args.d_max)
+    if args.falloff is not None:
+        opts["falloff"] = args.falloff
+    return Effect.parse(args.effect, opts)
+
+
+def _scene_params(pairs):
+    out = {}
+    for kv in pairs or []:
+        if "=" not in kv:
+            raise LdbenchError(f"--scene-set expects key=value, got {kv!r}")
+        k, v = kv.split("=", 1)
+        out[k] = _literal(v)
+    return out
+
+
+def _literal(v: str):
+    import ast
+
+    if v.lower() in ("inf", "infinity"):
+        return float("inf")
+    if v.lower() in ("true", "false"):
+        return v.lower() == "true"
+    try:
+        return ast.literal_eval(v)
+    except (ValueError, SyntaxError):
+        return v
+
+
+def _reference_args(p):
+    p.add_argument("scene")
+    _effect_args(p)
+    p.add_argument("--spp", type=int, default=1024)
+    p.add_argument("--size", default="256x256")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--out", default=None, help="also write the mean as this EXR file")
+    p.add_argument("--no-cache", action="store_true")
+
+
+def _reference(args):
+    from references import render_reference
+    from .scenes import load_scene
+    from .suite import parse_size
+
+    w, h = parse_size(args.size)
+    if args.spp < 1:
+        raise LdbenchError(f"--spp must be >= 1, got {args.spp}")
+    effect = _effect_from(args)
+    scene = load_scene(args.scene, **_scene_params(args.scene_set))
+    for w_ in scene.warnings:
+        print(f"warning: {w_}", file=sys.stderr)
+    ref = render_reference(scene, effect, width=w, height=h, spp=args.spp, cache=not args.no_cache)
+    m = ref.meta
+    took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
+    print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
+          f"key={m.get('key')}")
+    if args.out:
+        from .runner import save_image
+        out = Path(args.out)
+        save_image(out.with_suffix(""), ref.mean)
+        print(f"wrote {out.with_suffix('.exr')}")
+    return 0
+
+
+# ---- run / report ---------------------------------------------------------------------------------
+def _run_args(p):
+    p.add_argument("suite", nargs="?", help="suite TOML file")
+    p.add_argument("--scene")
+    p.add_argument("--method", action="append")
+    p.add_argument("--effect")
+    p.add_argument("--d-max", default=None)
+    p.add_argument("--falloff", default=None)
+    p.add_argument("--size", default=None, help="WxH")
+    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel")
+    p.add_argument("--warmup", type=int, default=None)
+    p.add_argument("--frames", type=int, default=None)
+    p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE", help="method parameter")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
+    p.add_argument("--no-report", action="store_true")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def suite_from_args(args):
+    """A suite from a TOML file, or from --scene/--method/--effect flags (flags override the file)."""
+    from .suite import load_suite, suite_from_dict
+
+    if args.suite and (args.scene or args.method or args.effect):
+        raise LdbenchError("give either a suite file or --scene/--method/--effect, not both")
+    if args.suite:
+        suite = load_suite(args.suite)
+        if any(v is not None for v in (args.size, args.spp, args.warmup, args.frames)):
+            import dataclasses
+            from .suite import parse_size
+            size = parse_size(args.size) if args.size else None
+            suite.jobs = [dataclasses.replace(
+                j, width=size[0] if size else j.width, height=size[1] if size else j.height,
+                spp=args.spp or j.spp, warmup=j.warmup if args.warmup is None else args.warmup,
+                frames=args.frames or j.frames) for j in suite.jobs]
+        return suite
+    if not (args.scene and args.method and args.effect):
+        raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
+    params: dict = {}
+    for kv in args.set or []:
+        if "=" not in kv or "." not in kv.split("=", 1)[0]:
+            raise LdbenchError(f"--set expects METHOD.PARAM=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        m, p = k.split(".", 1)
+        if m not in args.method:
+            raise LdbenchError(f"--set {kv!r} names method {m!r}, which is not in --method")
+        params.setdefault(m, {})[p] = _literal(v)
+    run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
+           "scene_params": _scene_params(args.scene_set)}
+    if args.d_max is not None:
+        from .suite import _float_or_inf
+        run["d_max"] = _float_or_inf(args.d_max)
+    if args.falloff is not None:
+        run["falloff"] = args.falloff
+    head = {"name": "adhoc"}
+    for k in ("size", "spp", "warmup", "frames"):
+        if getattr(args, k) is not None:
+            head[k] = getattr(args, k)
+    return suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
+
+
+def _run(args):
+    import time
+    from .runner import run_jobs
+
+    suite = suite_from_args(args)
+    out = Path(args.out) if args.out else Path("reports") / f"{suite.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report)
+    cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
+                        "ssim", "status") if c in df.columns]
+    import pandas as pd
+    with pd.option_context("display.width", 200, "display.max_columns", 20):
+        print(df[cols].to_string(index=False))
+    print(f"wrote {out}")
+    return 1 if (df["status"] != "ok").any() else 0
+
+
+def _report_args(p):
+    p.add_argument("run_dir")
+
+
+def _report(args):
+    from .report import write_report
+
+    d = Path(args.run_dir)
+    if not (d / "results.parquet").exists():
+        raise LdbenchError(f"{d} is not a run directory (no results.parquet)")
+    path = write_report(d)
+    print(f"wrote {path}")
+    return 0
+
+
+COMMANDS = {
+    "scenes": (_scenes_args, _scenes, "list built-in scenes"),
+    "methods": (_methods_args, _methods, "list method adapters and their parameters"),
+    "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
+    "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),
+    "report": (_report_args, _report, "rebuild the report of a run directory"),
+}
+
+
+def build_parser():
+    parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name, (add, _, helptext) in COMMANDS.items():
+        add(sub.add_parser(name, help=helptext))
+    return parser
+
+
+def main(argv=None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return COMMANDS[args.command][1](args) or 0
+    except LdbenchError as e:
+        print(f"ldbench: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("ldbench: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,9 @@
+"""The one exception type the CLI turns into a single line on stderr and a non-zero exit."""
+
+
+class LdbenchError(Exception):
+    """A user-facing error: bad input, missing file, no suitable GPU.
+
+    The message must be one line that names what was wrong (the scene, parameter, element, path).
+    The CLI prints ``ldbench: error: <message>`` and exits with status 2; no traceback.
+    """

@@ -1,0 +1,229 @@
+"""Headless GPU context, shader loading, memory accounting and stage timing.
+
+One :class:`Gpu` wraps one moderngl EGL context (OpenGL >= 4.3, for compute shaders and SSBOs).
+
+Timing protocol (DESIGN.md): a method wraps each stage of a frame in ``with gpu.stage("build"):``. On a
+real GPU each stage is a GL timer query (``GL_TIME_ELAPSED``; stages must not nest, as those queries
+cannot); on a software rasterizer (llvmpipe), whose timer queries are meaningless, each stage is
+wall clock between two ``ctx.finish()`` calls. The runner brackets whole frames with
+:meth:`begin_frame` / :meth:`end_frame`, which also measure the frame's wall clock after ``finish()``.
+
+Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
+etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
+``methods/glsl/``, and default ``#define``s injected after ``#version``.
+"""
+from __future__ import annotations
+
+import re
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LdbenchError
+
+GLSL_DIR = Path(__file__).resolve().parent.parent / "methods" / "glsl"
+STAGES = {
+    "vertex_shader": "VERTEX_SHADER",
+    "geometry_shader": "GEOMETRY_SHADER",
+    "fragment_shader": "FRAGMENT_SHADER",
+}
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+
+
+def classify_device(renderer: str, vendor: str = "") -> str:
+    """``nvidia``, ``cpu-software`` (llvmpipe/softpipe/swrast) or ``gpu``."""
+    s = f"{renderer} {vendor}".lower()
+    if "nvidia" in s:
+        return "nvidia"
+    if any(k in s for k in ("llvmpipe", "softpipe", "swrast", "software")):
+        return "cpu-software"
+    return "gpu"
+
+
+def expand_includes(path: Path, seen: tuple = ()) -> str:
+    """Source of ``path`` with ``#include "x"`` replaced (beside the file first, then methods/glsl/)."""
+    path = Path(path)
+    if path in seen:
+        raise LdbenchError(f"recursive #include of {path.name}")
+    try:
+        src = path.read_text()
+    except OSError as e:
+        raise LdbenchError(f"cannot read shader {path}: {e.strerror}")
+
+    def repl(m):
+        name = m.group(1)
+        for d in (path.parent, GLSL_DIR):
+            if (d / name).exists():
+                return expand_includes(d / name, seen + (path,))
+        raise LdbenchError(f"shader {path.name}: #include \"{name}\" not found")
+
+    return _INCLUDE.sub(repl, src)
+
+
+def shader_source(path, stage_macro: str, defines: dict | None = None, version: int = 430) -> str:
+    header = [f"#version {version}", f"#define {stage_macro} 1"]
+    for k, v in (defines or {}).items():
+        if isinstance(v, bool):
+            v = int(v)
+        header.append(f"#define {k} {v}")
+    return "\n".join(header) + "\n#line 1\n" + expand_includes(Path(path))
+
+
+class Resources:
+    """GPU objects one owner (a method, a G-buffer) allocated, with their sizes in bytes.
+
+    Every buffer/texture a method uses goes through here, so the memory column of the records is the
+    sum of real allocations, not an estimate.
+    """
+
+    def __init__(self, ctx, prefix: str = ""):
+        self.ctx, self.prefix = ctx, prefix
+        self.objects: dict[str, object] = {}
+        self.bytes: dict[str, int] = {}
+
+    def _add(self, name, obj, nbytes):
+        if name in self.objects:
+            self.objects[name].release()
+        self.objects[name] = obj
+        self.bytes[name] = int(nbytes)
+        return obj
+
+    def buffer(self, name: str, data=None, *, reserve: int = 0, dynamic: bool = False):
+        if data is not None:
+            data = np.ascontiguousarray(data).tobytes() if isinstance(data, np.ndarray) else data
+            buf = self.ctx.buffer(data, dynamic=dynamic)
+        else:
+            buf = self.ctx.buffer(reserve=max(int(reserve), 4), dynamic=dynamic)
+        return self._add(name, buf, buf.size)
+
+    def texture(self, name: str, size, components: int, dtype: str = "f4", data=None):
+        tex = self.ctx.texture(tuple(size), components, data, dtype=dtype)
+        nbytes = size[0] * size[1] * components * int(dtype[-1])
+        return self._add(name, tex, nbytes)
+
+    def depth_texture(self, name: str, size):
+        tex = self.ctx.depth_texture(tuple(size))
+        return self._add(name, tex, size[0] * size[1] * 4)
+
+    def total(self) -> int:
+        return sum(self.bytes.values())
+
+    def by_buffer(self) -> dict:
+        return {f"{self.prefix}{k}": v for k, v in self.bytes.items()}
+
+    def release(self):
+        for o in self.objects.values():
+            o.release()
+        self.objects.clear()
+        self.bytes.clear()
+
+
+class Gpu:
+    """A headless OpenGL >= 4.3 context with timing helpers.
+
+    Parameters
+    ----------
+    require : int
+        Minimum GL version as moderngl writes it (430 = 4.3).
+    """
+
+    def __init__(self, *, require: int = 430):
+        try:
+            import moderngl
+        except ImportError as e:  # pragma: no cover - packaging error
+            raise LdbenchError(f"moderngl is not installed: {e}")
+        try:
+            self.ctx = moderngl.create_standalone_context(backend="egl", require=require)
+        except Exception as e:
+            msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise LdbenchError(
+                f"no headless OpenGL {require // 100}.{require % 100 // 10} context through EGL ({msg}); "
+                "ldbench needs a GPU driver or Mesa llvmpipe with EGL (apt-get install libegl1 libgl1-mesa-dri)")
+        self.info = {k: self.ctx.info.get(k) for k in ("GL_RENDERER", "GL_VERSION", "GL_VENDOR")}
+        self.device = classify_device(self.info["GL_RENDERER"] or "", self.info["GL_VENDOR"] or "")
+        self.timer_queries = self.device != "cpu-software"
+        self._pending: list = []  # (stage, query or ms) for the current frame
+        self._frame_t0 = None
+        self._programs: dict = {}
+
+    # ---- shaders -------------------------------------------------------------------------
+    def program(self, path, defines: dict | None = None, varyings=()):
+        """A vertex/geometry/fragment program from one ``.glsl`` file with stage ``#if``s (cached)."""
+        key = ("p", str(path), tuple(sorted((defines or {}).items())))
+        if key not in self._programs:
+            text = expand_includes(Path(path))
+            kw = {k: shader_source(path, m, defines) for k, m in STAGES.items()
+                  if re.search(rf"\b{m}\b", text)}
+            kw.setdefault("fragment_shader", None)
+            try:
+                self._programs[key] = self.ctx.program(varyings=list(varyings), **kw)
+            except Exception as e:
+                raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+        return self._programs[key]
+
+    def compute(self, path, defines: dict | None = None):
+        """A compute shader from ``path`` (its ``COMPUTE_SHADER`` section, or the whole file)."""
+        key = ("c", str(path), tuple(sorted((defines or {}).items())))
+        if key not in self._programs:
+            try:
+                self._programs[key] = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
+            except Exception as e:
+                raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+        return self._programs[key]
+
+    def resources(self, prefix: str = "") -> Resources:
+        return Resources(self.ctx, prefix)
+
+    # ---- timing --------------------------------------------------------------------------
+    def begin_frame(self):
+        self.ctx.finish()
+        self._pending = []
+        self._frame_t0 = time.perf_counter()
+
+    @contextmanager
+    def stage(self, name: str):
+        """Time one stage of the current frame (GL timer query, or wall clock on llvmpipe)."""
+        if self.timer_queries:
+            q = self.ctx.query(time=True)
+            with q:
+                yield
+            self._pending.append((name, q))
+        else:
+            self.ctx.finish()
+            t0 = time.perf_counter()
+            yield
+            self.ctx.finish()
+            self._pending.append((name, (time.perf_counter() - t0) * 1e3))
+
+    def end_frame(self) -> tuple[dict, float]:
+        """Finish the frame: ({stage: ms}, wall-clock ms). Repeated stage names add up."""
+        self.ctx.finish()
+        wall = (time.perf_counter() - self._frame_t0) * 1e3 if self._frame_t0 else float("nan")
+        stages: dict = {}
+        for name, q in self._pending:
+            ms = q if isinstance(q, float) else q.elapsed * 1e-6
+            stages[name] = stages.get(name, 0.0) + ms
+        self._pending, self._frame_t0 = [], None
+        return stages, wall
+
+    def release(self):
+        for p in self._programs.values():
+            p.release()
+        self._programs.clear()
+        self.ctx.release()
+
+
+def _first_error(e: Exception) -> str:
+    lines = [l.strip() for l in str(e).splitlines() if l.strip() and set(l.strip()) != {"="}]
+    errs = [l for l in lines if "error" in l.lower()]
+    return (errs or lines or [type(e).__name__])[0][:300]
+
+
+def read_texture(tex, components: int | None = None, dtype=np.float32) -> np.ndarray:
+    """Read a texture back as H×W×C with row 0 = top (OpenGL's row 0 is the bottom)."""
+    c = components or tex.components
+    w, h = tex.size
+    a = np.frombuffer(tex.read(), dtype=dtype).reshape(h, w, tex.components)[:, :, :c]
+    return np.ascontiguousarray(a[::-1])

@@ -1,0 +1,551 @@
+"""Result records: machine and commit metadata, result rows, ``results.parquet`` + ``results.csv``.
+
+One row per (suite, scene, method, effect, params) (DESIGN.md, "Records and reports"). The columns
+are :data:`COLUMNS`, each with a type in :data:`COLUMN_TYPES`:
+
+* ``str``, ``int``, ``float``, ``bool`` scalars (missing values: None, NaN for floats);
+* ``json``: nested values (dicts, lists, dataclasses such as a method's ``Params``) stored as JSON
+  strings, so Parquet and CSV hold the same text; :func:`read_results` parses them back.
+
+Timing columns follow the timing protocol: ``total_ms`` is the median of the per-frame totals,
+``total_ms_iqr`` its interquartile range, ``wall_ms`` the median wall-clock frame time, ``stage_ms`` and
+``stage_iqr`` map each stage to its median and IQR, ``raw_ms`` keeps every sample
+(``{stage: [...], "total": [...], "wall": [...]}``); :func:`timing_fields` computes them all from
+``raw_ms``. Quartiles are numpy's default (linear interpolation, Hyndman-Fan type 7).
+
+A typical runner::
+
+    info = machine_info(gpu.ctx.info)
+    base = {**machine_columns(info), **git_columns(git_info(repo))}
+    rows.append(make_row(**base, run_id=run_id, scene="cornell", method="ldm-ao", effect="ao",
+                         params=method.params, **timing_fields(raw_ms), **metrics))
+    write_results(rows, out_dir)
+"""
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import hashlib
+import importlib.metadata
+import json
+import math
+import os
+import platform
+import re
+import shutil
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LdbenchError
+
+RESULTS_PARQUET = "results.parquet"
+RESULTS_CSV = "results.csv"
+
+#: Column name -> type, in the order the files list them.
+COLUMN_TYPES: dict[str, str] = {
+    "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
+    "scene": "str", "scene_hash": "str", "triangles": "int",
+    "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
+    "width": "int", "height": "int",
+    "device": "str", "gl_renderer": "str", "gl_version": "str", "driver": "str", "cpu": "str",
+    "gpu_name": "str", "machine_key": "str", "machine": "json",
+    "warmup": "int", "frames": "int",
+    "total_ms": "float", "total_ms_iqr": "float", "wall_ms": "float",
+    "stage_ms": "json", "stage_iqr": "json", "raw_ms": "json",
+    "memory_bytes": "int", "memory": "json", "counters": "json",
+    "psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "metric_settings": "json",
+    "ref_spp": "int", "ref_variant": "str", "ref_key": "str", "ref_noise": "json",
+    "status": "str", "images": "json",
+}
+COLUMNS = tuple(COLUMN_TYPES)
+JSON_COLUMNS = tuple(c for c, t in COLUMN_TYPES.items() if t == "json")
+
+_SUBPROCESS_TIMEOUT_S = 10
+
+
+# --------------------------------------------------------------------------------------------------
+# machine
+
+
+def classify_device(renderer: str | None, vendor: str | None = None) -> str | None:
+    """Device class from the GL renderer and vendor strings.
+
+    Returns ``"nvidia"`` if either mentions NVIDIA, ``"cpu-software"`` for Mesa's software rasterizers
+    (llvmpipe, softpipe, swrast), ``"gpu"`` for anything else, and None when both are unknown.
+    """
+    text = f"{renderer or ''} {vendor or ''}".lower()
+    if not text.strip():
+        return None
+    if "nvidia" in text:
+        return "nvidia"
+    if any(s in text for s in ("llvmpipe", "softpipe", "swrast", "software rasterizer")):
+        return "cpu-software"
+    return "gpu"
+
+
+def _driver_from_gl_version(gl_version: str | None) -> str | None:
+    """Driver part of a GL version string: ``"4.5 (Core Profile) Mesa 23.2.1"`` -> ``"Mesa 23.2.1"``,
+    ``"4.6.0 NVIDIA 550.54.15"`` -> ``"NVIDIA 550.54.15"``; otherwise what follows the version number."""
+    if not gl_version:
+        return None
+    m = re.search(r"(Mesa|NVIDIA)\s+\S+", gl_version)
+    if m:
+        return m.group(0)
+    rest = re.sub(r"^\s*\d+(\.\d+)*\s*(\((Core|Compatibility) Profile\))?\s*", "", gl_version).strip()
+    return rest or None
+
+
+def _cpu_model() -> str | None:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() in ("model name", "Model", "Hardware") and value.strip():
+                    return value.strip()
+    except OSError:
+        pass
+    return platform.processor() or None
+
+
+def _version(dist: str) -> str | None:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def _float_or_none(s):
+    try:
+        v = float(s)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def nvidia_gpu_info() -> dict:
+    """GPU name, driver, SM and memory clocks (MHz) and total memory (MiB) of the first NVIDIA GPU.
+
+    Asks ``nvidia-smi`` (with a timeout), else ``pynvml``; all values are None when neither answers.
+    Clocks are the current ones at the time of the query.
+    """
+    out = {"gpu_name": None, "gpu_driver": None, "gpu_clock_sm_mhz": None, "gpu_clock_mem_mhz": None,
+           "gpu_memory_mib": None, "gpu_count": None}
+    exe = shutil.which("nvidia-smi")
+    if exe:
+        try:
+            p = subprocess.run(
+                [exe, "--query-gpu=name,driver_version,clocks.sm,clocks.mem,memory.total",
+                 "--format=csv,noheader,nounits"],
+                capture_output=True, text=True, timeout=_SUBPROCESS_TIMEOUT_S)
+            lines = [ln for ln in p.stdout.splitlines() if ln.strip()] if p.returncode == 0 else []
+        except (OSError, subprocess.SubprocessError):
+            lines = []
+        if lines:
+            f = [x.strip() for x in lines[0].split(",")]
+            if len(f) >= 5:
+                out.update(gpu_name=f[0], gpu_driver=f[1], gpu_clock_sm_mhz=_float_or_none(f[2]),
+                           gpu_clock_mem_mhz=_float_or_none(f[3]), gpu_memory_mib=_float_or_none(f[4]),
+                           gpu_count=len(lines))
+                return out
+    try:
+        import pynvml
+    except ImportError:
+        return out
+    try:
+        pynvml.nvmlInit()
+        try:
+            h = pynvml.nvmlDeviceGetHandleByIndex(0)
+            name = pynvml.nvmlDeviceGetName(h)
+            drv = pynvml.nvmlSystemGetDriverVersion()
+            out.update(
+                gpu_name=name.decode() if isinstance(name, bytes) else name,
+                gpu_driver=drv.decode() if isinstance(drv, bytes) else drv,
+                gpu_clock_sm_mhz=float(pynvml.nvmlDeviceGetClockInfo(h, pynvml.NVML_CLOCK_SM)),
+                gpu_clock_mem_mhz=float(pynvml.nvmlDeviceGetClockInfo(h, pynvml.NVML_CLOCK_MEM)),
+                gpu_memory_mib=pynvml.nvmlDeviceGetMemoryInfo(h).total / 2**20,
+                gpu_count=int(pynvml.nvmlDeviceGetCount()),
+            )
+        finally:
+            pynvml.nvmlShutdown()
+    except Exception:  # NVML errors: no usable GPU; keep the None fields
+        pass
+    return out
+
+
+def machine_info(gl_info: dict | None = None) -> dict:
+    """Describe the machine a run executes on.
+
+    Parameters
+    ----------
+    gl_info : dict, optional
+        ``moderngl.Context.info``-like dict with ``GL_RENDERER``, ``GL_VERSION``, ``GL_VENDOR``.
+
+    Returns
+    -------
+    dict
+        ``hostname, os, cpu, cpu_count, python, numpy, moderngl, mitsuba, drjit`` (package versions
+        from their metadata; nothing is imported), ``gl_renderer, gl_version, gl_vendor``, ``device``
+        (:func:`classify_device`), ``gpu_name, gpu_driver, gpu_clock_sm_mhz, gpu_clock_mem_mhz,
+        gpu_memory_mib, gpu_count`` (:func:`nvidia_gpu_info`; None without NVIDIA tools), and
+        ``driver``: the NVIDIA driver version where known, else the driver part of ``GL_VERSION``.
+    """
+    gl = dict(gl_info or {})
+    renderer, version, vendor = gl.get("GL_RENDERER"), gl.get("GL_VERSION"), gl.get("GL_VENDOR")
+    info = {
+        "hostname": socket.gethostname(),
+        "os": platform.platform(),
+        "cpu": _cpu_model(),
+        "cpu_count": os.cpu_count(),
+        "python": platform.python_version(),
+        "numpy": _version("numpy"),
+        "moderngl": _version("moderngl"),
+        "mitsuba": _version("mitsuba"),
+        "drjit": _version("drjit"),
+        "gl_renderer": renderer,
+        "gl_version": version,
+        "gl_vendor": vendor,
+        "device": classify_device(renderer, vendor),
+    }
+    info.update(nvidia_gpu_info())
+    info["driver"] = info["gpu_driver"] or _driver_from_gl_version(version)
+    return info
+
+
+def _slug(s: str | None, n: int) -> str:
+    s = re.sub(r"[^a-z0-9]+", "-", (s or "").lower()).strip("-")
+    return s[:n].strip("-") or "unknown"
+
+
+def machine_key(info: dict) -> str:
+    """Short stable key of (device, GL renderer, driver) for per-machine history files.
+
+    Readable prefix plus an 8-hex-digit hash of the three strings, e.g.
+    ``"nvidia-nvidia-h100-80gb-hbm3-pcie-1a2b3c4d"``. Hostname, clocks and package versions do not
+    enter it.
+    """
+    device, renderer, driver = info.get("device"), info.get("gl_renderer"), info.get("driver")
+    h = hashlib.sha1(json.dumps([device, renderer, driver]).encode()).hexdigest()[:8]
+    return f"{_slug(device, 16)}-{_slug(renderer, 32)}-{h}"
+
+
+def machine_columns(info: dict) -> dict:
+    """Row fields from :func:`machine_info`: ``device, gl_renderer, gl_version, driver, cpu, gpu_name,
+    machine_key`` and the full dict as ``machine``."""
+    return {"device": info.get("device"), "gl_renderer": info.get("gl_renderer"),
+            "gl_version": info.get("gl_version"), "driver": info.get("driver"), "cpu": info.get("cpu"),
+            "gpu_name": info.get("gpu_name"), "machine_key": machine_key(info), "machine": info}
+
+
+# --------------------------------------------------------------------------------------------------
+# git
+
+
+def _git(repo_dir, *args) -> str | None:
+    try:
+        p = subprocess.run(["git", "-C", str(repo_dir), *args], capture_output=True, text=True,
+                           timeout=_SUBPROCESS_TIMEOUT_S)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return p.stdout if p.returncode == 0 else None
+
+
+def git_info(repo_dir) -> dict:
+    """Commit, dirty flag and branch of the git checkout holding ``repo_dir``.
+
+    Returns
+    -------
+    dict
+        ``commit`` (full hash; None before the first commit), ``dirty`` (True when
+        ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
+        detached HEAD). All None when git is missing or ``repo_dir`` is not in a repository.
+    """
+    status = _git(repo_dir, "status", "--porcelain")
+    if status is None:
+        return {"commit": None, "dirty": None, "branch": None}
+    commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
+    branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
+    return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
+            "branch": branch.strip() if branch else None}
+
+
+def git_columns(info: dict) -> dict:
+    """Row fields ``commit`` and ``dirty`` from :func:`git_info`."""
+    return {"commit": info.get("commit"), "dirty": info.get("dirty")}
+
+
+# --------------------------------------------------------------------------------------------------
+# timing
+
+
+def summarize_samples(samples) -> dict:
+    """Median and interquartile range of timing samples.
+
+    Quartiles use numpy's default linear interpolation. Non-finite samples are dropped.
+
+    Returns
+    -------
+    dict
+        ``{"median", "iqr", "q1", "q3": float, "n": int}``; NaN statistics when no sample is left.
+    """
+    a = np.asarray(list(samples), dtype=np.float64).ravel()
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return {"median": math.nan, "iqr": math.nan, "q1": math.nan, "q3": math.nan, "n": 0}
+    q1, med, q3 = (float(x) for x in np.percentile(a, [25.0, 50.0, 75.0]))
+    return {"median": med, "iqr": q3 - q1, "q1": q1, "q3": q3, "n": int(a.size)}
+
+
+def timing_fields(raw_ms: dict) -> dict:
+    """Timing columns from raw per-frame samples.
+
+    Parameters
+    ----------
+    raw_ms : dict
+        ``{stage: [ms per measured frame], ..., "total": [...], "wall": [...]}``. ``"total"`` (the
+        per-frame GPU total) defaults to the per-frame sum of the stages; ``"wall"`` is optional.
+
+    Returns
+    -------
+    dict
+        ``total_ms, total_ms_iqr, wall_ms, stage_ms, stage_iqr, raw_ms, frames`` (stage order kept).
+    """
+    raw = {str(k): [float(x) for x in v] for k, v in raw_ms.items()}
+    stages = {k: v for k, v in raw.items() if k not in ("total", "wall")}
+    if "total" not in raw and stages:
+        lengths = {len(v) for v in stages.values()}
+        if len(lengths) != 1:
+            raise LdbenchError(f"stages have different sample counts {sorted(lengths)}; pass 'total'")
+        raw["total"] = [float(sum(x)) for x in zip(*stages.values())]
+    total = summarize_samples(raw.get("total", []))
+    wall = summarize_samples(raw.get("wall", []))
+    sums = {k: summarize_samples(v) for k, v in stages.items()}
+    return {
+        "total_ms": total["median"], "total_ms_iqr": total["iqr"], "wall_ms": wall["median"],
+        "stage_ms": {k: s["median"] for k, s in sums.items()},
+        "stage_iqr": {k: s["iqr"] for k, s in sums.items()},
+        "raw_ms": raw, "frames": total["n"] or wall["n"],
+    }
+
+
+# --------------------------------------------------------------------------------------------------
+# rows
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if dataclasses.is_dataclass(o) and not isinstance(o, type):
+        return dataclasses.asdict(o)
+    if isinstance(o, (Path, os.PathLike)):
+        return os.fspath(o)
+    if isinstance(o, (set, frozenset)):
+        return sorted(o)
+    raise TypeError(f"{type(o).__name__} is not JSON serializable")
+
+
+def to_json(value) -> str | None:
+    """JSON text of a nested value (None stays None; a string is taken as JSON already if it parses).
+
+    NumPy scalars and arrays, dataclasses (e.g. a method's ``Params``), paths and sets are converted;
+    dict key order is kept (stage order matters for reports). Non-finite floats are written as
+    ``NaN``/``Infinity`` (Python's JSON dialect).
+    """
+    if value is None:
+        return None
+    if isinstance(value, str):
+        try:
+            json.loads(value)
+            return value
+        except ValueError:
+            pass
+    return json.dumps(value, default=_json_default)
+
+
+def _is_missing(v) -> bool:
+    if v is None:
+        return True
+    if isinstance(v, (dict, list, tuple, str, np.ndarray)):
+        return False
+    import pandas as pd
+
+    missing = pd.isna(v)  # None, NaN, pandas NA and NaT
+    return bool(missing) if isinstance(missing, (bool, np.bool_)) else False
+
+
+def _coerce(col: str, kind: str, v):
+    if kind == "json":
+        if _is_missing(v):
+            return None
+        try:
+            return to_json(v)
+        except TypeError as e:
+            raise LdbenchError(f"result column {col!r}: {e}") from None
+    if _is_missing(v):
+        return math.nan if kind == "float" else None
+    try:
+        if kind == "float":
+            return float(v)
+        if kind == "int":
+            if isinstance(v, (int, np.integer)):
+                return int(v)
+            f = float(v)
+            if f != int(f):
+                raise ValueError(f"not an integer: {v!r}")
+            return int(f)
+        if kind == "bool":
+            if isinstance(v, str):
+                return {"true": True, "false": False}[v.strip().lower()]
+            return bool(v)
+    except (TypeError, ValueError, KeyError, OverflowError):
+        raise LdbenchError(f"result column {col!r} must be {kind}, got {v!r}") from None
+    return str(v)
+
+
+def make_row(**fields) -> dict:
+    """One result row with every column of :data:`COLUMNS`, values normalized to the column types.
+
+    Missing columns are None (NaN for floats); ``time`` defaults to now (ISO 8601, UTC), ``status`` to
+    ``"ok"``, ``memory_bytes`` to the sum of ``memory``. JSON columns accept dicts, lists, dataclasses
+    and numpy values and hold JSON text. Extra fields are kept as extra columns (after the standard
+    ones); their values are stored as given, dicts, lists and tuples as JSON text (not parsed back).
+
+    Raises
+    ------
+    LdbenchError
+        A value that does not fit its column's type (naming the column).
+    """
+    f = dict(fields)
+    if f.get("time") is None:
+        f["time"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    if f.get("status") is None:
+        f["status"] = "ok"
+    if f.get("memory_bytes") is None and isinstance(f.get("memory"), dict):
+        f["memory_bytes"] = int(sum(int(b) for b in f["memory"].values()))
+    row = {c: _coerce(c, t, f.get(c)) for c, t in COLUMN_TYPES.items()}
+    for k, v in f.items():
+        if k not in row:
+            row[k] = to_json(v) if isinstance(v, (dict, list, tuple)) else v
+    return row
+
+
+def _frame(rows: list[dict]):
+    import pandas as pd
+
+    rows = [make_row(**r) for r in rows]  # idempotent on rows from make_row
+    extra = []
+    for r in rows:
+        extra += [k for k in r if k not in COLUMN_TYPES and k not in extra]
+    df = pd.DataFrame([{c: r.get(c) for c in (*COLUMNS, *extra)} for r in rows], columns=[*COLUMNS, *extra])
+    return _apply_types(df)
+
+
+def _to_int(v) -> int:
+    try:
+        return int(v)  # exact for ints and digit strings
+    except (TypeError, ValueError):
+        return int(float(v))
+
+
+def _apply_types(df):
+    import pandas as pd
+
+    for c, t in COLUMN_TYPES.items():
+        if c not in df:
+            continue
+        if t == "float":
+            df[c] = pd.to_numeric(df[c], errors="coerce").astype("float64")
+        elif t == "int":
+            df[c] = pd.array([None if _is_missing(v) else _to_int(v) for v in df[c]], dtype="Int64")
+        elif t == "bool":
+            df[c] = pd.array([None if _is_missing(v) else bool(v) for v in df[c]], dtype="boolean")
+        else:  # str and json text
+            df[c] = pd.Series([None if _is_missing(v) else str(v) for v in df[c]], index=df.index, dtype=object)
+    return df
+
+
+def _atomic_write(path: Path, write):
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_results(rows: list[dict], out_dir) -> dict:
+    """Write ``results.parquet`` and ``results.csv`` into ``out_dir``.
+
+    Rows from :func:`make_row` (raw dicts are passed through it). Each file is written to a temporary
+    name and renamed, so a crash never leaves a truncated results file.
+
+    Returns
+    -------
+    dict
+        ``{"parquet": Path, "csv": Path}``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    df = _frame(list(rows))
+    pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
+    _atomic_write(pq, lambda p: df.to_parquet(p, index=False, engine="pyarrow"))
+    _atomic_write(csv, lambda p: df.to_csv(p, index=False))
+    return {"parquet": pq, "csv": csv}
+
+
+def _parse_json(v):
+    if _is_missing(v) or v == "":
+        return None
+    return json.loads(v) if isinstance(v, str) else v
+
+
+def read_results(path_or_dir):
+    """Read a results file (or a run directory's ``results.parquet``, else ``results.csv``).
+
+    Columns get their :data:`COLUMN_TYPES` (floats as float64, ints as nullable ``Int64``, ``dirty``
+    as nullable ``boolean``, strings as objects with None for missing) and JSON columns are parsed
+    back into dicts/lists. Extra columns read from CSV stay strings.
+
+    Raises
+    ------
+    LdbenchError
+        If no results file is found or the file type is unknown.
+    """
+    import pandas as pd
+
+    p = Path(path_or_dir)
+    if p.is_dir():
+        for name in (RESULTS_PARQUET, RESULTS_CSV):
+            if (p / name).is_file():
+                p = p / name
+                break
+        else:
+            raise LdbenchError(f"no {RESULTS_PARQUET} or {RESULTS_CSV} in {path_or_dir}")
+    if not p.is_file():
+        raise LdbenchError(f"results file not found: {path_or_dir}")
+    if p.suffix == ".parquet":
+        df = pd.read_parquet(p, engine="pyarrow")
+    elif p.suffix == ".csv":
+        df = pd.read_csv(p, dtype=str, keep_default_na=False)
+        df = df.replace({"": None}).astype(object)
+        for c in df:
+            if COLUMN_TYPES.get(c) == "bool":
+                df[c] = [None if v is None else {"true": True, "false": False}[v.lower()] for v in df[c]]
+    else:
+        raise LdbenchError(f"unknown results file type {p.suffix!r}: {p}")
+    df = _apply_types(df)
+    for c in JSON_COLUMNS:
+        if c in df:
+            df[c] = pd.Series([_parse_json(v) for v in df[c]], index=df.index, dtype=object)
+    return df
+
+
+if __name__ == "__main__":  # pragma: no cover - quick look at this machine
+    json.dump(machine_info(), sys.stdout, indent=2)
+    print()

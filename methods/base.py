@@ -1,0 +1,184 @@
+"""The method-adapter contract (DESIGN.md, "Method adapter contract") and the adapter registry.
+
+An adapter is a sub-package ``methods/<folder>/`` whose ``__init__.py`` defines a :class:`Method`
+subclass with ``name``, ``paper``, ``effects`` and a ``Params`` dataclass. Adapters are discovered by
+:func:`registry` (every sub-package that defines one), never listed by hand.
+
+Params are frozen dataclasses deriving from :class:`ParamsBase`; each field is declared with
+:func:`param` (default, documentation, range or choices) and validated on construction, so an unknown
+or out-of-range value is one clear error naming the parameter.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import math
+import pkgutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from harness.errors import LdbenchError
+from harness.scene import Camera
+
+
+def param(default, doc: str, *, lo=None, hi=None, choices=None, paper=None):
+    """A validated parameter: ``lo``/``hi`` inclusive bounds, ``choices`` allowed values,
+    ``paper`` the value the paper used (shown in ``ldbench methods``)."""
+    return field(default=default, metadata={"doc": doc, "lo": lo, "hi": hi, "choices": choices,
+                                            "paper": paper})
+
+
+@dataclass(frozen=True)
+class ParamsBase:
+    """Base of every adapter's ``Params``: coerces types and checks ranges on construction."""
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v, md = getattr(self, f.name), f.metadata
+            v = _coerce(type(f.default), v, f.name)
+            if md.get("choices") is not None and v not in md["choices"]:
+                raise LdbenchError(f"parameter {f.name}={v!r} not one of {list(md['choices'])}")
+            if md.get("lo") is not None and not v >= md["lo"]:
+                raise LdbenchError(f"parameter {f.name}={v!r} below its minimum {md['lo']}")
+            if md.get("hi") is not None and not v <= md["hi"]:
+                raise LdbenchError(f"parameter {f.name}={v!r} above its maximum {md['hi']}")
+            object.__setattr__(self, f.name, v)
+
+    @classmethod
+    def from_dict(cls, values: dict, *, method: str = "") -> "ParamsBase":
+        names = {f.name for f in dataclasses.fields(cls)}
+        for k in values:
+            if k not in names:
+                raise LdbenchError(f"unknown parameter {k!r} for method {method!r} "
+                                   f"(known: {', '.join(sorted(names)) or 'none'})")
+        return cls(**values)
+
+    def to_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    @classmethod
+    def table(cls) -> str:
+        """A text table of the parameters: name, default, paper value, range, description."""
+        rows = []
+        for f in dataclasses.fields(cls):
+            md = f.metadata
+            rng = (f"{md['choices']}" if md.get("choices") else
+                   f"[{md.get('lo', '')}, {md.get('hi', '')}]" if md.get("lo") is not None or md.get("hi") is not None
+                   else "")
+            paper = "" if md.get("paper") is None else f" (paper: {md['paper']})"
+            rows.append(f"  {f.name:<16} = {f.default!r:<10} {rng:<18} {md.get('doc', '')}{paper}")
+        return "\n".join(rows)
+
+
+def _coerce(kind, v, name):
+    try:
+        if kind is bool:
+            if isinstance(v, str):
+                if v.lower() in ("1", "true", "yes", "on"):
+                    return True
+                if v.lower() in ("0", "false", "no", "off"):
+                    return False
+                raise ValueError
+            return bool(v)
+        if kind is int:
+            if isinstance(v, float) and not v.is_integer():
+                raise ValueError
+            return int(v)
+        if kind is float:
+            return math.inf if isinstance(v, str) and v.lower() in ("inf", "infinity") else float(v)
+        if kind is str:
+            return str(v)
+    except (TypeError, ValueError):
+        raise LdbenchError(f"parameter {name}={v!r} is not a valid {kind.__name__}")
+    return v
+
+
+@dataclass(frozen=True)
+class View:
+    """What one frame renders: the camera and the image size."""
+
+    camera: Camera
+    width: int
+    height: int
+
+    @property
+    def aspect(self) -> float:
+        return self.width / self.height
+
+
+@dataclass
+class Result:
+    """One frame's output.
+
+    image : H×W×C float32, row 0 at the top (C = 1 for ``ao``, 3 for radiance), or a callable
+        returning it (read back after timing; see :meth:`resolve`)
+    stages_ms : filled by the runner from the GPU timer (a method does not time itself)
+    memory_bytes : {buffer name: bytes} of every allocation the method holds for this frame
+    counters : fragments stored, overflow, list lengths, ...
+    """
+
+    image: np.ndarray
+    memory_bytes: dict = field(default_factory=dict)
+    counters: dict = field(default_factory=dict)
+    stages_ms: dict = field(default_factory=dict)
+    mask: np.ndarray | None = None
+
+    def resolve(self) -> "Result":
+        """Read back lazily: ``image``/``mask`` may be zero-argument callables, so that a frame's
+        timing does not include the read-back; the runner resolves only the frames it keeps."""
+        if callable(self.image):
+            self.image = self.image()
+        if callable(self.mask):
+            self.mask = self.mask()
+        return self
+
+
+class Method:
+    """Base class of a method adapter. Subclasses set the class attributes and implement the hooks."""
+
+    name: str = ""
+    paper: str = ""
+    effects: frozenset = frozenset()
+    Params: type = ParamsBase
+    folder: Path = Path(__file__).parent
+
+    def __init__(self, params: ParamsBase | None = None):
+        self.params = params if params is not None else self.Params()
+
+    def setup(self, gpu, scene) -> None:
+        """Upload the scene and compile shaders; not timed."""
+        raise NotImplementedError
+
+    def frame(self, view: View, effect) -> Result:
+        """Render one frame; wrap each stage in ``with gpu.stage(name):``."""
+        raise NotImplementedError
+
+    def release(self) -> None:
+        """Free every GPU object."""
+
+    def shader(self, name: str) -> Path:
+        return Path(importlib.import_module(type(self).__module__).__file__).parent / name
+
+
+def registry() -> dict:
+    """{name: Method subclass} for every adapter package under ``methods/`` (discovered)."""
+    import methods
+
+    found = {}
+    for mod in pkgutil.iter_modules(methods.__path__):
+        if not mod.ispkg:
+            continue
+        m = importlib.import_module(f"methods.{mod.name}")
+        for obj in vars(m).values():
+            if isinstance(obj, type) and issubclass(obj, Method) and obj is not Method and obj.name:
+                found[obj.name] = obj
+    return dict(sorted(found.items()))
+
+
+def get_method(name: str) -> type:
+    reg = registry()
+    if name not in reg:
+        raise LdbenchError(f"unknown method {name!r} (known: {', '.join(reg) or 'none'})")
+    return reg[name]

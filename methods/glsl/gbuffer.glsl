@@ -1,0 +1,36 @@
+// G-buffer pass: world position (w = 1 where a surface was hit), geometric normal flipped to face
+// the camera (two-sided surfaces; w = material id), albedo. Rasterized with culling off.
+#include "common.glsl"
+
+#if defined(VERTEX_SHADER)
+uniform mat4 view_proj;
+in vec3 in_position;
+in vec3 in_normal;
+in float in_material;
+out vec3 v_position;
+flat out vec3 v_normal;
+flat out float v_material;
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    v_material = in_material;
+    gl_Position = view_proj * vec4(in_position, 1.0);
+}
+
+#elif defined(FRAGMENT_SHADER)
+uniform vec3 eye;
+layout(std430, binding = 0) readonly buffer Albedo { vec4 albedo[]; };
+in vec3 v_position;
+flat in vec3 v_normal;
+flat in float v_material;
+layout(location = 0) out vec4 out_position;
+layout(location = 1) out vec4 out_normal;
+layout(location = 2) out vec4 out_albedo;
+void main() {
+    vec3 n = normalize(v_normal);
+    if (dot(n, eye - v_position) < 0.0) n = -n;   // two-sided: the side facing the camera
+    out_position = vec4(v_position, 1.0);
+    out_normal = vec4(n, v_material);
+    out_albedo = albedo[int(v_material + 0.5)];
+}
+#endif

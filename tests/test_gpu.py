@@ -1,0 +1,96 @@
+"""GPU context, shader loading, memory accounting, timing, read-back orientation, adapter contract."""
+import numpy as np
+import pytest
+
+from harness.errors import LdbenchError
+from harness.gpu import classify_device, expand_includes, read_texture
+from methods.base import ParamsBase, param, registry, get_method
+from dataclasses import dataclass
+
+
+def test_classify_device():
+    assert classify_device("llvmpipe (LLVM 15.0.6, 256 bits)", "Mesa") == "cpu-software"
+    assert classify_device("NVIDIA H100 80GB HBM3/PCIe/SSE2", "NVIDIA Corporation") == "nvidia"
+    assert classify_device("AMD Radeon RX 7900", "AMD") == "gpu"
+
+
+def test_include_and_defines(tmp_path, gpu):
+    (tmp_path / "inc.glsl").write_text("float twice(float x) { return 2.0 * x; }\n")
+    (tmp_path / "k.glsl").write_text(
+        '#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+        "layout(std430, binding = 0) buffer B { float v[]; };\n"
+        "void main() { v[0] = twice(SCALE) + PI * 0.0; }\n")
+    assert "twice" in expand_includes(tmp_path / "k.glsl")
+    cs = gpu.compute(tmp_path / "k.glsl", {"SCALE": "3.5"})
+    buf = gpu.ctx.buffer(reserve=4)
+    buf.bind_to_storage_buffer(0)
+    cs.run(1)
+    assert np.frombuffer(buf.read(), "f4")[0] == pytest.approx(7.0)
+    (tmp_path / "bad.glsl").write_text('#include "missing.glsl"\n')
+    with pytest.raises(LdbenchError, match="missing.glsl"):
+        expand_includes(tmp_path / "bad.glsl")
+    (tmp_path / "err.glsl").write_text("layout(local_size_x = 1) in; void main() { undefined_fn(); }\n")
+    with pytest.raises(LdbenchError, match="err.glsl failed to compile"):
+        gpu.compute(tmp_path / "err.glsl")
+
+
+def test_resources_count_bytes(gpu):
+    res = gpu.resources("x.")
+    res.buffer("a", reserve=1000)
+    res.texture("t", (16, 8), 4, "f4")
+    assert res.by_buffer() == {"x.a": 1000, "x.t": 16 * 8 * 16}
+    res.release()
+    assert res.total() == 0
+
+
+def test_readback_row0_is_top(gpu):
+    """A triangle covering only the upper half of clip space must land in the first rows."""
+    prog = gpu.ctx.program(
+        vertex_shader="#version 430\nin vec2 p; void main() { gl_Position = vec4(p, 0, 1); }",
+        fragment_shader="#version 430\nout vec4 c; void main() { c = vec4(1); }")
+    vbo = gpu.ctx.buffer(np.array([-1, 0.1, 3, 0.1, -1, 3], "f4"))
+    vao = gpu.ctx.vertex_array(prog, [(vbo, "2f", "p")])
+    tex = gpu.ctx.texture((8, 8), 4, dtype="f4")
+    fbo = gpu.ctx.framebuffer([tex])
+    fbo.use()
+    fbo.clear()
+    vao.render()
+    img = read_texture(tex, 1)[..., 0]
+    assert img[:4].min() == 1 and img[4:].max() == 0
+
+
+def test_stage_timing(gpu):
+    gpu.begin_frame()
+    with gpu.stage("a"):
+        gpu.ctx.buffer(reserve=1024).release()
+    with gpu.stage("a"):
+        pass
+    with gpu.stage("b"):
+        pass
+    stages, wall = gpu.end_frame()
+    assert set(stages) == {"a", "b"} and all(v >= 0 for v in stages.values()) and wall > 0
+
+
+@dataclass(frozen=True)
+class _P(ParamsBase):
+    n: int = param(4, "count", lo=1, hi=8)
+    mode: str = param("a", "mode", choices=("a", "b"))
+    on: bool = param(True, "flag")
+
+
+def test_params_validation():
+    assert _P.from_dict({"n": "5", "on": "false"}) == _P(n=5, on=False)
+    for bad, msg in (({"n": 9}, "above its maximum"), ({"n": 0}, "below its minimum"),
+                     ({"mode": "c"}, "not one of"), ({"zzz": 1}, "unknown parameter 'zzz'"),
+                     ({"n": 1.5}, "not a valid int")):
+        with pytest.raises(LdbenchError, match=msg):
+            _P.from_dict(bad, method="m")
+    assert "count" in _P.table()
+
+
+def test_registry_discovers_adapters():
+    reg = registry()
+    assert "direct-raster" in reg
+    assert get_method("direct-raster").effects == frozenset({"direct"})
+    with pytest.raises(LdbenchError, match="unknown method"):
+        get_method("nope")
