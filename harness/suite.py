@@ -100,6 +100,11 @@ def _grid(d: dict) -> list[dict]:
     return [dict(zip(keys, combo)) for combo in itertools.product(*(_listify(d[k]) for k in keys))]
 
 
+def _frozen(d: dict) -> tuple:
+    """Sorted (key, value) pairs with lists turned into tuples, so jobs are hashable."""
+    return tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in d.items()))
+
+
 def _float_or_inf(v):
     if isinstance(v, str) and v.lower() in ("inf", "infinity", "unbounded"):
         return math.inf
@@ -160,7 +165,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
             for p in _grid(params.get(m, {})):
                 cls.Params.from_dict(p, method=m)  # validate now, before any rendering
-                jobs.append(Job(scene, tuple(sorted(scene_params.items())), m, tuple(sorted(p.items())),
+                jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames))
     return jobs
 

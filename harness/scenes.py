@@ -1,0 +1,577 @@
+"""Built-in scenes and the scene dispatcher.
+
+``load_scene(spec, **params)`` turns a scene specification into a :class:`~harness.scene.Scene`:
+
+* a built-in name (``cornell``, ``atrium``, ``hairball``, ``mesh``), optionally with parameters
+  appended as ``name:key=value,key=value`` (e.g. ``atrium:triangles=260000``);
+* a path ending in ``.xml``: a Mitsuba 3 scene file (:func:`harness.mitsuba_xml.load_mitsuba_xml`;
+  ``params`` then override the file's ``<default>`` values);
+* a path to a mesh file (``.ply``, ``.obj``, ``.stl``, ``.off``): the ``mesh`` scene (mesh in an open box).
+
+Every builder is deterministic and vectorised numpy (300k triangles in well under a second), and gives
+a camera and one spot light that lights most of what the camera sees, so ``direct`` and ``indirect``
+are meaningful. Conventions (DESIGN.md): metres, y up, right-handed, triangles counter-clockwise seen
+from the front (walls face into the room, solids face outwards); methods treat them as two-sided.
+``scene.params`` holds exactly the builder parameters used, defaults included (so
+``load_scene(builder, **scene.params)`` rebuilds the same scene — the builder is ``scene.name``, or
+``mesh`` for mesh scenes, which are named after the file; derived quantities such as the atrium's
+tessellation follow deterministically from the parameters).
+"""
+from __future__ import annotations
+
+import inspect
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .errors import LdbenchError
+from .scene import Camera, Mesh, Scene, SpotLight
+
+MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off")
+
+# Cornell box albedos (linear RGB; the values of Bitterli's / the PBRT-v3 Cornell box).
+WHITE = (0.725, 0.71, 0.68)
+RED = (0.63, 0.065, 0.05)
+GREEN = (0.14, 0.45, 0.091)
+
+
+# ---------------------------------------------------------------------------------------------------
+# parameter coercion (values may come from TOML, the command line as strings, or Python)
+
+def _int_param(scene: str, name: str, value, lo: int, hi: int) -> int:
+    v = None
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        v = int(value)
+    elif isinstance(value, float) and value.is_integer():
+        v = int(value)
+    elif isinstance(value, str):
+        try:
+            f = float(value.strip().replace("_", ""))
+            if f.is_integer():
+                v = int(f)
+        except ValueError:
+            pass
+    if v is None:
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} must be an integer, got {value!r}")
+    if not lo <= v <= hi:
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} = {v} out of range [{lo}, {hi}]")
+    return v
+
+
+def _albedo_param(scene: str, name: str, value) -> tuple:
+    try:
+        if isinstance(value, str):
+            vals = [float(x) for x in value.replace(",", " ").split()]
+        elif np.isscalar(value):
+            vals = [float(value)]
+        else:
+            vals = [float(x) for x in value]
+        if len(vals) == 1:
+            vals = vals * 3
+        if len(vals) != 3 or not all(math.isfinite(x) for x in vals):
+            raise ValueError
+    except (TypeError, ValueError):
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} must be 1 or 3 numbers in [0, 1], "
+                           f"got {value!r}") from None
+    if min(vals) < 0 or max(vals) > 1:
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} = {tuple(vals)} outside [0, 1]")
+    return tuple(vals)
+
+
+# ---------------------------------------------------------------------------------------------------
+# vectorised geometry helpers. A "part" is (vertices (N,3) float64, faces (M,3) int64).
+
+def _grid_faces(rows: int, cols: int, wrap: bool = False) -> np.ndarray:
+    """Faces of a rows × cols vertex grid (vertex (r, c) = r * cols + c).
+
+    Each cell gives (a_c, b_c, b_c+1), (a_c, b_c+1, a_c+1) with a = row r, b = row r + 1, so the
+    front normal is (row direction) × (column direction). ``wrap`` closes the columns (tubes).
+    """
+    ncell = cols if wrap else cols - 1
+    r = np.arange(rows - 1)[:, None]
+    c = np.arange(ncell)[None, :]
+    c1 = (c + 1) % cols
+    a0, a1 = r * cols + c, r * cols + c1
+    b0, b1 = (r + 1) * cols + c, (r + 1) * cols + c1
+    f = np.stack([np.stack([a0, b0, b1], -1), np.stack([a0, b1, a1], -1)], -2)
+    return f.reshape(-1, 3)
+
+
+def _quad(p0, a, b, n: int = 1):
+    """Parallelogram p0 + s a + t b (s, t in [0, 1]) split into n × n cells; front normal a × b."""
+    p0, a, b = (np.asarray(x, np.float64) for x in (p0, a, b))
+    s = np.linspace(0.0, 1.0, n + 1)
+    v = p0 + s[:, None, None] * a + s[None, :, None] * b
+    return v.reshape(-1, 3), _grid_faces(n + 1, n + 1)
+
+
+def _merge(parts):
+    vs, fs, off = [], [], 0
+    for v, f in parts:
+        vs.append(v)
+        fs.append(f + off)
+        off += len(v)
+    return np.concatenate(vs), np.concatenate(fs)
+
+
+def _box_parts(lo, hi, n: int = 1, skip=(), inward: bool = False):
+    """Faces of the axis-aligned box [lo, hi], keyed '+x', '-x', '+y', '-y', '+z', '-z'.
+
+    Normals point out of the box (into it with ``inward``); faces named in ``skip`` are left out.
+    """
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    X, Y, Z = np.array([x1 - x0, 0, 0]), np.array([0, y1 - y0, 0]), np.array([0, 0, z1 - z0])
+    faces = {
+        "+x": ((x1, y0, z0), Y, Z), "-x": ((x0, y0, z0), Z, Y),
+        "+y": ((x0, y1, z0), Z, X), "-y": ((x0, y0, z0), X, Z),
+        "+z": ((x0, y0, z1), X, Y), "-z": ((x0, y0, z0), Y, X),
+    }
+    out = {}
+    for k, (p, a, b) in faces.items():
+        if k in skip:
+            continue
+        out[k] = _quad(p, b, a, n) if inward else _quad(p, a, b, n)
+    return out
+
+
+def _box(lo, hi, n: int = 1, skip=()):
+    return _merge(_box_parts(lo, hi, n, skip).values())
+
+
+def _rot_y(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _instances(template, offsets):
+    """Copies of a template part translated by each offset (vectorised)."""
+    v, f = template
+    offsets = np.asarray(offsets, np.float64).reshape(-1, 3)
+    k = len(offsets)
+    vv = (v[None] + offsets[:, None]).reshape(-1, 3)
+    ff = (f[None] + (np.arange(k) * len(v))[:, None, None]).reshape(-1, 3)
+    return vv, ff
+
+
+def _cylinder(radius: float, y0: float, y1: float, around: int, rings: int):
+    """Open cylinder side around the y axis, outward normals: around × rings × 2 triangles."""
+    phi = np.arange(around) * (2 * math.pi / around)
+    y = np.linspace(y0, y1, rings + 1)
+    v = np.empty((rings + 1, around, 3))
+    v[..., 0] = radius * np.cos(phi)
+    v[..., 1] = y[:, None]
+    v[..., 2] = radius * np.sin(phi)
+    return v.reshape(-1, 3), _grid_faces(rings + 1, around, wrap=True)
+
+
+def _half_ring(r_in: float, r_out: float, depth: float, segs: int):
+    """Arch: half annulus in the xy plane (angles 0..π about the origin), extruded over z ∈ ±depth/2.
+
+    Four surfaces (intrados, extrados, front, back), normals outwards: 8 × segs triangles.
+    """
+    th = np.linspace(0.0, math.pi, segs + 1)
+    c, s = np.cos(th), np.sin(th)
+
+    def ring(r, z):
+        return np.stack([r * c, r * s, np.full_like(c, z)], -1)
+
+    A, B = ring(r_in, depth / 2), ring(r_out, depth / 2)  # front inner / outer
+    C, D = ring(r_in, -depth / 2), ring(r_out, -depth / 2)  # back inner / outer
+    g = _grid_faces(2, segs + 1)
+    return _merge([(np.concatenate([A, B]), g),   # front (+z)
+                   (np.concatenate([D, C]), g),   # back (-z)
+                   (np.concatenate([B, D]), g),   # extrados (outwards)
+                   (np.concatenate([C, A]), g)])  # intrados (towards the opening)
+
+
+def _mesh(name, part, albedo) -> Mesh:
+    v, f = part
+    return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo)
+
+
+# ---------------------------------------------------------------------------------------------------
+# builders
+
+def build_cornell(subdivide=0) -> Scene:
+    """The Cornell box with the short and the tall block, normalised to a 2 m box, lit by a spot light.
+
+    Geometry (metres): x ∈ [-1, 1] (red wall at x = -1 on the left, green wall at x = +1 on the
+    right), floor y = 0, ceiling y = 2, back wall z = -1, front (z = +1) open. The blocks are those
+    of Bitterli's / PBRT's Cornell box (short block 0.6 m high at (0.33, 0.37), tall block 1.2 m high
+    at (-0.34, -0.29), rotated about y); their hidden bottom faces are left out. 30 triangles;
+    ``subdivide`` = s splits every quad into (s+1)² cells, 30 (s+1)² triangles.
+    Camera: (0, 1, 3.9) looking at (0, 1, 0), vertical fov 39.3077° (the classic Cornell camera's
+    distance ratio). Light: a spot at (0, 1.95, 0) pointing straight down, cutoff 60°, beam 45°,
+    intensity 10 W/sr (white).
+    """
+    s = _int_param("cornell", "subdivide", subdivide, 0, 128)
+    n = s + 1
+    walls = _box_parts((-1, 0, -1), (1, 2, 1), n, skip=("+z",), inward=True)
+    meshes = [
+        _mesh("floor", walls["-y"], WHITE),
+        _mesh("ceiling", walls["+y"], WHITE),
+        _mesh("back_wall", walls["-z"], WHITE),
+        _mesh("left_wall", walls["-x"], RED),
+        _mesh("right_wall", walls["+x"], GREEN),
+    ]
+    # (centre x, centre z, size x, height, size z, rotation about y in degrees): Bitterli's blocks.
+    blocks = {"short_block": (0.328631, 0.374592, 0.595, 0.6, 0.604, 73.36),
+              "tall_block": (-0.335439, -0.291415, 0.607, 1.2, 0.598, 19.19)}
+    for name, (cx, cz, sx, h, sz, ang) in blocks.items():
+        v, f = _box((-sx / 2, 0, -sz / 2), (sx / 2, h, sz / 2), n, skip=("-y",))
+        v = v @ _rot_y(ang).T + np.array([cx, 0, cz])
+        meshes.append(_mesh(name, (v, f), WHITE))
+    cam = Camera(origin=(0.0, 1.0, 3.9), target=(0.0, 1.0, 0.0), up=(0, 1, 0), fov_y=39.3077)
+    light = SpotLight(position=(0.0, 1.95, 0.0), target=(0.0, 0.0, 0.0), intensity=(10.0, 10.0, 10.0),
+                      cutoff_angle=60.0, beam_width=45.0, up=(0.0, 0.0, -1.0))
+    return Scene("cornell", meshes, cam, [light], params={"subdivide": s})
+
+
+# atrium layout (metres); see build_atrium's docstring
+_AT = dict(xh=15.0, zh=7.0, wall_h=12.0, za=4.0, pier_dx=3.0, depth=0.6, r_in=1.1, r_out=1.5)
+_AT_STOREYS = (  # (shaft y0, shaft y1, radius, capital half size, capital height, band height, slab)
+    (0.0, 3.5, 0.30, 0.40, 0.30, 0.5, 0.3),
+    (6.1, 8.6, 0.25, 0.35, 0.25, 0.5, 0.3),
+)
+_AT_ARCHES_PER_ROW = 10  # pier positions -15, -12, ..., 15 (the end walls act as the outer piers)
+_AT_COLUMNS_PER_ROW = 9
+_AT_ROWS = 4  # 2 sides × 2 storeys
+_AT_PIERS = np.arange(-_AT["xh"], _AT["xh"] + 1e-9, _AT["pier_dx"])  # column x positions + the end walls
+
+
+def _atrium_fixed(xh, zh, wall_h, za, depth, **_):
+    """Tessellation-independent parts of the atrium, by material."""
+    d2 = depth / 2
+    floor = _quad((-xh, 0, -zh), (0, 0, 2 * zh), (2 * xh, 0, 0))
+    room = _box_parts((-xh, 0, -zh), (xh, wall_h, zh), 1, skip=("+y", "-y"), inward=True)
+    walls = _merge(room.values())
+    gallery, trim = [], []
+    for sgn in (1.0, -1.0):
+        for y0, y1, rad, ch, cht, band, slab in _AT_STOREYS:
+            spring = y1 + cht
+            top = spring + _AT["r_out"]
+            zin, zout = sgn * (za - d2), sgn * zh
+            zb = sorted((sgn * (za - d2), sgn * (za + d2)))
+            gallery.append(_box((-xh, top, zb[0]), (xh, top + band, zb[1])))
+            slab_lo = (-xh, top + band, min(zin, zout))
+            slab_hi = (xh, top + band + slab, max(zin, zout))
+            gallery.append(_box(slab_lo, slab_hi))
+            # capitals on top of the column shafts
+            cap = _box((-ch, y1, -ch), (ch, y1 + cht, ch))
+            xs = _AT_PIERS[1:-1]
+            trim.append(_instances(cap, np.stack([xs, np.zeros_like(xs), np.full_like(xs, sgn * za)], -1)))
+    return floor, walls, _merge(gallery), _merge(trim)
+
+
+def _atrium_curtains(xh, zh, za, depth, **_):
+    """Coloured cloths hanging in some upper-storey openings, just behind the arcade (Sponza-like)."""
+    y0, y1, rad, ch, cht, band, slab = _AT_STOREYS[1]
+    top = y1 + cht + _AT["r_in"] - 0.05
+    parts = {"curtain_red": [], "curtain_green": [], "curtain_blue": []}
+    names = list(parts)
+    centres = (_AT_PIERS[:-1] + _AT_PIERS[1:]) / 2
+    for i, cx in enumerate(centres[1:-1:2]):
+        for sgn in (1.0, -1.0):
+            z = sgn * (za + depth / 2 + 0.15)
+            w = 2 * _AT["r_in"] - 0.2
+            p0 = (cx - w / 2, y0 + 0.5, z)
+            a, b = (w, 0, 0), (0, top - y0 - 0.5, 0)
+            # face the courtyard (normal -sgn z)
+            parts[names[i % 3]].append(_quad(p0, a, b) if sgn < 0 else _quad(p0, b, a))
+    return {k: _merge(v) for k, v in parts.items()}
+
+
+def _atrium_count(fixed: int, around: int, rings: int, arch: int) -> int:
+    cols = _AT_ROWS * _AT_COLUMNS_PER_ROW * 2 * around * rings
+    arches = _AT_ROWS * _AT_ARCHES_PER_ROW * 8 * arch
+    return fixed + cols + arches
+
+
+def _atrium_tessellation(target: int, fixed: int):
+    """Choose (column segments around, column rings, arch segments) whose count is nearest the target.
+
+    Arches get half as many segments as a column has around (same angular step over 180°); rings are
+    solved for; among choices within 2 % of the target the one with rings closest to around / 2 wins.
+    """
+    best, best_key = None, None
+    for around in range(6, 2049):
+        arch = max(3, around // 2)
+        base = _atrium_count(fixed, around, 0, arch)
+        per_ring = _AT_ROWS * _AT_COLUMNS_PER_ROW * 2 * around
+        if base + per_ring > target * 1.5 and best is not None:
+            break
+        rings = max(1, round((target - base) / per_ring))
+        n = _atrium_count(fixed, around, rings, arch)
+        err = abs(n - target) / target
+        key = (0, abs(rings - around / 2), err) if err <= 0.02 else (1, err, 0)
+        if best_key is None or key < best_key:
+            best, best_key = (around, rings, arch), key
+    return best
+
+
+def build_atrium(triangles=20000) -> Scene:
+    """A Sponza-like two-storey courtyard of columns and arches; ``triangles`` sets the size.
+
+    Layout (metres): floor x ∈ [-15, 15], z ∈ [-7, 7]; four outer walls 12 m high; open roof.
+    Along both long sides (arcade lines z = ±4) two storeys of arcades: 9 round columns per row
+    (ground storey r = 0.30 m, shafts y 0–3.5; upper storey r = 0.25 m, on the gallery floor at
+    y = 6.1, shafts to 8.6) with square capitals, and 10 semicircular arches per row (inner radius
+    1.1 m, outer 1.5 m, 0.6 m deep; the end walls act as the outer piers), a band above each arcade,
+    the gallery floor (y 5.8–6.1) and the gallery roof (y 10.85–11.15) reaching back to the outer
+    wall, and red/green/blue cloths hanging in some upper openings. The column and arch tessellation
+    is chosen so the triangle count is within 2 % of ``triangles`` (any target in [2000, 4000000]).
+    Camera: (-13, 1.8, -1) looking down the courtyard at (5, 4.5, 0.5), vertical fov 60°.
+    Light: a spot high above the open roof at (-6, 24, -2.5) aimed at (1, 0, 1), cutoff 50°,
+    beam 40°, 1500 W/sr; the galleries behind the arcades receive mostly indirect light.
+    """
+    target = _int_param("atrium", "triangles", triangles, 2000, 4_000_000)
+    floor, walls, gallery, trim = _atrium_fixed(**_AT)
+    curtains = _atrium_curtains(**_AT)
+    fixed = sum(len(p[1]) for p in (floor, walls, gallery, trim)) + sum(len(p[1]) for p in curtains.values())
+    around, rings, arch = _atrium_tessellation(target, fixed)
+
+    cols, arches = [], []
+    centres = (_AT_PIERS[:-1] + _AT_PIERS[1:]) / 2
+    xs = _AT_PIERS[1:-1]
+    for y0, y1, rad, ch, cht, band, slab in _AT_STOREYS:
+        shaft = _cylinder(rad, y0, y1, around, rings)
+        a = _half_ring(_AT["r_in"], _AT["r_out"], _AT["depth"], arch)
+        for sgn in (1.0, -1.0):
+            z = sgn * _AT["za"]
+            cols.append(_instances(shaft, np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], -1)))
+            arches.append(_instances(a, np.stack([centres, np.full_like(centres, y1 + cht),
+                                                  np.full_like(centres, z)], -1)))
+    meshes = [
+        _mesh("floor", floor, (0.62, 0.58, 0.52)),
+        _mesh("walls", walls, (0.70, 0.66, 0.58)),
+        _mesh("columns", _merge(cols), (0.75, 0.72, 0.66)),
+        _mesh("arches", _merge(arches), (0.72, 0.68, 0.60)),
+        _mesh("galleries", gallery, (0.60, 0.58, 0.55)),
+        _mesh("capitals", trim, (0.68, 0.64, 0.58)),
+        _mesh("curtain_red", curtains["curtain_red"], (0.60, 0.08, 0.06)),
+        _mesh("curtain_green", curtains["curtain_green"], (0.10, 0.45, 0.12)),
+        _mesh("curtain_blue", curtains["curtain_blue"], (0.08, 0.15, 0.55)),
+    ]
+    cam = Camera(origin=(-13.0, 1.8, -1.0), target=(5.0, 4.5, 0.5), up=(0, 1, 0), fov_y=60.0)
+    light = SpotLight(position=(-6.0, 24.0, -2.5), target=(1.0, 0.0, 1.0), intensity=(1500.0,) * 3,
+                      cutoff_angle=50.0, beam_width=40.0, up=(1.0, 0.0, 0.0))
+    return Scene("atrium", meshes, cam, [light], params={"triangles": target})
+
+
+def build_hairball(triangles=20000, seed=0) -> Scene:
+    """Dense random tubes in the box [-1, 1]³ (high depth complexity) above a floor.
+
+    Each tube is a thin open cylinder (6 sides, 10 segments of 0.12 m: 120 triangles) swept with
+    rotation-minimising frames along a smooth random walk (each step turns by at most 35°, pulled
+    towards the centre) that stays inside [-0.95, 0.95]³.
+    The number of tubes is round((triangles - 2) / 120) (at least 1); the tube radius shrinks with
+    the count (0.6 / √tubes, clamped to [0.004, 0.05] m), so the depth complexity grows like √tubes
+    (about 5 layers at 20k triangles, 20 at 260k).
+    A 6 m floor quad at y = -1.1 receives the shadow. Deterministic for a given ``seed``.
+    Camera: (0, 0.8, 4.2) looking at the origin, vertical fov 45°.
+    Light: a spot at (2, 4, 3) aimed at the origin, cutoff 35°, beam 26.25°, 60 W/sr.
+    """
+    target = _int_param("hairball", "triangles", triangles, 200, 4_000_000)
+    seed = _int_param("hairball", "seed", seed, 0, 2**63 - 1)
+    sides, segs = 6, 10
+    per_tube = 2 * sides * segs
+    ntubes = max(1, round((target - 2) / per_tube))
+    radius = float(np.clip(0.6 / math.sqrt(ntubes), 0.004, 0.05))
+    rng = np.random.default_rng(seed)
+    # Smooth random curves: a walk of `segs` steps of STEP metres whose direction turns by at most
+    # MAX_TURN per step (random turn + a pull towards the centre beyond radius 0.5), so the
+    # curvature radius (≥ STEP / MAX_TURN ≈ 0.2 m) always exceeds the tube radius: no folded tubes.
+    step, max_turn = 0.12, math.radians(35.0)
+    pts = np.empty((ntubes, segs + 1, 3))
+    pts[:, 0] = rng.uniform(-0.6, 0.6, (ntubes, 3))
+    d = rng.normal(size=(ntubes, 3))
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    dirs = np.empty((ntubes, segs, 3))
+    for i in range(segs):
+        p = pts[:, i]
+        r = np.linalg.norm(p, axis=-1, keepdims=True)
+        want = d + 0.8 * rng.normal(size=(ntubes, 3)) - 4.0 * np.maximum(r - 0.5, 0) * p / np.maximum(r, 1e-9)
+        o = want - np.sum(want * d, -1, keepdims=True) * d  # part orthogonal to the current direction
+        on = np.linalg.norm(o, axis=-1, keepdims=True)
+        ang = np.minimum(np.arctan2(on, np.sum(want * d, -1, keepdims=True)), max_turn)
+        d = np.cos(ang) * d + np.sin(ang) * o / np.maximum(on, 1e-12)
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        dirs[:, i] = d
+        pts[:, i + 1] = p + step * d
+    # uniform per-tube shrink about the origin for the few walks that left the box (keeps them smooth)
+    ext = np.abs(pts).max(axis=(1, 2))
+    pts *= np.minimum(1.0, 0.95 / ext)[:, None, None]
+    tan = np.concatenate([dirs[:, :1], dirs[:, :-1] + dirs[:, 1:], dirs[:, -1:]], 1)
+    tan /= np.linalg.norm(tan, axis=-1, keepdims=True)
+    # rotation-minimising frames (double reflection), vectorised over tubes
+    ref = np.where(np.abs(tan[:, :1, 1:2]) < 0.9, np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]))
+    nrm = np.empty_like(tan)
+    n0 = np.cross(tan[:, 0], ref[:, 0])
+    nrm[:, 0] = n0 / np.linalg.norm(n0, axis=-1, keepdims=True)
+    for i in range(segs):
+        v1 = pts[:, i + 1] - pts[:, i]
+        c1 = np.sum(v1 * v1, -1, keepdims=True) + 1e-30
+        rL = nrm[:, i] - (2 / c1) * np.sum(v1 * nrm[:, i], -1, keepdims=True) * v1
+        tL = tan[:, i] - (2 / c1) * np.sum(v1 * tan[:, i], -1, keepdims=True) * v1
+        v2 = tan[:, i + 1] - tL
+        c2 = np.sum(v2 * v2, -1, keepdims=True) + 1e-30
+        n = rL - (2 / c2) * np.sum(v2 * rL, -1, keepdims=True) * v2
+        n -= np.sum(n * tan[:, i + 1], -1, keepdims=True) * tan[:, i + 1]
+        nrm[:, i + 1] = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    bin_ = np.cross(tan, nrm)
+    phi = np.arange(sides) * (2 * math.pi / sides)
+    ring = (np.cos(phi)[None, None, :, None] * nrm[:, :, None] + np.sin(phi)[None, None, :, None] * bin_[:, :, None])
+    v = pts[:, :, None] + radius * ring  # (T, S+1, sides, 3)
+    f1 = _grid_faces(segs + 1, sides, wrap=True)[:, ::-1]  # reversed: outward normals
+    nv = (segs + 1) * sides
+    faces = (f1[None] + (np.arange(ntubes) * nv)[:, None, None]).reshape(-1, 3)
+    tubes = (v.reshape(-1, 3), faces)
+    floor = _quad((-3, -1.1, -3), (0, 0, 6), (6, 0, 0))
+    meshes = [_mesh("tubes", tubes, (0.72, 0.55, 0.38)), _mesh("floor", floor, (0.6, 0.6, 0.6))]
+    cam = Camera(origin=(0.0, 0.8, 4.2), target=(0.0, 0.0, 0.0), up=(0, 1, 0), fov_y=45.0)
+    light = SpotLight(position=(2.0, 4.0, 3.0), target=(0.0, 0.0, 0.0), intensity=(60.0,) * 3,
+                      cutoff_angle=35.0, up=(0.0, 1.0, 0.0))
+    return Scene("hairball", meshes, cam, [light], params={"triangles": target, "seed": seed})
+
+
+def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices float64, faces int64) of a mesh file, via trimesh (scenes merged, ``process=False``);
+    vertices that no face uses are dropped (as Mitsuba's OBJ loader does), so bounds are the surface's.
+
+    Any failure is ``LdbenchError("cannot read mesh <path>: <reason>")``.
+    """
+    import trimesh
+
+    path = str(path)
+    if not os.path.isfile(path):
+        raise LdbenchError(f"cannot read mesh {path}: no such file")
+    try:
+        m = trimesh.load(path, force="mesh", process=False)
+        v = np.asarray(m.vertices, np.float64).reshape(-1, 3)
+        f = np.asarray(m.faces, np.int64).reshape(-1, 3)
+    except LdbenchError:
+        raise
+    except Exception as e:  # trimesh raises many types for bad files
+        msg = " ".join(str(e).split()) or type(e).__name__
+        raise LdbenchError(f"cannot read mesh {path}: {msg}") from None
+    if len(f) == 0:
+        raise LdbenchError(f"cannot read mesh {path}: no triangles in the file")
+    if not np.all(np.isfinite(v)):
+        raise LdbenchError(f"cannot read mesh {path}: non-finite vertex coordinates")
+    if f.min() < 0 or f.max() >= len(v):
+        raise LdbenchError(f"cannot read mesh {path}: face index out of range")
+    used, f = np.unique(f, return_inverse=True)  # drop vertices no face uses (scans often have them)
+    return v[used], f.reshape(-1, 3)
+
+
+def build_mesh(path=None, albedo=(0.8, 0.8, 0.8)) -> Scene:
+    """A mesh file (PLY/OBJ/STL/OFF) standing on the floor of an open box (e.g. the Stanford dragon).
+
+    The mesh (all parts merged, loaded with trimesh, ``process=False``) is scaled uniformly so that its
+    largest bounding-box side is 1 m, centred at x = z = 0 and put on the floor (min y = 0), with
+    the diffuse ``albedo``. The box: floor and ceiling-less walls of x, z ∈ [-1.25, 1.25], walls 2 m
+    high: back (white), left (red), right (green); front and top open.
+    Camera: (0, 0.9, 3.6) looking at (0, 0.5, 0), vertical fov 40°.
+    Light: a spot at (0.9, 2.4, 1.8) aimed at (0, 0.35, 0), cutoff 45°, beam 33.75°, 12 W/sr.
+    """
+    if path is None or str(path).strip() == "":
+        raise LdbenchError("scene 'mesh' needs the parameter 'path' (a .ply or .obj file)")
+    albedo = _albedo_param("mesh", "albedo", albedo)
+    v, f = read_mesh(path)
+    lo, hi = v.min(0), v.max(0)
+    ext = float((hi - lo).max())
+    if not ext > 0:
+        raise LdbenchError(f"cannot read mesh {path}: the mesh has zero extent")
+    v = (v - np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])) / ext
+    name = Path(str(path)).stem
+    room = _box_parts((-1.25, 0, -1.25), (1.25, 2.0, 1.25), 1, skip=("+z", "+y"), inward=True)
+    meshes = [
+        _mesh(name, (v, f), albedo),
+        _mesh("floor", room["-y"], WHITE),
+        _mesh("back_wall", room["-z"], WHITE),
+        _mesh("left_wall", room["-x"], RED),
+        _mesh("right_wall", room["+x"], GREEN),
+    ]
+    cam = Camera(origin=(0.0, 0.9, 3.6), target=(0.0, 0.5, 0.0), up=(0, 1, 0), fov_y=40.0)
+    light = SpotLight(position=(0.9, 2.4, 1.8), target=(0.0, 0.35, 0.0), intensity=(12.0,) * 3,
+                      cutoff_angle=45.0, up=(0.0, 1.0, 0.0))
+    return Scene(name, meshes, cam, [light], params={"path": str(path), "albedo": list(albedo)})
+
+
+BUILDERS = {
+    "cornell": build_cornell,
+    "atrium": build_atrium,
+    "hairball": build_hairball,
+    "mesh": build_mesh,
+}
+
+
+# ---------------------------------------------------------------------------------------------------
+# dispatch
+
+def _builder_params(name: str) -> dict:
+    sig = inspect.signature(BUILDERS[name])
+    return {k: p.default for k, p in sig.parameters.items()}
+
+
+def list_scenes() -> list[dict]:
+    """One dict per built-in scene: ``name``, ``description`` (one line), ``parameters`` (name → default)."""
+    out = []
+    for name, fn in BUILDERS.items():
+        doc = inspect.getdoc(fn) or ""
+        defaults = {k: (list(v) if isinstance(v, tuple) else v) for k, v in _builder_params(name).items()}
+        out.append({"name": name, "description": doc.splitlines()[0] if doc else "",
+                    "parameters": defaults, "doc": doc})
+    return out
+
+
+def _parse_inline_params(text: str, spec: str) -> dict:
+    out = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        if "=" not in item:
+            raise LdbenchError(f"scene {spec!r}: expected key=value after ':', got {item!r}")
+        k, v = (s.strip() for s in item.split("=", 1))
+        out[k] = v
+    return out
+
+
+def _is_xml(spec: str) -> bool:
+    return spec.lower().endswith(".xml")
+
+
+def _is_mesh(spec: str) -> bool:
+    return spec.lower().endswith(MESH_SUFFIXES)
+
+
+def load_scene(spec, **params) -> Scene:
+    """Build a scene from a built-in name (optionally ``name:key=value,...``), a Mitsuba 3 XML path,
+    or a mesh file path (the ``mesh`` scene). Bad input raises :class:`LdbenchError` naming it."""
+    spec = os.fspath(spec) if isinstance(spec, os.PathLike) else spec
+    if not isinstance(spec, str) or not spec.strip():
+        raise LdbenchError(f"scene must be a name or a file path, got {spec!r}")
+    spec = spec.strip()
+    if spec in BUILDERS or (":" in spec and spec.split(":", 1)[0] in BUILDERS):
+        name, _, inline = spec.partition(":")
+        params = {**_parse_inline_params(inline, spec), **params}
+        known = _builder_params(name)
+        for k in params:
+            if k not in known:
+                raise LdbenchError(f"unknown parameter {k!r} for scene {name!r} "
+                                   f"(parameters: {', '.join(known) or 'none'})")
+        return BUILDERS[name](**params)
+    if _is_xml(spec):
+        from .mitsuba_xml import load_mitsuba_xml
+        return load_mitsuba_xml(spec, **params)
+    if _is_mesh(spec):
+        for k in params:
+            if k not in ("albedo",):
+                raise LdbenchError(f"unknown parameter {k!r} for mesh scene {spec!r} (parameters: albedo)")
+        return build_mesh(path=spec, **params)
+    if os.path.exists(spec):
+        raise LdbenchError(f"cannot tell what scene file {spec!r} is: expected a Mitsuba .xml or a mesh "
+                           f"({', '.join(MESH_SUFFIXES)})")
+    raise LdbenchError(f"unknown scene {spec!r} (built-in: {', '.join(BUILDERS)}; or a path to a "
+                       f"Mitsuba .xml file or a {'/'.join(s[1:] for s in MESH_SUFFIXES)} mesh)")
