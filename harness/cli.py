@@ -216,12 +216,54 @@ def _report(args):
     return 0
 
 
+# ---- compare / history (harness/compare.py, harness/history.py; imported when used) ---------------
+def _compare_args(p):
+    from .compare import add_arguments
+    add_arguments(p)
+
+
+def _compare(args):
+    from .compare import run_cli
+    return run_cli(args)
+
+
+def _history_args(p):
+    from .history import add_arguments
+    add_arguments(p)
+
+
+def _history(args):
+    from .history import run_cli
+    return run_cli(args)
+
+
+# ---- reproduce (harness/reproduce.py) --------------------------------------------------------------
+def _reproduce_args(p):
+    p.add_argument("table", nargs="?", help="registry key, e.g. aalund2015-fig8 (see --list)")
+    p.add_argument("--list", action="store_true", help="list the reproducible tables and figures")
+    p.add_argument("--scale", default="paper", help="paper (the suite as written) | ci (tiny, for llvmpipe)")
+    p.add_argument("--size", default=None, help="WxH, overrides the scale's image size")
+    p.add_argument("--out", default=None, help="run directory (default reports/<table>-<scale>-<time>)")
+    p.add_argument("--from-run", default=None, metavar="RUN_DIR", help="reuse an existing run directory")
+    p.add_argument("--no-report", action="store_true")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def _reproduce(args):
+    from .reproduce import main_cli
+
+    return main_cli(args)
+
+
 COMMANDS = {
     "scenes": (_scenes_args, _scenes, "list built-in scenes"),
     "methods": (_methods_args, _methods, "list method adapters and their parameters"),
     "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
     "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),
     "report": (_report_args, _report, "rebuild the report of a run directory"),
+    "compare": (_compare_args, _compare, "regression gate: compare a run against a baseline (exit 1 = regression)"),
+    "history": (_history_args, _history, "per-machine benchmark history: add a run, plot with change points"),
+    "reproduce": (_reproduce_args, _reproduce, "one paper table/figure: ours beside the published numbers"),
 }
 
 

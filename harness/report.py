@@ -1,131 +1,385 @@
-"""Reports of a run directory: ``summary.md`` and one image grid per scene × effect.
+"""Reports of a run directory: ``index.html``, ``summary.md``, figures and image grids.
 
-The grid shows the reference, each method's image, and each method's error map (one colour scale per
-grid, with a colour bar), with the metric values in the captions.
+``write_report(run_dir)`` reads ``results.parquet`` (or ``.csv``) and writes:
+
+* ``index.html`` — one self-contained page (inline CSS, no scripts, no network: every link is a
+  relative path inside the run directory, every string from the records is escaped with
+  :func:`html.escape`). Sections: the machine/commit header (device, GL renderer and version, driver,
+  CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
+  because then every time is wall clock on a software rasterizer), the results table, the figures,
+  one image grid per scene × effect × size, and the paper-reproduction tables when the run was made by
+  ``ldbench reproduce`` (``reproduce.json``).
+* ``figures/`` — see :mod:`harness.figures`: stage-time breakdowns (``stages-*``), time and memory
+  against each swept parameter (``time-vs-*``, ``memory-vs-*``), quality vs time with the Pareto front
+  (``quality-*``), and the image grids (``grid-*`` plus ``grids/<tag>/`` assets), each as PNG and PDF.
+* ``summary.md`` — the results table in Markdown with links to the figures.
+
+A figure that fails is listed on the page (and on stderr) instead of aborting the report, so a long GPU
+run is never lost to a plotting problem.
 """
 from __future__ import annotations
 
+import html
 import json
 import math
+import sys
+import urllib.parse
 from pathlib import Path
 
-import numpy as np
+from . import figures as F
+
+# --------------------------------------------------------------------------------------------------
+# formatting
 
 
 def _fmt(v, nd=2):
-    if v is None or (isinstance(v, float) and math.isnan(v)):
+    v2 = F._num(v) if not isinstance(v, str) else v
+    if v2 is None:
         return "–"
-    if isinstance(v, float) and math.isinf(v):
+    if isinstance(v2, str):
+        return v2
+    if math.isinf(v2):
         return "∞"
-    return f"{v:.{nd}f}" if isinstance(v, float) else str(v)
+    return f"{v2:.{nd}f}"
 
 
 def _params_str(p) -> str:
-    p = p if isinstance(p, dict) else json.loads(p or "{}")
-    return ", ".join(f"{k}={v}" for k, v in p.items())
+    p = p if isinstance(p, dict) else F._as_dict(p)
+    return ", ".join(f"{k}={F.fmt_value(v)}" for k, v in p.items())
 
 
-def write_summary(run_dir: Path, df) -> Path:
-    lines = ["# ldbench run", ""]
-    if len(df):
-        r0 = df.iloc[0]
-        lines += [f"- run: `{r0.get('run_id')}`, suite `{r0.get('suite')}`, commit `{r0.get('commit')}`"
-                  f"{' (dirty)' if r0.get('dirty') else ''}",
-                  f"- device: **{r0.get('device')}** — {r0.get('gl_renderer')} ({r0.get('gl_version')}); "
-                  f"CPU {r0.get('cpu')}", ""]
-        if r0.get("device") == "cpu-software":
-            lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
-    lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+def esc(s) -> str:
+    """HTML-escaped text of any value (quotes too, so it is safe inside attributes)."""
+    return html.escape("" if s is None else str(s), quote=True)
+
+
+def url(rel: str) -> str:
+    """A relative path as an escaped, percent-encoded URL (no scheme, stays inside the folder)."""
+    return esc(urllib.parse.quote(str(rel).replace("\\", "/"), safe="/-_.~"))
+
+
+def _md(s) -> str:
+    return str(s).replace("|", "\\|").replace("\n", " ")
+
+
+# --------------------------------------------------------------------------------------------------
+# machine header
+
+
+MACHINE_FIELDS = (("device", "device"), ("gl_renderer", "GL renderer"), ("gl_version", "GL version"),
+                  ("driver", "driver"), ("cpu", "CPU"), ("gpu_name", "GPU"))
+
+
+def machines(df) -> list[dict]:
+    """Distinct (run, machine, commit) combinations in the table, in order of appearance."""
+    seen, out = set(), []
     for _, r in df.iterrows():
-        eff = r["effect"]
-        ep = r.get("effect_params")
-        ep = ep if isinstance(ep, dict) else json.loads(ep or "{}")
-        if eff == "ao":
-            eff = f"ao ({ep.get('falloff')}, d_max={ep.get('d_max')})"
-        mem = r.get("memory_bytes")
-        lines.append(
-            f"| {r['scene']} | {r['method']} | {eff} | {r['width']}×{r['height']} | {_params_str(r.get('params'))} | "
-            f"{_fmt(r.get('total_ms'))} ({_fmt(r.get('total_ms_iqr'))}) | "
-            f"{_fmt(mem / 2**20 if isinstance(mem, (int, float)) and not math.isnan(mem) else None, 1)} | "
-            f"{_fmt(r.get('psnr'))} | {_fmt(r.get('ssim'), 3)} | {_fmt(r.get('flip'), 3)} | "
-            f"{_fmt(r.get('relmse'), 4)} | {r.get('status')} |")
-    grids = sorted((run_dir / "figures").glob("grid-*.png")) if (run_dir / "figures").exists() else []
-    if grids:
-        lines += ["", "## Image grids", ""] + [f"![{g.stem}](figures/{g.name})" for g in grids]
-    path = run_dir / "summary.md"
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def write_grids(run_dir: Path, df) -> list[Path]:
-    """One PNG per (scene, effect, size): reference | methods (top), error maps (bottom)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from references.exr import read_exr
-    from . import metrics
-
-    out = []
-    ok = df[df["status"] == "ok"]
-    if not len(ok):
-        return out
-    (run_dir / "figures").mkdir(exist_ok=True)
-    keyf = lambda r: (r["scene"], json.dumps(r["effect_params"], sort_keys=True) if isinstance(r["effect_params"], dict) else r["effect_params"], r["width"], r["height"])
-    groups: dict = {}
-    for _, r in ok.iterrows():
-        groups.setdefault(keyf(r), []).append(r)
-    for (scene, _, w, h), rows in groups.items():
-        ims = [r["images"] if isinstance(r["images"], dict) else json.loads(r["images"]) for r in rows]
-        ref = _load(run_dir, ims[0]["reference"].replace(".png", ".exr"), read_exr)
-        tests = [_load(run_dir, im["exr"], read_exr) for im in ims]
-        errs = [_load(run_dir, im["error_exr"], read_exr)[..., 0] for im in ims]  # masked by the runner
-        vmax = max(float(np.percentile(e, 99)) for e in errs) or 1e-6
-        n = len(rows) + 1
-        fig, axes = plt.subplots(2, n, figsize=(2.6 * n, 5.6), squeeze=False)
-        scale = 1.0 if rows[0]["effect"] == "ao" else float(np.percentile(ref, 99) or 1.0)
-        axes[0, 0].imshow(metrics.to_srgb8(_rgb(ref) / scale))
-        axes[0, 0].set_title(f"reference\n{rows[0].get('ref_spp')} spp", fontsize=8)
-        axes[1, 0].axis("off")
-        im = None
-        for i, (r, t, e) in enumerate(zip(rows, tests, errs), start=1):
-            axes[0, i].imshow(metrics.to_srgb8(_rgb(t) / scale))
-            title = r["method"] + (f"\n{_params_str(r['params'])}" if len(rows) > 1 else "")
-            axes[0, i].set_title(title[:60], fontsize=7)
-            im = axes[1, i].imshow(e, cmap="magma", vmin=0, vmax=vmax)
-            axes[1, i].set_title(f"PSNR {_fmt(r['psnr'])} dB  SSIM {_fmt(r['ssim'], 3)}\n"
-                                 f"FLIP {_fmt(r['flip'], 3)}  {_fmt(r['total_ms'])} ms", fontsize=7)
-        for a in axes.flat:
-            a.set_xticks([]), a.set_yticks([])
-        if im is not None:
-            fig.colorbar(im, ax=list(axes[1, 1:]), fraction=0.046, pad=0.02, label="|error|")
-        eff = rows[0]["effect"]
-        fig.suptitle(f"{scene} — {eff} — {w}×{h}", fontsize=10)
-        ref_stem = Path(ims[0]["reference"]).stem.removeprefix("reference-")
-        tag = "".join(c if c.isalnum() or c in "-." else "_" for c in f"{scene}-{ref_stem}")
-        path = run_dir / "figures" / f"grid-{tag}.png"
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        out.append(path)
+        key = (r.get("run_id"), r.get("machine_key"), r.get("commit"))
+        if key in seen:
+            continue
+        seen.add(key)
+        m = {k: r.get(k) for k, _ in MACHINE_FIELDS}
+        dirty = r.get("dirty")
+        commit = r.get("commit") or "unknown"
+        m["commit"] = f"{commit}{' (dirty: uncommitted changes)' if dirty is True or str(dirty) == 'True' else ''}"
+        m["run id"] = r.get("run_id")
+        m["time (UTC)"] = r.get("time")
+        m["suite"] = r.get("suite")
+        out.append(m)
     return out
 
 
-def _rgb(a):
-    return np.repeat(a, 3, -1) if a.shape[-1] == 1 else a[..., :3]
+# --------------------------------------------------------------------------------------------------
+# summary.md
 
 
-def _load(run_dir, rel, read_exr):
-    ch = read_exr(str(run_dir / rel))
-    keys = [k for k in ("R", "G", "B") if k in ch] or [k for k in ("Y",) if k in ch] or list(ch)[:1]
-    return np.stack([ch[k] for k in keys], -1).astype(np.float32)
+def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
+    lines = ["# ldbench run", ""]
+    for m in machines(df):
+        lines += [f"- run: `{m['run id']}`, suite `{m['suite']}`, commit `{m['commit']}`, {m['time (UTC)']}",
+                  f"- device: **{m['device']}** — {m['gl_renderer']} ({m['gl_version']}); driver "
+                  f"{m['driver']}; CPU {m['cpu']}; GPU {m['gpu_name'] or '–'}"]
+    lines.append("")
+    if (df["device"] == "cpu-software").any():
+        lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
+    lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for _, r in df.iterrows():
+        lines.append(
+            f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | {r['width']}×{r['height']} | "
+            f"{_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
+            f"{_fmt(r['memory_mb'], 1)} | {_fmt(r['psnr'])} | {_fmt(r['ssim'], 3)} | {_fmt(r['flip'], 3)} | "
+            f"{_fmt(r['relmse'], 4)} | {_md(r['status'])} |")
+    if figs:
+        lines += ["", "## Figures", ""] + [f"- [{_md(f.title)}]({f.png}) ([PDF]({f.pdf}))" for f in figs]
+    if grids:
+        lines += ["", "## Image grids", ""] + [f"![{_md(g.title)}]({g.png})" for g in grids if g.png]
+    if (run_dir / "reproduce.md").is_file():
+        lines += ["", "Paper reproduction: [reproduce.md](reproduce.md)"]
+    lines += ["", "Full report: [index.html](index.html)"]
+    path = run_dir / "summary.md"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
 
 
-def write_report(run_dir) -> Path:
-    """Write the report files of ``run_dir``; returns the main page's path."""
+# --------------------------------------------------------------------------------------------------
+# HTML
+
+CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:24px;color:#222;max-width:1600px}
+h1{font-size:1.5em;margin-bottom:4px} h2{border-bottom:1px solid #ccc;padding-bottom:3px;margin-top:32px}
+h3{margin-bottom:6px}
+table{border-collapse:collapse;font-size:13px}
+th,td{border:1px solid #ccc;padding:3px 7px;vertical-align:top}
+th{background:#f0f0f0;text-align:left}
+td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+tr.bad td{background:#fff0f0}
+.machine th{width:120px}
+.warn{background:#fff3cd;border:2px solid #c00;color:#700;padding:8px 12px;margin:12px 0;font-weight:600}
+.problems{background:#fde;border:1px solid #c66;padding:6px 12px}
+nav a{margin-right:14px}
+figure{display:inline-block;margin:8px 16px 16px 0;vertical-align:top}
+figure img{max-width:100%;border:1px solid #ddd}
+figcaption{font-size:12px;color:#444;max-width:820px}
+table.grid td{border:none;text-align:center;font-size:11px;padding:4px}
+table.grid img.px{width:200px;height:auto;image-rendering:pixelated;border:1px solid #bbb}
+.cap{font-size:11px;color:#333;line-height:1.35}
+.muted{color:#777}
+.holds{color:#060;font-weight:600} .fails{color:#a00;font-weight:600}
+"""
+
+RESULT_COLUMNS = ("scene", "method", "effect", "size", "params", "total ms", "IQR ms", "wall ms",
+                  "memory MB", "PSNR dB", "SSIM", "FLIP", "relMSE", "ref spp", "status")
+
+
+class _Html:
+    def __init__(self):
+        self.parts: list[str] = []
+
+    def raw(self, s: str):
+        self.parts.append(s)
+
+    def text(self, tag: str, s, cls: str | None = None, **attrs):
+        a = "".join(f' {k.rstrip("_")}="{esc(v)}"' for k, v in attrs.items())
+        c = f' class="{esc(cls)}"' if cls else ""
+        self.parts.append(f"<{tag}{c}{a}>{esc(s)}</{tag}>")
+
+    def __str__(self):
+        return "\n".join(self.parts)
+
+
+def _img(run_dir: Path, rel: str | None, alt: str, cls: str = "") -> str:
+    """An <img> for an existing file, else a visible note (never a broken image)."""
+    if rel and (run_dir / rel).is_file():
+        c = f' class="{esc(cls)}"' if cls else ""
+        return f'<img{c} src="{url(rel)}" alt="{esc(alt)}">'
+    return f'<span class="muted">[{esc(alt)}: no image]</span>'
+
+
+def _results_table(h: _Html, df):
+    h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in RESULT_COLUMNS)
+          + "</tr></thead><tbody>")
+    for _, r in df.iterrows():
+        ok = r["status"] == "ok"
+        cells = [
+            (r["scene"], False), (r["method"], False), (r["effect_text"], False),
+            (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+            (_fmt(r["total_ms"]), True), (_fmt(r["total_ms_iqr"]), True), (_fmt(r.get("wall_ms")), True),
+            (_fmt(r["memory_mb"], 1), True), (_fmt(r["psnr"]), True), (_fmt(r["ssim"], 3), True),
+            (_fmt(r["flip"], 3), True), (_fmt(r["relmse"], 4), True), (_fmt(r.get("ref_spp"), 0), True),
+            (r["status"], False),
+        ]
+        tr = "<tr>" if ok else '<tr class="bad">'
+        h.raw(tr + "".join((f'<td class="num">{esc(v)}</td>' if num else f"<td>{esc(v)}</td>")
+                           for v, num in cells) + "</tr>")
+    h.raw("</tbody></table>")
+    h.text("p", "Times: median over the measured frames (IQR: interquartile range); on a GPU the sum of "
+                "the stages' GL timer queries, on a software rasterizer wall clock. Memory: GPU buffers "
+                "and textures of the method, MB = 2^20 bytes. PSNR/SSIM/FLIP/relMSE over pixels where "
+                "the reference hit geometry; exact settings are in results.csv (metric_settings).",
+           cls="cap")
+
+
+def _grid_html(h: _Html, run_dir: Path, g) -> None:
+    h.raw(f'<h3 id="{esc(g.anchor)}">{esc(g.title)}</h3>')
+    h.raw('<table class="grid"><tr>')
+    h.raw(f'<td>{_img(run_dir, g.reference, "reference", "px")}<div class="cap">{esc(g.reference_caption)}</div></td>')
+    for c in g.cells:
+        h.raw(f'<td>{_img(run_dir, c.image, c.label, "px")}<div class="cap"><b>{esc(c.label)}</b></div></td>')
+    h.raw("</tr><tr>")
+    vmax_txt = esc(f"{g.vmax:.3g}")
+    h.raw(f'<td>{_img(run_dir, g.colorbar, "colour bar of the error maps")}'
+          f'<div class="cap">error colour scale: 0 … {vmax_txt}</div></td>')
+    for c in g.cells:
+        cap = "<br>".join(esc(x) for x in c.caption)
+        h.raw(f'<td>{_img(run_dir, c.error, c.label + " error map", "px")}<div class="cap">{cap}</div></td>')
+    h.raw("</tr></table>")
+    links = []
+    if g.png and (run_dir / g.png).is_file():
+        links.append(f'<a href="{url(g.png)}">grid as PNG</a>')
+    if g.pdf and (run_dir / g.pdf).is_file():
+        links.append(f'<a href="{url(g.pdf)}">PDF</a>')
+    h.raw(f'<p class="cap">Top: reference and each method (same exposure). Bottom: absolute error maps on '
+          f'one colour scale for the whole grid (0 … {vmax_txt}; 99th percentile of the worst '
+          f'method). {" · ".join(links)}</p>')
+    if g.problems:
+        h.raw('<div class="problems">' + "<br>".join(esc(p) for p in g.problems) + "</div>")
+
+
+def _reproduce_html(h: _Html, run_dir: Path) -> bool:
+    p = run_dir / "reproduce.json"
+    if not p.is_file():
+        return False
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except ValueError:
+        return False
+    h.raw('<h2 id="reproduce">Paper reproduction</h2>')
+    for entry in data if isinstance(data, list) else [data]:
+        h.text("h3", f"{entry.get('key')}: {entry.get('title')}")
+        h.text("p", f"Published: {entry.get('published_setup')}. Ours: {entry.get('our_setup')}.", cls="cap")
+        h.raw("<table><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
+              ("row", "paper setup", "our configuration", "quantity", "published", "ours", "ours / published"))
+              + "</tr></thead><tbody>")
+        for r in entry.get("rows", []):
+            h.raw("<tr>" + "".join((f'<td class="num">{esc(v)}</td>' if i >= 4 else f"<td>{esc(v)}</td>") for i, v in enumerate(
+                (r.get("label"), r.get("paper_setup"), r.get("ours_config"), r.get("quantity"),
+                 r.get("published"), r.get("ours"), r.get("ratio"))))
+                + "</tr>")
+        h.raw("</tbody></table>")
+        h.raw("<table style=\"margin-top:8px\"><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
+              ("claim", "published", "ours", "verdict")) + "</tr></thead><tbody>")
+        for c in entry.get("claims", []):
+            v = str(c.get("verdict"))
+            cls = "holds" if v == "holds" else ("fails" if v.startswith("does not") else "muted")
+            h.raw(f"<tr><td>{esc(c.get('text'))}</td><td>{esc(c.get('published'))}</td>"
+                  f'<td>{esc(c.get("ours"))}</td><td class="{cls}">{esc(v)}</td></tr>')
+        h.raw("</tbody></table>")
+        for n in entry.get("notes", []):
+            h.text("p", n, cls="cap")
+    h.raw('<p class="cap"><a href="reproduce.md">reproduce.md</a></p>')
+    return True
+
+
+def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
+    h = _Html()
+    ms = machines(df)
+    title = f"ldbench report — {ms[0]['suite'] if ms else 'empty run'}"
+    h.raw("<!DOCTYPE html>")
+    h.raw('<html lang="en"><head><meta charset="utf-8">')
+    h.raw('<meta name="viewport" content="width=device-width, initial-scale=1">')
+    h.text("title", title)
+    h.raw(f"<style>{CSS}</style></head><body>")
+    h.text("h1", title)
+    # machine / commit header: one column per distinct run × machine × commit
+    if ms:
+        keys = [k for k in ms[0]]
+        labels = dict(MACHINE_FIELDS)
+        h.raw('<table class="machine"><tbody>')
+        for k in keys:
+            h.raw(f"<tr><th>{esc(labels.get(k, k))}</th>" + "".join(f"<td>{esc(m.get(k) if m.get(k) is not None else '–')}</td>"
+                                                                 for m in ms) + "</tr>")
+        h.raw("</tbody></table>")
+    if (df["device"] == "cpu-software").any():
+        h.text("div", "Warning: device = cpu-software. These times are wall clock on a software "
+                      "rasterizer (Mesa llvmpipe on the CPU), not GPU times; compare them only with runs "
+                      "on the same machine, never with the papers' GPU numbers.", cls="warn")
+    nav = ['<a href="#results">results</a>', '<a href="#figures">figures</a>', '<a href="#grids">image grids</a>']
+    if (run_dir / "reproduce.json").is_file():
+        nav.append('<a href="#reproduce">paper reproduction</a>')
+    nav += ['<a href="results.csv">results.csv</a>', '<a href="summary.md">summary.md</a>']
+    h.raw("<nav>" + "".join(nav) + "</nav>")
+    if problems:
+        h.raw('<div class="problems"><b>Report problems</b><br>' + "<br>".join(esc(p) for p in problems) + "</div>")
+    _reproduce_html(h, run_dir)
+    h.raw('<h2 id="results">Results</h2>')
+    _results_table(h, df)
+    h.raw('<h2 id="figures">Figures</h2>')
+    if not figs:
+        h.text("p", "No figures (no successful rows).", cls="muted")
+    for kind, head in (("stages", "Stage-time breakdown"), ("time-vs-param", "Time vs swept parameters"),
+                       ("memory-vs-param", "Memory vs swept parameters"), ("quality", "Quality vs time")):
+        fs = [f for f in figs if f.kind == kind]
+        if not fs:
+            continue
+        h.text("h3", head)
+        for f in fs:
+            h.raw(f"<figure>{_img(run_dir, f.png, f.title)}<figcaption>{esc(f.caption)} "
+                  f'<a href="{url(f.pdf)}">PDF</a></figcaption></figure>')
+    if not any(f.kind.endswith("vs-param") for f in figs):
+        h.text("p", "No parameter is swept in this run (a parameter is swept when it takes more than one "
+                    "value within one scene × method × effect).", cls="muted")
+    h.raw('<h2 id="grids">Image grids</h2>')
+    if not grids:
+        h.text("p", "No images.", cls="muted")
+    for g in grids:
+        _grid_html(h, run_dir, g)
+    h.text("p", "Generated by ldbench report; this folder is self-contained (relative links only).", cls="muted")
+    h.raw("</body></html>")
+    path = run_dir / "index.html"
+    tmp = path.with_name(".index.html.tmp")
+    tmp.write_text(str(h) + "\n", encoding="utf-8")
+    tmp.replace(path)
+    return path
+
+
+# --------------------------------------------------------------------------------------------------
+# entry points
+
+
+def write_grids(run_dir: Path, df, problems: list | None = None) -> list:
+    """Image grids of a prepared table (one per scene content × effect × size)."""
+    problems = [] if problems is None else problems
+    grids = []
+    # The same image file claimed by several rows means one job overwrote another's image (the runner's
+    # file names do not include every job attribute, e.g. the image size or scene parameters).
+    users: dict = {}
+    for _, r in df[df["status"] == "ok"].iterrows():
+        for k in ("image", "reference", "error"):
+            rel = r["images"].get(k)
+            if rel:
+                users.setdefault(rel, set()).add((r["scene_hash"], r["effect_text"], r["size"],
+                                                  r["method"] if k != "reference" else "",
+                                                  json.dumps(r["params"], sort_keys=True, default=str)
+                                                  if k != "reference" else ""))
+    shared = {rel for rel, u in users.items() if len(u) > 1}
+    for key, rows in F.grid_groups(df).items():
+        try:
+            g = F.make_grid(run_dir, key, rows)
+            clash = sorted({rel for r in rows for rel in (r["images"].get("image"), r["images"].get("reference"),
+                                                           r["images"].get("error")) if rel in shared})
+            if clash:
+                g.problems.append("these image files are shared with other rows of a different configuration, "
+                                  "so they may show another job's image (overwritten during the run): "
+                                  + ", ".join(clash))
+            grids.append(g)
+        except Exception as e:  # noqa: BLE001 - report, do not lose the run
+            import traceback
+
+            traceback.print_exc()
+            problems.append(f"image grid {key[0]} {key[2]} {key[3]}: {type(e).__name__}: {e}")
+    return grids
+
+
+def build_report(run_dir, df=None) -> dict:
+    """Write every report file; returns ``{"index": Path, "summary": Path, "figures": [...],
+    "grids": [...], "problems": [...]}``. ``df`` defaults to the run directory's results."""
     from .records import read_results
 
     run_dir = Path(run_dir)
-    df = read_results(run_dir)
-    write_grids(run_dir, df)
-    return write_summary(run_dir, df)
+    raw = read_results(run_dir) if df is None else df
+    df = F.prepare(raw)
+    (run_dir / "figures").mkdir(exist_ok=True)
+    problems: list[str] = []
+    figs = F.write_figures(run_dir, df, problems)
+    grids = write_grids(run_dir, df, problems)
+    for p in problems:
+        print(f"ldbench report: warning: {p}", file=sys.stderr)
+    summary = write_summary(run_dir, df, figs, grids)
+    index = write_html(run_dir, df, figs, grids, problems)
+    return {"index": index, "summary": summary, "figures": figs, "grids": grids, "problems": problems}
+
+
+def write_report(run_dir) -> Path:
+    """Write the report files of ``run_dir``; returns the path of ``index.html``."""
+    return build_report(run_dir)["index"]

@@ -33,9 +33,16 @@ def _slug(s: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in s)[:80]
 
 
-def job_label(job: Job) -> str:
+def _scene_tag(job: Job, scene) -> str:
+    """Distinguishes images of one builder called with different parameters."""
+    return f"-s{scene.content_hash()[:6]}" if job.scene_params else ""
+
+
+def job_label(job: Job, scene) -> str:
+    """Image file stem: method, effect, size, method params and (if any) a scene-parameter tag."""
     p = "-".join(f"{k}{v}" for k, v in job.params)
-    return _slug(f"{job.method}-{job.effect.label()}" + (f"-{p}" if p else ""))
+    return _slug(f"{job.method}-{job.effect.label()}-{job.width}x{job.height}" + (f"-{p}" if p else "")
+                 + _scene_tag(job, scene))
 
 
 def _progress(iterable, total, desc, enabled):
@@ -120,7 +127,7 @@ def _run_one(gpu, job, scene, ref, out, suite_name, run_id, machine, git, get_me
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
     view = View(scene.camera, job.width, job.height)
-    label = job_label(job)
+    label = job_label(job, scene)
     samples: dict = {}
     totals, walls = [], []
     status, result = "ok", None
@@ -158,7 +165,7 @@ def _run_one(gpu, job, scene, ref, out, suite_name, run_id, machine, git, get_me
         m = metrics.all_metrics(img, ref.mean, mask=mask)
         idir = out / "images" / _slug(scene.name)
         scale = None if job.effect.name == "ao" else float(np.percentile(ref.mean[ref.mask], 99) or 1.0)
-        ref_name = _slug(f"reference-{job.effect.label()}-{job.width}x{job.height}")
+        ref_name = _slug(f"reference-{job.effect.label()}-{job.width}x{job.height}{_scene_tag(job, scene)}")
         if not (idir / f"{ref_name}.exr").exists():
             save_image(idir / ref_name, ref.mean, png_scale=scale)
         save_image(idir / label, img, png_scale=scale)

@@ -1,0 +1,134 @@
+"""``ldbench reproduce`` (harness/reproduce.py): registry, row matching, claims, printing, end to end."""
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+
+from harness import records
+from harness.cli import main
+from harness.reproduce import (FAILS, FIG8_D_MAX, HOLDS, INCONCLUSIVE, NOT_MEASURED, REGISTRY, REPO,
+                               evaluate, scale_match, scale_suite)
+
+
+def test_registry_entries_are_complete():
+    assert {"aalund2015-fig8", "aalund2015-fig9"} <= set(REGISTRY)
+    for e in REGISTRY.values():
+        assert (REPO / e.suite).is_file(), e.suite
+        assert e.hardware and e.resolution and e.paper and e.rows and e.claims
+        ids = [r["id"] for r in e.rows]
+        assert len(ids) == len(set(ids))
+        for c in e.claims:
+            assert c.a in ids and c.b in ids, c.text
+        assert {"paper", "ci"} <= set(e.scales)
+
+
+def test_published_numbers_transcribed():
+    """Figure 8/9 captions of aalund2015 (shared/papers/aalund2015.md)."""
+    f8 = {r["id"]: r for r in REGISTRY["aalund2015-fig8"].rows}
+    assert f8["ldm"]["time_ms"] == 512.4 and f8["hbao"]["time_ms"] == 903.6
+    assert f8["ldm"]["memory_mb"] == 805.5
+    assert f8["ldm"]["match"]["params"] == {"directions": 512, "resolution": 200}
+    assert FIG8_D_MAX == pytest.approx(1280 / 3720.86 * 30, abs=0.01)
+    f9 = {r["id"]: r for r in REGISTRY["aalund2015-fig9"].rows}
+    assert (f9["sponza-50"]["time_ms"], f9["sponza-50"]["memory_mb"]) == (373.0, 204.1)
+    assert (f9["hairball-50"]["time_ms"], f9["hairball-50"]["memory_mb"]) == (1174.0, 295.5)
+    assert f9["sponza-200"]["memory_mb"] == 805.5 and "time_ms" not in f9["sponza-200"]
+    assert all(math.isinf(r["match"]["d_max"]) for r in f9.values())  # unattenuated
+
+
+def test_scale_maps_rows_and_jobs():
+    ci = REGISTRY["aalund2015-fig8"].scales["ci"]
+    m = scale_match({"method": "ldm-ao", "params": {"directions": 512, "resolution": 200}}, ci)
+    assert m["params"] == {"directions": 16, "resolution": 64}
+    from harness.suite import suite_from_dict
+
+    suite = suite_from_dict({"suite": {"size": "800x800", "spp": 1024},
+                             "run": [{"scene": "atrium", "scene_params": {"triangles": 260000}, "effect": "ao",
+                                      "d_max": [0.25, 10.32], "falloff": "quadratic", "methods": ["hbao"],
+                                      "params": {"hbao": {"max_radius_px": 1132.0}}}]}, name="t")
+    s = scale_suite(suite, ci, size="24x16")
+    assert len(s.jobs) == 2
+    for j in s.jobs:
+        assert (j.width, j.height, j.spp, j.frames) == (24, 16, 16, 3)
+        assert dict(j.scene_params) == {"triangles": 4000}
+        assert dict(j.params) == {"max_radius_px": 64.0}
+    assert {j.effect.d_max for j in s.jobs} == {0.25, 10.32}  # d_max is a scene length: unchanged
+
+
+def _row(method, d, t, *, iqr=1.0, res=200, mem=None, psnr=20.0, ssim=0.5, status="ok"):
+    return records.make_row(
+        run_id="syn", suite="aalund2015-fig8", scene="atrium", scene_params={"triangles": 260000}, method=method,
+        effect="ao", effect_params={"effect": "ao", "d_max": d, "falloff": "quadratic"},
+        params={"directions": 512, "resolution": res} if method == "ldm-ao" else {"directions": 8},
+        width=800, height=800, device="nvidia", gl_renderer="NVIDIA H100", gpu_name="NVIDIA H100 80GB HBM3",
+        total_ms=t, total_ms_iqr=iqr, memory_bytes=mem, psnr=psnr, ssim=ssim, status=status)
+
+
+def test_fig8_from_synthetic_run(tmp_path, capsys):
+    rows = [_row("ldm-ao", FIG8_D_MAX, 50.0, mem=700 * 2**20, psnr=30, ssim=0.9),
+            _row("hbao", FIG8_D_MAX, 80.0, psnr=20, ssim=0.6),
+            _row("ldm-ao", 0.25, 45.0, mem=700 * 2**20),
+            _row("hbao", 0.25, 79.5, iqr=2.0)]
+    records.write_results(rows, tmp_path)
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(tmp_path), "--no-report"]) == 0
+    out = capsys.readouterr().out
+    for s in ("512.4 ms", "903.6 ms", "805.5 MB", "50.00 ms", "80.00 ms", "700.0 MB", "0.0976×",
+              "GTX 780 Ti", "NVIDIA H100", "ours/published"):
+        assert s in out, s
+    res = evaluate(REGISTRY["aalund2015-fig8"], records.read_results(tmp_path))
+    verdicts = {c["text"]: c["verdict"] for c in res["claims"]}
+    assert verdicts["LDMs are faster than HBAO at large d_max"] == HOLDS
+    assert verdicts["LDMs resemble the reference better than HBAO at large d_max (PSNR and SSIM)"] == HOLDS
+    assert verdicts["HBAO gets slower as d_max grows (larger kernel)"] == INCONCLUSIVE  # 80 vs 79.5 ± 2
+    assert verdicts["For small d_max the reverse: HBAO is faster than LDMs"] == FAILS
+    md = (tmp_path / "reproduce.md").read_text()
+    assert "512.4 ms" in md and "**holds**" in md
+    assert (tmp_path / "reproduce.json").is_file()
+
+
+def test_missing_rows_are_not_measured(tmp_path, capsys):
+    records.write_results([_row("hbao", FIG8_D_MAX, 80.0), _row("ldm-ao", FIG8_D_MAX, 1.0, status="error: x")],
+                          tmp_path)
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(tmp_path), "--no-report"]) == 0
+    out = capsys.readouterr().out
+    assert "no matching row in this run" in out and NOT_MEASURED in out and "failed rows" in out
+
+
+def test_reproduce_user_errors(capsys, tmp_path):
+    assert main(["reproduce", "nope"]) == 2
+    assert "unknown table 'nope'" in capsys.readouterr().err
+    assert main(["reproduce", "aalund2015-fig8", "--scale", "huge", "--from-run", str(tmp_path)]) == 2
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(tmp_path / "missing")]) == 2
+    assert main(["reproduce", "--list"]) == 0
+    out = capsys.readouterr().out
+    assert "aalund2015-fig8" in out and "aalund2015-fig9" in out
+
+
+def _have(*methods):
+    from methods.base import registry
+
+    return all(m in registry() for m in methods)
+
+
+@pytest.mark.skipif(not _have("ldm-ao", "hbao"), reason="ldm-ao / hbao adapters not registered")
+def test_fig8_ci_end_to_end(tmp_path, capsys):
+    """The real suite at --scale ci on llvmpipe: runs, prints both columns, writes the report."""
+    t0 = time.perf_counter()
+    out_dir = tmp_path / "fig8"
+    assert main(["reproduce", "aalund2015-fig8", "--scale", "ci", "--out", str(out_dir), "--no-progress"]) == 0
+    took = time.perf_counter() - t0
+    out = capsys.readouterr().out
+    assert "512.4 ms" in out and "903.6 ms" in out
+    assert "Fig. 8(a) LDMs" in out and "no matching row" not in out
+    assert "ldm-ao (directions=16, resolution=64)" in out
+    for v in (HOLDS, FAILS, INCONCLUSIVE):
+        out = out.replace(v, "VERDICT")
+    assert out.count("VERDICT") == len(REGISTRY["aalund2015-fig8"].claims)
+    for f in ("reproduce.md", "reproduce.json", "index.html", "summary.md", "results.csv"):
+        assert (out_dir / f).is_file(), f
+    html = (out_dir / "index.html").read_text(encoding="utf-8")
+    assert 'id="reproduce"' in html and "512.4 ms" in html
+    assert (out_dir / "figures" / "time-vs-d_max.png").is_file()
+    print(f"fig8 --scale ci took {took:.1f} s")
