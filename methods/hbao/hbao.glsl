@@ -1,0 +1,163 @@
+// Horizon-based ambient occlusion (Bavoil, Sainz, Dimitrov 2008) on the shared G-buffer.
+//
+// One invocation per pixel. For each of `directions` screen-space directions (rotated per pixel by a
+// 4x4 tiled random texture), march `steps` pixels out to the projected radius of d_max (clamped to
+// max_radius_px and to the image border), with a jittered start, and track the horizon: the highest
+// sample S (seen from P) within 3D distance d_max.
+//
+// INTEGRAL == 0 ("hbao", the 2008 formula): elevations are measured from the image plane (view-space
+//   z is the zenith); per direction  occ = sum_k W(r_k) (sin h_k - sin h_{k-1}),  h_0 = t + bias
+//   (t = tangent angle from the normal), i.e. per-sample attenuation; AO = 1 - mean(occ).
+// INTEGRAL == 1 ("cosine"): the slice through the eye, P and the screen direction (exact: every pixel
+//   on that screen line lies in that plane) is parameterized by the angle theta from the view vector
+//   v = normalize(-P) towards the direction; with the normal projected into the slice (length |n_p|,
+//   angle gamma from v), the cosine-weighted measure of the directions between v and theta is
+//       F(theta) = 1/4 (-cos(2 theta - gamma) + cos gamma + 2 theta sin gamma)
+//   (Jimenez et al. 2016, GTAO's inner integral); dF/dtheta = sin(theta) cos(theta - gamma). One side
+//   of a slice is unoccluded down to the tangent plane theta_t = gamma + pi/2; each sample raising the
+//   horizon from theta_prev to theta_k removes rho(r_k) (F(theta_prev) - F(theta_k)). Each direction is
+//   one half-slice: A = 1/pi * int_0^{2pi} |n_p| F_vis dphi, estimated as the ratio
+//   sum_i |n_p| F_vis / sum_i |n_p| F(theta_t): the denominator's mean over directions is exactly 1/2
+//   (its integral over phi is pi: the unoccluded hemisphere), and the ratio makes an unoccluded pixel exactly 1 for any number of
+//   directions (the plain mean 2/N sum |n_p| F_vis scatters around 1 on surfaces seen at grazing
+//   angles, and clamping to [0, 1] would then bias it low).
+//   For rho = 1 this is exactly 1/pi * int V cos dw over the normal's hemisphere as seen in the depth
+//   buffer (one layer, nothing behind the first surface, nothing off screen).
+//
+// Falloff (the `ao` effect): FALLOFF_MODE 0 = step (rho = 1 for r < d_max), 1 = quadratic
+// (rho = 1 - (r/d_max)^2), 2 = unbounded (d_max = inf; rho = 1). Samples with r >= d_max are ignored.
+// Output: r = AO (1 = unoccluded; 1 on background).
+#include "common.glsl"
+
+#ifndef INTEGRAL
+#define INTEGRAL 1
+#endif
+#ifndef PLANE_FIT
+#define PLANE_FIT 1
+#endif
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(r32f, binding = 0) writeonly uniform image2D out_ao;
+uniform sampler2D g_position;   // world position, w = 1 where hit
+uniform sampler2D g_normal;     // camera-facing geometric normal (world)
+uniform sampler2D noise;        // 4x4: r = rotation in [0,1), g = start jitter in [0,1)
+uniform mat4 view;              // world -> view (rigid)
+uniform float focal_px;         // pixels per world unit at unit view depth: 0.5 H / tan(fov_y / 2)
+uniform vec2 half_size;         // (W/2, H/2): the principal point in pixels
+uniform float d_max;            // world units (ignored for FALLOFF_MODE 2)
+uniform int falloff_mode;       // 0 step, 1 quadratic, 2 unbounded
+uniform float max_radius_px;
+uniform int directions;
+uniform int steps;
+uniform float angle_bias;       // radians
+
+float rho(float r) {            // obscurance weight of an occluder at distance r (< d_max)
+    if (falloff_mode == 1) return 1.0 - (r * r) / (d_max * d_max);
+    return 1.0;
+}
+
+float F(float theta, float gamma) {
+    return 0.25 * (-cos(2.0 * theta - gamma) + cos(gamma) + 2.0 * theta * sin(gamma));
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(out_ao);
+    if (any(greaterThanEqual(p, size))) return;
+    vec4 pos = texelFetch(g_position, p, 0);
+    if (pos.w < 0.5) { imageStore(out_ao, p, vec4(1.0)); return; }
+
+    vec3 P = (view * vec4(pos.xyz, 1.0)).xyz;
+    vec3 n = normalize(mat3(view) * texelFetch(g_normal, p, 0).xyz);
+    float depth = -P.z;
+    float radius = (falloff_mode == 2) ? max_radius_px : min(d_max * focal_px / depth, max_radius_px);
+    if (radius < 1.0) { imageStore(out_ao, p, vec4(1.0)); return; }
+    float d2max = (falloff_mode == 2) ? 3.0e38 : d_max * d_max;
+
+    vec2 rnd = texelFetch(noise, p & 3, 0).rg;
+    vec2 pc = vec2(p) + 0.5;
+    vec3 v = normalize(-P);
+    float sum = 0.0, sum_full = 0.0;
+    for (int i = 0; i < directions; ++i) {
+        float phi = 2.0 * PI * (float(i) + rnd.x) / float(directions);
+        vec2 dir = vec2(cos(phi), sin(phi));
+        // march no farther than the image border: every sample lands on screen
+        vec2 room = mix(pc, vec2(size) - pc, step(0.0, dir)) / max(abs(dir), vec2(1e-6));
+        float radius_i = min(radius, min(room.x, room.y));
+        int ns = min(steps, int(radius_i));           // no more steps than pixels
+        float step_px = radius_i / float(ns + 1);
+        // The slice: the plane through the eye, P and the screen direction (every pixel on the screen
+        // line from p along dir lies in it). v = towards the eye, o = in-slice direction orthogonal
+        // to v on the marching side; the normal projected into the slice has length nlen, angle gamma.
+        vec3 d3 = vec3(dir, 0.0);
+        vec3 o = normalize(d3 - dot(d3, v) * v);
+        float nv = max(dot(n, v), 0.0), no = dot(n, o);
+        float nlen = sqrt(nv * nv + no * no);
+        float gamma = atan(no, max(nv, 1e-6));        // in [-pi/2, pi/2]
+        float theta_t = gamma + 0.5 * PI;             // the tangent plane, as an angle from v
+#if INTEGRAL == 0
+        // tangent angle t: elevation above the image plane (view-space z towards the eye) of the
+        // surface tangent whose projection points along dir (the 2008 implementation's T from the
+        // depth derivatives), i.e. T = cos(theta_t) v + sin(theta_t) o.
+        float t = asin(clamp(cos(theta_t) * v.z + sin(theta_t) * o.z, -1.0, 1.0));
+        float sin_h = sin(min(t + angle_bias, 0.5 * PI));
+        float occ = 0.0;
+#else
+        float theta_h = max(theta_t - angle_bias, 0.0);
+        float f_h = F(theta_h, gamma);
+        float occ = 0.0;
+#endif
+        for (int k = 0; k < ns; ++k) {
+            vec2 q = pc + dir * (step_px * (float(k) + rnd.y) + step_px);
+            ivec2 qi = ivec2(floor(q));
+            if (any(lessThan(qi, ivec2(0))) || any(greaterThanEqual(qi, size))) break;
+            vec4 s = texelFetch(g_position, qi, 0);
+            if (s.w < 0.5 || qi == p) continue;
+            vec3 S = (view * vec4(s.xyz, 1.0)).xyz;
+#if PLANE_FIT
+            // The pixel's surface point lies on the ray through its centre, up to 0.7 px off the
+            // marching line, hence off the slice; on sloped surfaces that reads as false occlusion.
+            // Move it along its own tangent plane to the view ray through the exact sample point q.
+            vec3 n_s = mat3(view) * texelFetch(g_normal, qi, 0).xyz;
+            vec3 ray = vec3((q - half_size) / focal_px, -1.0);
+            float denom = dot(ray, n_s);
+            if (denom < -1e-4 * length(ray)) {        // not grazing
+                vec3 S2 = ray * (dot(S, n_s) / denom);
+                if (abs(S2.z - S.z) < 0.05 * -S.z) S = S2;
+            }
+#endif
+            vec3 D = S - P;
+            float r2 = dot(D, D);
+            if (r2 >= d2max || r2 <= 0.0) continue;
+            float r = sqrt(r2);
+#if INTEGRAL == 0
+            float sin_s = D.z / r;
+            if (sin_s > sin_h) {
+                occ += rho(r) * (sin_s - sin_h);
+                sin_h = sin_s;
+            }
+#else
+            float theta = clamp(atan(max(dot(D, o), 0.0), dot(D, v)), 0.0, PI);
+            if (theta < theta_h) {
+                float f = F(theta, gamma);
+                occ += rho(r) * (f_h - f);
+                theta_h = theta;
+                f_h = f;
+            }
+#endif
+        }
+#if INTEGRAL == 0
+        sum += occ;
+#else
+        float f_full = F(theta_t, gamma);
+        sum += nlen * (f_full - occ);
+        sum_full += nlen * f_full;
+#endif
+    }
+#if INTEGRAL == 0
+    float ao = 1.0 - sum / float(directions);
+#else
+    float ao = sum / max(sum_full, 1e-20);
+#endif
+    imageStore(out_ao, p, vec4(clamp(ao, 0.0, 1.0)));
+}
