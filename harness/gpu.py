@@ -107,6 +107,13 @@ class Resources:
         tex = self.ctx.depth_texture(tuple(size))
         return self._add(name, tex, size[0] * size[1] * 4)
 
+    def free(self, name: str) -> None:
+        """Release one object (no-op if absent), e.g. a pool page no longer needed."""
+        obj = self.objects.pop(name, None)
+        self.bytes.pop(name, None)
+        if obj is not None:
+            obj.release()
+
     def total(self) -> int:
         return sum(self.bytes.values())
 

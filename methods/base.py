@@ -116,7 +116,8 @@ class Result:
         returning it (read back after timing; see :meth:`resolve`)
     stages_ms : filled by the runner from the GPU timer (a method does not time itself)
     memory_bytes : {buffer name: bytes} of every allocation the method holds for this frame
-    counters : fragments stored, overflow, list lengths, ...
+    counters : fragments stored, overflow, list lengths, ... (a dict, or a callable returning it,
+        evaluated by :meth:`resolve` after the timed frame)
     """
 
     image: np.ndarray
@@ -132,6 +133,8 @@ class Result:
             self.image = self.image()
         if callable(self.mask):
             self.mask = self.mask()
+        if callable(self.counters):  # counters may also be lazy (e.g. a statistics pass + read-back)
+            self.counters = self.counters()
         return self
 
 

@@ -1,0 +1,68 @@
+// Tracing rays through orthographic layered depth maps (aalund2015 §3.1), on top of linked_list.glsl.
+//
+// Map k looks along its axis v_k; (u_k, w_k, v_k) is a right-handed orthonormal basis; the map covers the
+// scene's bounding sphere (centre ldm_centre, radius ldm_radius): texel coordinates are
+// ((dot(p - c, u), dot(p - c, w)) / radius * 0.5 + 0.5) * size, and the stored depth of a fragment is
+// dot(p - c, v). Lists are sorted by ascending depth, so along +v the first hit is the first entry
+// beyond x and along -v it is the last entry before x: one map answers both directions.
+//
+// Self-intersection ("receiver-plane" test): x's own surface is in the list, at the texel centre q,
+// not at x. For a locally planar surface with normal n through x, the column through q crosses that
+// plane at ray distance s = -dot(n, q - x) / dot(n, d) (d = the ray direction, dot(n, d) > 0); entries
+// closer than s along the ray lie below x's tangent plane, where no ray leaving x can hit. Entries with
+// t <= max(s, 0) + bias are skipped; bias (world units) absorbs curvature and float error.
+#ifndef LDBENCH_LDM_TRACE_GLSL
+#define LDBENCH_LDM_TRACE_GLSL
+#include "linked_list.glsl"
+
+struct LdmAxis { vec4 u; vec4 w; vec4 v; };
+layout(std430, binding = 11) readonly buffer LdmAxes { LdmAxis ldm_axes[]; };
+uniform vec3 ldm_centre;
+uniform float ldm_radius;
+uniform ivec2 ldm_size;
+
+// Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
+// when the ray leaves the scene (nothing stored beyond x on that side).
+float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
+    vec3 u = ldm_axes[k].u.xyz, w = ldm_axes[k].w.xyz, v = ldm_axes[k].v.xyz;
+    vec3 r = x - ldm_centre;
+    vec2 st = vec2(dot(r, u), dot(r, w));
+    float zx = dot(r, v);
+    vec2 f = (st / ldm_radius * 0.5 + 0.5) * vec2(ldm_size);
+    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ldm_size - 1);
+    vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ldm_radius / vec2(ldm_size));  // x -> texel centre, (u, w)
+    float cos_t = sigma * dot(n, v);
+    float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
+    float thr = max(s_self, 0.0) + bias;
+    uint i = ll_head[ll_list_index(k, px, ldm_size)];
+    if (sigma > 0.0) {
+        while (i != LL_EOL) {
+            LLNode nd = ll_node(i);
+            float t = nd.depth - zx;
+            if (t > thr) return t;
+            i = nd.next;
+        }
+        return -1.0;
+    }
+    float best = -1.0;
+    while (i != LL_EOL) {
+        LLNode nd = ll_node(i);
+        float t = zx - nd.depth;
+        if (t <= thr) break;
+        best = t;
+        i = nd.next;
+    }
+    return best;
+}
+
+// The map whose axis is closest to direction d (for arbitrary directions); sigma = which side.
+uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
+    uint best = 0u;
+    float bc = -1.0;
+    for (uint k = 0u; k < n_maps; ++k) {
+        float c = dot(d, ldm_axes[k].v.xyz);
+        if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
+    }
+    return best;
+}
+#endif

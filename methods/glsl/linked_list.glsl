@@ -1,0 +1,225 @@
+// Per-pixel linked lists (yang2010 §3), N layers of W×H lists sharing one head buffer and one node pool.
+// Shared declarations and accessors; see methods/linked_list.py for the algorithms and the bindings.
+//
+// Defines (set by methods/linked_list.py: LayeredLinkedLists.defines()):
+//   LL_PAGES       1..4   number of SSBO pages the node pool is split into (SSBO size limits)
+//   LL_PAGE_SHIFT         log2(nodes per page); node i lives in page i >> LL_PAGE_SHIFT
+//   LL_AGGREGATE          warp-aggregated node allocation (needs ARB_shader_ballot + ARB_gpu_shader_int64,
+//                         enabled by the including shader)
+//   LL_WRITABLE           define in passes that write lists (build, sort): buffers are then
+//                         "coherent" and the writer functions exist; otherwise they are "readonly"
+// Node layout: LLNode {float depth; uint next;} (8 bytes, one load per step of a walk); LL_EOL ends a list.
+#ifndef LDBENCH_LINKED_LIST_GLSL
+#define LDBENCH_LINKED_LIST_GLSL
+
+#ifndef LL_PAGES
+#define LL_PAGES 1
+#endif
+#ifndef LL_PAGE_SHIFT
+#define LL_PAGE_SHIFT 30
+#endif
+#ifdef LL_WRITABLE
+#define LL_QUAL coherent
+#else
+#define LL_QUAL readonly
+#endif
+
+#ifndef LL_MAX_RETRIES
+#define LL_MAX_RETRIES 65536
+#endif
+
+#define LL_EOL 0xFFFFFFFFu
+#define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
+
+// binding 0: counters. [0] fragments attempted (= nodes requested; stored = min(count, capacity)),
+// [1] lists longer than LL_MAX_LIST met by the sort pass, [2..5] statistics (see linked_list_stats.glsl),
+// [6] sorted inserts abandoned after LL_MAX_RETRIES failed CAS (a livelock guard; expected 0)
+layout(std430, binding = 0) coherent buffer LLCounters { uint ll_counters[8]; };
+layout(std430, binding = 1) LL_QUAL buffer LLHeads { uint ll_head[]; };
+
+struct LLLayer {
+    mat4 clip;        // world -> clip space of the layer's raster
+    vec4 depth_row;   // stored depth = dot(depth_row, vec4(p, 1))
+};
+layout(std430, binding = 2) readonly buffer LLLayers { LLLayer ll_layers[]; };
+
+struct LLNode {
+    float depth;
+    uint next;
+};
+layout(std430, binding = 3) LL_QUAL buffer LLNodes0 { LLNode ll_nodes0[]; };
+#if LL_PAGES > 1
+layout(std430, binding = 4) LL_QUAL buffer LLNodes1 { LLNode ll_nodes1[]; };
+#endif
+#if LL_PAGES > 2
+layout(std430, binding = 5) LL_QUAL buffer LLNodes2 { LLNode ll_nodes2[]; };
+#endif
+#if LL_PAGES > 3
+layout(std430, binding = 6) LL_QUAL buffer LLNodes3 { LLNode ll_nodes3[]; };
+#endif
+
+// Node accessors: node i lives in page i >> LL_PAGE_SHIFT at index i & LL_PAGE_MASK.
+LLNode ll_node(uint i) {
+    LLNode r;
+#if LL_PAGES == 1
+    r = ll_nodes0[i];
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { r = ll_nodes0[o]; }
+#if LL_PAGES > 2
+    else if (p == 2u) { r = ll_nodes2[o]; }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { r = ll_nodes3[o]; }
+#endif
+    else { r = ll_nodes1[o]; }
+#endif
+    return r;
+}
+float ll_depth(uint i) { return ll_node(i).depth; }
+uint ll_next(uint i) {
+    uint r;
+#if LL_PAGES == 1
+    r = ll_nodes0[i].next;
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { r = ll_nodes0[o].next; }
+#if LL_PAGES > 2
+    else if (p == 2u) { r = ll_nodes2[o].next; }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { r = ll_nodes3[o].next; }
+#endif
+    else { r = ll_nodes1[o].next; }
+#endif
+    return r;
+}
+
+// Index of the list of layer `layer`, pixel `px` (row-major within a layer, OpenGL rows: y = 0 at the bottom).
+uint ll_list_index(uint layer, ivec2 px, ivec2 size) {
+    return (layer * uint(size.y) + uint(px.y)) * uint(size.x) + uint(px.x);
+}
+
+#ifdef LL_WRITABLE
+// ---- writers ---------------------------------------------------------------------------------------
+void ll_set_node(uint i, float z, uint n) {
+#if LL_PAGES == 1
+    ll_nodes0[i] = LLNode(z, n);
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { ll_nodes0[o] = LLNode(z, n); }
+#if LL_PAGES > 2
+    else if (p == 2u) { ll_nodes2[o] = LLNode(z, n); }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { ll_nodes3[o] = LLNode(z, n); }
+#endif
+    else { ll_nodes1[o] = LLNode(z, n); }
+#endif
+}
+void ll_set_depth(uint i, float z) {
+#if LL_PAGES == 1
+    ll_nodes0[i].depth = z;
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { ll_nodes0[o].depth = z; }
+#if LL_PAGES > 2
+    else if (p == 2u) { ll_nodes2[o].depth = z; }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { ll_nodes3[o].depth = z; }
+#endif
+    else { ll_nodes1[o].depth = z; }
+#endif
+}
+void ll_set_next(uint i, uint n) {
+#if LL_PAGES == 1
+    ll_nodes0[i].next = n;
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { ll_nodes0[o].next = n; }
+#if LL_PAGES > 2
+    else if (p == 2u) { ll_nodes2[o].next = n; }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { ll_nodes3[o].next = n; }
+#endif
+    else { ll_nodes1[o].next = n; }
+#endif
+}
+// atomicCompSwap on node i's next pointer; returns the value found there.
+uint ll_cas_next(uint i, uint expected, uint value) {
+    uint r;
+#if LL_PAGES == 1
+    r = atomicCompSwap(ll_nodes0[i].next, expected, value);
+#else
+    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
+    if (p == 0u) { r = atomicCompSwap(ll_nodes0[o].next, expected, value); }
+#if LL_PAGES > 2
+    else if (p == 2u) { r = atomicCompSwap(ll_nodes2[o].next, expected, value); }
+#endif
+#if LL_PAGES > 3
+    else if (p == 3u) { r = atomicCompSwap(ll_nodes3[o].next, expected, value); }
+#endif
+    else { r = atomicCompSwap(ll_nodes1[o].next, expected, value); }
+#endif
+    return r;
+}
+
+// Allocate a node; LL_EOL when the pool is full (the counter still counts the attempt: overflow is
+// reported as attempted - capacity, never silently lost).
+uint ll_alloc(uint capacity) {
+#if defined(LL_AGGREGATE)
+    // Warp-aggregated allocation (ARB_shader_ballot): one atomicAdd per subgroup instead of one per
+    // fragment; each active invocation takes base + (number of active invocations below it).
+    uint64_t live = ballotARB(true);
+    uvec2 m = unpackUint2x32(live);
+    uvec2 below = unpackUint2x32(live & gl_SubGroupLtMaskARB);
+    uint total = uint(bitCount(m.x) + bitCount(m.y));
+    uint rank = uint(bitCount(below.x) + bitCount(below.y));
+    uint leader = m.x != 0u ? uint(findLSB(m.x)) : 32u + uint(findLSB(m.y));
+    uint base = 0u;
+    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[0], total);
+    uint n = readInvocationARB(base, leader) + rank;
+#else
+    uint n = atomicAdd(ll_counters[0], 1u);
+#endif
+    return n < capacity ? n : LL_EOL;
+}
+
+// yang2010 insert: push at the head with atomicExchange (lists come out in arbitrary order).
+void ll_insert_unsorted(uint list, float z, uint capacity) {
+    uint n = ll_alloc(capacity);
+    if (n == LL_EOL) return;
+    uint old = atomicExchange(ll_head[list], n);
+    ll_set_node(n, z, old);       // read only after the pass (memory barrier between passes)
+}
+
+// Lock-free sorted insert (ascending depth): walk to the first node with depth >= z, link the new
+// node in front of it and publish it with atomicCompSwap on the predecessor's pointer (or the head).
+// If the CAS fails, another fragment was linked in right there: continue the walk from the same
+// predecessor, starting at the node the CAS found. Correct because nodes are only ever inserted (a
+// predecessor stays valid and stays before z), and lock-free: a failed CAS means another insert won.
+void ll_insert_sorted(uint list, float z, uint capacity) {
+    uint n = ll_alloc(capacity);
+    if (n == LL_EOL) return;
+    uint prev = LL_EOL;            // LL_EOL = the head pointer is the predecessor's slot
+    uint cur = atomicOr(ll_head[list], 0u);
+    for (uint attempt = 0u; attempt < uint(LL_MAX_RETRIES); ++attempt) {
+        while (cur != LL_EOL) {
+            LLNode c = ll_node(cur);
+            if (c.depth >= z) break;
+            prev = cur;
+            cur = c.next;
+        }
+        ll_set_node(n, z, cur);
+        memoryBarrierBuffer();     // the node is visible before it is published
+        uint seen = (prev == LL_EOL) ? atomicCompSwap(ll_head[list], cur, n) : ll_cas_next(prev, cur, n);
+        if (seen == cur) return;
+        cur = seen;
+    }
+    atomicAdd(ll_counters[6], 1u); // not linked after LL_MAX_RETRIES lost races: reported, not silent
+}
+#endif  // LL_WRITABLE
+
+#endif
