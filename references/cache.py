@@ -1,0 +1,112 @@
+"""On-disk cache of references: ``<cache_dir>/<key>.exr`` + ``<key>.json``.
+
+The key is the SHA-256 (first 24 hex digits) of the JSON of: the scene's ``content_hash()``, the
+effect's ``key()``, width, height, the effective spp, seed, the Mitsuba version, the variant and
+:data:`REFERENCE_VERSION`. The EXR holds the layers ``mean.*`` and ``variance.*`` (``Y`` for ``ao``,
+``R,G,B`` otherwise) and the channel ``mask`` (1 = hit); the JSON holds the key fields and the meta of
+the render. Both files are written atomically (temporary file in the same folder + ``os.replace``),
+the EXR first, so a JSON file always describes a complete EXR. A missing, unreadable or mismatching
+entry is a cache miss, never an error.
+
+``cache_dir`` defaults to ``$LDBENCH_CACHE`` or ``<repo>/.cache/references/``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from harness.errors import LdbenchError
+
+from .exr import image_channels, read_exr, write_exr
+
+# Bump whenever an integrator changes what it computes (invalidates every cached reference).
+REFERENCE_VERSION = 2  # 2: secondary rays start nudged towards the camera (edge pixels)
+
+
+def default_cache_dir() -> Path:
+    env = os.environ.get("LDBENCH_CACHE")
+    if env:
+        return Path(env).expanduser()
+    return Path(__file__).resolve().parent.parent / ".cache" / "references"
+
+
+def key_fields(scene, effect, width, height, spp, seed, mitsuba_version, variant) -> dict:
+    return {
+        "scene": scene.content_hash(),
+        "scene_name": scene.name,
+        "effect": effect.key(),
+        "width": int(width),
+        "height": int(height),
+        "spp": int(spp),
+        "seed": int(seed),
+        "mitsuba_version": str(mitsuba_version),
+        "variant": str(variant),
+        "reference_version": REFERENCE_VERSION,
+    }
+
+
+def cache_key(fields: dict) -> str:
+    f = {k: v for k, v in fields.items() if k != "scene_name"}  # the name is informative only
+    return hashlib.sha256(json.dumps(f, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def _write_json_atomic(path: Path, obj: dict) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(obj, f, indent=2, sort_keys=True, default=str)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def store(cache_dir, key: str, fields: dict, mean, variance, mask, meta: dict) -> Path:
+    """Write the entry; returns the EXR path. Raises LdbenchError if the folder is not writable."""
+    d = Path(cache_dir)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise LdbenchError(f"cannot create reference cache folder {d}: {e.strerror or e}")
+    ch = image_channels(mean, "mean")
+    ch.update(image_channels(variance, "variance"))
+    ch["mask"] = mask.astype(np.float32)
+    exr = d / f"{key}.exr"
+    write_exr(exr, ch, header={"ldbench_key": key})
+    doc = {"key": key, "fields": fields, "meta": {k: v for k, v in meta.items() if k != "cached"},
+           "channels": mean.shape[2], "shape": [int(mean.shape[0]), int(mean.shape[1])]}
+    try:
+        _write_json_atomic(d / f"{key}.json", doc)
+    except OSError as e:
+        raise LdbenchError(f"cannot write {d / (key + '.json')}: {e.strerror or e}")
+    return exr
+
+
+def load(cache_dir, key: str, fields: dict):
+    """(mean, variance, mask, meta) of a complete matching entry, or None."""
+    d = Path(cache_dir)
+    exr, js = d / f"{key}.exr", d / f"{key}.json"
+    if not (exr.is_file() and js.is_file()):
+        return None
+    try:
+        doc = json.loads(js.read_text())
+        if doc.get("key") != key or cache_key(doc.get("fields", {})) != key:
+            return None
+        ch = read_exr(exr)
+        names = "Y" if int(doc["channels"]) == 1 else "RGB"
+        mean = np.stack([ch[f"mean.{c}"] for c in names], -1).astype(np.float32)
+        var = np.stack([ch[f"variance.{c}"] for c in names], -1).astype(np.float32)
+        mask = ch["mask"] > 0.5
+        if list(mean.shape[:2]) != doc["shape"] or mean.shape[:2] != (fields["height"], fields["width"]):
+            return None
+    except (LdbenchError, OSError, ValueError, KeyError, TypeError):
+        return None
+    return mean, var, mask, dict(doc.get("meta", {}))
