@@ -48,7 +48,7 @@ RESULTS_CSV = "results.csv"
 #: Column name -> type, in the order the files list them.
 COLUMN_TYPES: dict[str, str] = {
     "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
-    "scene": "str", "scene_hash": "str", "triangles": "int",
+    "scene": "str", "scene_hash": "str", "scene_params": "json", "triangles": "int",
     "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
     "width": "int", "height": "int",
     "device": "str", "gl_renderer": "str", "gl_version": "str", "driver": "str", "cpu": "str",

@@ -1,0 +1,756 @@
+"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (issue 6).
+
+Both arguments are run directories (``results.parquet``, else ``results.csv``) or results files.
+Rows are matched by :data:`DEFAULT_MATCH` (scene and its builder parameters, method, effect and its
+parameters, method parameters, image size) or by the keys given with ``--match`` (e.g.
+``--match scene,method,effect`` compares two *configurations* of the same method, such as 64 against
+16 LDM directions). A match key that leaves two rows of one run indistinguishable is bad input.
+
+Every matched benchmark gets up to three checks:
+
+time (``total_ms``)
+    One-sided Mann-Whitney U test (:func:`scipy.stats.mannwhitneyu`, ``alternative="greater"``) of
+    the run's raw per-frame samples (``raw_ms["total"]``, else ``raw_ms["wall"]``) against the
+    baseline's: *is the run stochastically slower?* A regression needs **both** ``p < alpha``
+    (default 0.01) **and** a median slow-down of at least ``min_effect`` (default 10 %), so that
+    tiny but consistent shifts and noise do not fail the build. The exact test cannot reach
+    ``p < alpha`` with too few frames (smallest one-sided p is ``1 / C(n+m, n)``: 5 + 5 frames give
+    0.004, 4 + 4 give 0.014); such a check is reported ``inconclusive`` and never fails. A
+    significant speed-up of at least ``min_effect`` is reported ``improved``.
+    When the machines differ (``device``, ``gl_renderer``, ``driver`` or ``gpu_name``) times are not
+    comparable: a warning is printed and time checks are skipped; quality is still gated.
+    On a software rasterizer (``device = cpu-software``, Mesa llvmpipe) time checks are skipped as
+    well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, and two identical
+    runs on a 2-core CI machine differ by up to ~50 % in their median (measured), far beyond the
+    within-run spread the test sees; the CPU nightly gates quality, the GPU nightly gates time.
+
+quality (``psnr``, ``ssim``)
+    A regression is a drop beyond ``max(tolerance, what the references' own Monte Carlo noise can
+    explain)``; see :func:`noise_bound` for the derivation. PSNR tolerance ``--tol-db`` (0.5 dB),
+    SSIM tolerance ``--ssim-tol`` (0.01). A NaN in the run where the baseline was finite (a broken
+    shader) is a regression.
+
+status
+    A row whose ``status`` is not ``"ok"`` in RUN is a regression (``failed``). A row of BASELINE that
+    RUN lacks is ``missing`` and fails unless ``--allow-missing``; a row only in RUN is ``new`` (never
+    fails). A baseline row that had failed is not compared (``fixed`` if RUN's is ok).
+
+Exit status: 0 no regression, 1 regression, 2 bad input (:class:`~harness.errors.LdbenchError`).
+A Markdown report (``compare.md`` in RUN's directory, or ``--out FILE``) holds one table row per
+check: benchmark, metric, baseline, current, change, verdict, for a CI job summary.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import LdbenchError
+
+#: Default match keys: one benchmark = one scene (with builder parameters), method, effect (with its
+#: parameters), method parameters and image size.
+DEFAULT_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "params", "width", "height")
+#: Every column ``--match`` accepts.
+MATCH_KEYS = DEFAULT_MATCH + ("suite", "scene_hash", "ref_spp")
+#: Columns that must agree for timings to be comparable.
+MACHINE_FIELDS = ("device", "gl_renderer", "driver", "gpu_name")
+
+REGRESSING_VERDICTS = ("regression", "failed", "missing")
+
+
+@dataclass
+class Thresholds:
+    """Gate settings (the CLI flags of the same names)."""
+
+    alpha: float = 0.01        # significance of the one-sided Mann-Whitney U test
+    min_effect: float = 0.10   # minimum relative slow-down of the median to count
+    tol_db: float = 0.5        # PSNR drop always tolerated (dB)
+    ssim_tol: float = 0.01     # SSIM drop always tolerated
+    noise_z: float = 3.0       # standard deviations of reference noise tolerated (see noise_bound)
+    allow_missing: bool = False
+    time: bool = True          # False: skip time checks (--no-time)
+    cpu_time: bool = False     # True: gate time on cpu-software (llvmpipe) too (--cpu-time)
+
+    def validate(self):
+        if not 0 < self.alpha < 1:
+            raise LdbenchError(f"--alpha must be in (0, 1), got {self.alpha}")
+        for name in ("min_effect", "tol_db", "ssim_tol", "noise_z"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise LdbenchError(f"--{name.replace('_', '-')} must be a finite number >= 0, got {v}")
+        return self
+
+
+@dataclass
+class Check:
+    benchmark: str
+    metric: str            # "time", "psnr", "ssim", "status"
+    baseline: str
+    current: str
+    change: str
+    verdict: str           # ok | regression | improved | inconclusive | skipped | failed | missing | new | fixed | n/a
+    note: str = ""
+
+    @property
+    def regression(self) -> bool:
+        return self.verdict in REGRESSING_VERDICTS
+
+
+@dataclass
+class Comparison:
+    checks: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
+    notes: list = field(default_factory=list)    # per-benchmark remarks (differing configurations, ...)
+    match: tuple = DEFAULT_MATCH
+    thresholds: Thresholds = field(default_factory=Thresholds)
+    baseline_label: str = ""
+    run_label: str = ""
+    matched: int = 0
+
+    @property
+    def regressions(self) -> list:
+        return [c for c in self.checks if c.regression]
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.regressions else 0
+
+    def count(self, verdict: str) -> int:
+        return sum(c.verdict == verdict for c in self.checks)
+
+
+# --------------------------------------------------------------------------------------------------
+# input
+
+
+def load_results(path, what: str = "results"):
+    """Results of a run directory or results file as a DataFrame (see :func:`records.read_results`).
+
+    Raises :class:`LdbenchError` for a missing path, a directory without results, or an empty table.
+    """
+    from .records import read_results
+
+    p = Path(path)
+    if not p.exists():
+        raise LdbenchError(f"{what} not found: {path}")
+    df = read_results(p)
+    if len(df) == 0:
+        raise LdbenchError(f"{what} {path} holds no result rows")
+    return df
+
+
+def parse_match(text: str | None) -> tuple:
+    """``"scene,method,effect"`` -> tuple of keys; None/empty -> :data:`DEFAULT_MATCH`."""
+    if text is None or not text.strip():
+        return DEFAULT_MATCH
+    keys = tuple(k.strip() for k in text.split(",") if k.strip())
+    for k in keys:
+        if k not in MATCH_KEYS:
+            raise LdbenchError(f"unknown match key {k!r} (known: {', '.join(MATCH_KEYS)})")
+    if len(set(keys)) != len(keys):
+        raise LdbenchError(f"match key given twice in {text!r}")
+    return keys
+
+
+def _missing(v) -> bool:
+    if v is None:
+        return True
+    if isinstance(v, (dict, list, tuple, str)):
+        return False
+    import pandas as pd
+
+    r = pd.isna(v)  # NaN, pd.NA, NaT
+    return bool(r) if isinstance(r, bool) or type(r).__name__ == "bool_" else False
+
+
+def _plain(v):
+    """Python scalar / container for JSON (numpy and pandas scalars unwrapped)."""
+    if _missing(v):
+        return None
+    if hasattr(v, "item") and not isinstance(v, (dict, list, str)):
+        try:
+            return v.item()
+        except (ValueError, AttributeError):
+            pass
+    return v
+
+
+def _canon(v) -> str:
+    v = _plain(v)
+    if isinstance(v, float) and v.is_integer():
+        v = int(v)
+    return json.dumps(v, sort_keys=True, default=str)
+
+
+#: Columns holding JSON that :func:`records.read_results` may leave as text (extra columns).
+_JSON_TEXT = ("scene_params",)
+
+
+def _get(row, col):
+    v = _plain(row[col]) if col in row.index else None
+    if col in _JSON_TEXT and isinstance(v, str):
+        try:
+            v = json.loads(v)
+        except ValueError:
+            pass
+    return v
+
+
+def _key(row, keys) -> tuple:
+    out = []
+    for k in keys:
+        if k == "scene_params":
+            out.append(_canon(_get(row, k) or {}))
+        else:
+            out.append(_canon(_get(row, k)))
+    return tuple(out)
+
+
+def _index(df, keys, what) -> dict:
+    idx = {}
+    for _, row in df.iterrows():
+        k = _key(row, keys)
+        if k in idx:
+            raise LdbenchError(
+                f"{what} has several rows for {_describe_key(keys, k)}; add keys to --match "
+                f"(known: {', '.join(MATCH_KEYS)})")
+        idx[k] = row
+    return idx
+
+
+def _describe_key(keys, k) -> str:
+    return ", ".join(f"{n}={json.loads(v)!r}" for n, v in zip(keys, k))
+
+
+def _fmt_params(d: dict) -> str:
+    return " ".join(f"{k}={_fmt_value(v)}" for k, v in sorted(d.items()))
+
+
+def _fmt_value(v):
+    if isinstance(v, float):
+        return f"{v:g}"
+    return str(v)
+
+
+def _effect_label(row) -> str:
+    eff = _get(row, "effect") or "?"
+    ep = _get(row, "effect_params") or {}
+    if eff == "ao" and isinstance(ep, dict):
+        return f"ao({ep.get('falloff', 'step')}, d_max={ep.get('d_max', 'inf')})"
+    return str(eff)
+
+
+def _labels(rows_by_key: dict) -> dict:
+    """Readable benchmark names: scene[params] · method · effect · WxH, plus the method parameters that
+    differ between benchmarks of the same scene, method and effect."""
+    groups: dict = {}
+    for k, row in rows_by_key.items():
+        g = (_get(row, "scene"), _get(row, "method"), _get(row, "effect"))
+        groups.setdefault(g, []).append(k)
+    labels = {}
+    for g, ks in groups.items():
+        varying = set()
+        if len(ks) > 1:
+            dicts = [(_get(rows_by_key[k], "params") or {}) for k in ks]
+            names = set().union(*[set(d) for d in dicts])
+            varying = {n for n in names if len({_canon(d.get(n)) for d in dicts}) > 1}
+        for k in ks:
+            row = rows_by_key[k]
+            sp = _get(row, "scene_params") or {}
+            scene = f"{_get(row, 'scene')}" + (f"[{_fmt_params(sp)}]" if sp else "")
+            parts = [scene, _get(row, "method"), _effect_label(row)]
+            w, h = _get(row, "width"), _get(row, "height")
+            if w is not None and h is not None:
+                parts.append(f"{w}x{h}")
+            p = _get(row, "params") or {}
+            if varying:
+                parts.append(_fmt_params({n: p.get(n) for n in sorted(varying)}))
+            labels[k] = " · ".join(str(x) for x in parts)
+    # Distinct keys whose readable names collide (e.g. other effect params): disambiguate.
+    seen: dict = {}
+    for k, lab in labels.items():
+        seen.setdefault(lab, []).append(k)
+    for lab, ks in seen.items():
+        if len(ks) > 1:
+            for i, k in enumerate(sorted(ks)):
+                labels[k] = f"{lab} #{i + 1}"
+    return labels
+
+
+def _config_diff(brow, rrow) -> str:
+    """Differences between two matched rows outside the match keys (params, size, reference)."""
+    diffs = []
+    bp, rp = _get(brow, "params") or {}, _get(rrow, "params") or {}
+    for n in sorted(set(bp) | set(rp)):
+        if _canon(bp.get(n)) != _canon(rp.get(n)):
+            diffs.append(f"{n} {_fmt_value(bp.get(n))} → {_fmt_value(rp.get(n))}")
+    for col in ("width", "height", "effect_params", "scene_params", "scene_hash", "triangles", "ref_spp"):
+        if _canon(_get(brow, col)) != _canon(_get(rrow, col)):
+            diffs.append(f"{col} {_get(brow, col)} → {_get(rrow, col)}")
+    return ", ".join(diffs)
+
+
+# --------------------------------------------------------------------------------------------------
+# time
+
+
+def _samples(row) -> list:
+    raw = _get(row, "raw_ms") or {}
+    if not isinstance(raw, dict):
+        return []
+    s = raw.get("total") or raw.get("wall") or []
+    return [float(x) for x in s if x is not None and math.isfinite(float(x))]
+
+
+def min_p_value(n: int, m: int) -> float:
+    """Smallest one-sided p-value the exact Mann-Whitney U test can give for n and m samples."""
+    return 1.0 / math.comb(n + m, n) if n and m else 1.0
+
+
+def time_check(base_samples, run_samples, th: Thresholds) -> dict:
+    """Mann-Whitney U test of run > baseline plus the minimum effect size.
+
+    Returns ``{"verdict", "p", "p_faster", "change", "note"}``; ``change`` = median(run)/median(base) - 1.
+    """
+    import numpy as np
+    from scipy.stats import mannwhitneyu
+
+    b = np.asarray(base_samples, float)
+    r = np.asarray(run_samples, float)
+    if b.size == 0 or r.size == 0:
+        return {"verdict": "n/a", "p": math.nan, "p_faster": math.nan, "change": math.nan,
+                "note": "no per-frame samples"}
+    mb, mr = float(np.median(b)), float(np.median(r))
+    change = mr / mb - 1.0 if mb > 0 else (math.inf if mr > 0 else 0.0)
+    if min_p_value(b.size, r.size) >= th.alpha:
+        return {"verdict": "inconclusive", "p": math.nan, "p_faster": math.nan, "change": change,
+                "note": f"{b.size}+{r.size} frames cannot reach p<{th.alpha:g}"}
+    if np.ptp(np.concatenate([b, r])) == 0:
+        p_slow = p_fast = 1.0
+    else:
+        p_slow = float(mannwhitneyu(r, b, alternative="greater").pvalue)
+        p_fast = float(mannwhitneyu(r, b, alternative="less").pvalue)
+    if p_slow < th.alpha and change >= th.min_effect:
+        verdict = "regression"
+    elif p_fast < th.alpha and change <= -th.min_effect:
+        verdict = "improved"
+    else:
+        verdict = "ok"
+    return {"verdict": verdict, "p": p_slow, "p_faster": p_fast, "change": change, "note": ""}
+
+
+def machine_diff(brow, rrow) -> list:
+    """``[(field, baseline value, run value)]`` for the machine fields that differ."""
+    out = []
+    for f in MACHINE_FIELDS:
+        bv, rv = _get(brow, f), _get(rrow, f)
+        if (bv or None) != (rv or None):
+            out.append((f, bv, rv))
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# quality
+
+
+def _ref_noise(row) -> tuple[float, bool]:
+    """(sigma, known): RMS over foreground pixels of the std-dev of the reference mean."""
+    rn = _get(row, "ref_noise")
+    if isinstance(rn, dict):
+        v = rn.get("rms_std_of_mean")
+        if v is not None and math.isfinite(float(v)) and float(v) >= 0:
+            return float(v), True
+    return 0.0, False
+
+
+def _settings(row) -> dict:
+    ms = _get(row, "metric_settings")
+    return ms if isinstance(ms, dict) else {}
+
+
+def _data_range(row) -> float:
+    d = (_settings(row).get("psnr") or {}).get("data_range")
+    try:
+        d = float(d)
+    except (TypeError, ValueError):
+        return 1.0
+    return d if d > 0 and math.isfinite(d) else 1.0
+
+
+def _valid_pixels(row) -> int:
+    n = _settings(row).get("valid_pixels")
+    if n:
+        return max(int(n), 1)
+    w, h = _get(row, "width"), _get(row, "height")
+    return max(int(w or 1) * int(h or 1), 1)
+
+
+def mse_from_psnr(psnr: float, data_range: float) -> float:
+    """MSE = D^2 10^(-PSNR/10) (0 for an infinite PSNR)."""
+    if math.isinf(psnr) and psnr > 0:
+        return 0.0
+    return data_range ** 2 * 10.0 ** (-psnr / 10.0)
+
+
+def noise_bound(*, sigma_b: float, sigma_r: float, rmse_b: float, rmse_r: float, n: int,
+                same_reference: bool, z: float = 3.0) -> float:
+    """Bound ``B`` on how much the measured MSE of RUN can exceed BASELINE's through the Monte Carlo
+    noise of the references alone, at ``z`` standard deviations.
+
+    Derivation. The reference is ``R = T + eps``: ``T`` the converged image, ``eps`` its Monte Carlo
+    error, zero-mean, independent between pixels (independent samples per pixel), with per-pixel
+    variance ``s_i^2`` (the stored variance of the mean); ``sigma^2 = mean_i s_i^2`` over the ``N``
+    foreground pixels is ``ref_noise["rms_std_of_mean"]**2``. A method image ``X`` has true error
+    ``e = X - T`` and measured error ``r = X - R = e - eps``, so its measured MSE is::
+
+        m = mean(e^2) - 2 mean(e eps) + mean(eps^2).
+
+    *Same reference* (equal ``ref_key``: the cached reference is reused). With ``d = X_run - X_base``::
+
+        m_run - m_base = [mean(e_run^2) - mean(e_base^2)]  -  2 mean(d eps).
+
+    The bracket is the true change; the last term is what the reference's noise adds. Cauchy-Schwarz
+    bounds it by ``2 sigma rms(d)`` (the "2 sigma_ref rmse" rule of thumb), but that is reached only if
+    the methods' difference were aligned with the reference's noise, which they never see. Given
+    ``d``, the term is a sum of ``N`` independent zero-mean terms, with variance
+    ``4/N^2 sum_i d_i^2 s_i^2 ~= 4 sigma^2 mean(d^2) / N``; and ``rms(d) <= rmse_base + rmse_run``
+    (triangle inequality, ``d = r_run - r_base``). Hence, at ``z`` standard deviations::
+
+        B_same = 2 z sigma (rmse_base + rmse_run) / sqrt(N).
+
+    *Different references* (re-rendered, other spp or variant): the noise floor ``mean(eps^2)`` no
+    longer cancels. Its expectation is ``sigma^2``, so a noisier run reference raises the run's MSE by
+    ``sigma_run^2 - sigma_base^2`` with identical images (only an increase can fake a regression);
+    each ``mean(eps^2)`` fluctuates by ``sigma^2 sqrt(2/N)`` (Gaussian eps: var(eps^2) = 2 s^4), and
+    each cross term ``2 mean(e eps)`` by ``2 sigma rmse / sqrt(N)`` as above::
+
+        B_diff = max(sigma_run^2 - sigma_base^2, 0)
+                 + 2 z (sigma_base rmse_base + sigma_run rmse_run) / sqrt(N)
+                 + z sqrt(2/N) (sigma_base^2 + sigma_run^2).
+
+    The measured RMSE stands in for the true one (it is larger by the noise floor: conservative).
+    See :func:`quality_thresholds` for the conversion to dB and SSIM.
+    """
+    n = max(int(n), 1)
+    sq = math.sqrt(n)
+    if same_reference:
+        s = max(sigma_b, sigma_r)
+        return 2.0 * z * s * (rmse_b + rmse_r) / sq
+    return (max(sigma_r ** 2 - sigma_b ** 2, 0.0)
+            + 2.0 * z * (sigma_b * rmse_b + sigma_r * rmse_r) / sq
+            + z * math.sqrt(2.0 / n) * (sigma_b ** 2 + sigma_r ** 2))
+
+
+def quality_thresholds(brow, rrow, th: Thresholds) -> dict:
+    """Allowed PSNR and SSIM drops of RUN against BASELINE.
+
+    PSNR = 10 log10(D^2 / m), so an MSE increase of at most ``B`` (:func:`noise_bound`) lowers PSNR by
+    at most::
+
+        noise_db = 10 log10(1 + B / m_base)          (m_base from the baseline's PSNR and data range)
+
+    and the PSNR check fails when ``psnr_run < psnr_base - max(tol_db, noise_db)``.
+
+    SSIM: for small errors ``1 - SSIM`` is, to first order, a weighted local squared error — the
+    luminance term is ``1 - l = (mu_x - mu_y)^2 / (mu_x^2 + mu_y^2 + C1)`` and the contrast-structure
+    term is ``1 - cs = var_local(x - y) / (sigma_x^2 + sigma_y^2 + C2)``, with weights set by the
+    reference's local statistics. A perturbation that raises the MSE by the fraction ``B / m_base``
+    therefore raises ``1 - SSIM`` by about the same fraction::
+
+        noise_ssim = (1 - ssim_base) B / m_base
+
+    and the SSIM check fails when ``ssim_run < ssim_base - max(ssim_tol, noise_ssim)``.
+
+    Returns ``{"noise_db", "noise_ssim", "B", "m_base", "same_reference", "noise_known"}``.
+    """
+    sb, kb = _ref_noise(brow)
+    sr, kr = _ref_noise(rrow)
+    pb, pr = _get(brow, "psnr"), _get(rrow, "psnr")
+    db, dr = _data_range(brow), _data_range(rrow)
+    mb = mse_from_psnr(float(pb), db) if pb is not None and not math.isnan(float(pb)) else math.nan
+    mr = mse_from_psnr(float(pr), dr) if pr is not None and not math.isnan(float(pr)) else math.nan
+    same = (_get(brow, "ref_key") is not None and _get(brow, "ref_key") == _get(rrow, "ref_key")
+            and abs(sb - sr) <= 1e-12 * max(sb, sr, 1e-30))
+    n = min(_valid_pixels(brow), _valid_pixels(rrow))
+    if math.isnan(mb) or math.isnan(mr):
+        B = math.nan
+    else:
+        B = noise_bound(sigma_b=sb, sigma_r=sr, rmse_b=math.sqrt(mb), rmse_r=math.sqrt(mr), n=n,
+                        same_reference=same, z=th.noise_z)
+    if math.isnan(B):
+        noise_db = noise_ssim = 0.0
+    elif mb > 0:
+        noise_db = 10.0 * math.log10(1.0 + B / mb)
+        sb_ssim = _get(brow, "ssim")
+        noise_ssim = ((1.0 - float(sb_ssim)) * B / mb
+                      if sb_ssim is not None and math.isfinite(float(sb_ssim)) else 0.0)
+    else:  # a perfect baseline: any error beyond B is a regression
+        noise_db = 0.0 if B == 0 else math.inf
+        noise_ssim = 0.0
+    return {"noise_db": noise_db, "noise_ssim": noise_ssim, "B": B, "m_base": mb, "m_run": mr,
+            "same_reference": same, "noise_known": kb and kr}
+
+
+def _psnr_check(pb, pr, q, th):
+    if pb is None or math.isnan(pb):
+        return "n/a", "", 0.0
+    if pr is None or math.isnan(pr):
+        return "regression", "NaN", 0.0
+    allowed = max(th.tol_db, q["noise_db"])
+    if math.isinf(pb) and math.isinf(pr):
+        return "ok", "±0.00 dB (both exact)", allowed
+    if math.isinf(pb):  # perfect baseline: compare MSE against the noise bound
+        verdict = "regression" if not (q["m_run"] <= q["B"]) else "ok"
+        return verdict, f"−∞ dB (MSE {q['m_run']:.3g}, bound {q['B']:.3g})", allowed
+    drop = pb - pr
+    verdict = "regression" if drop > allowed else ("improved" if -drop > allowed else "ok")
+    ch = "±0.00" if abs(drop) < 0.005 else f"{-drop:+.2f}"
+    return verdict, f"{ch} dB (limit -{allowed:.2f})", allowed
+
+
+def _ssim_check(sb, sr, q, th):
+    if sb is None or math.isnan(sb):
+        return "n/a", "", 0.0
+    if sr is None or math.isnan(sr):
+        return "regression", "NaN", 0.0
+    allowed = max(th.ssim_tol, q["noise_ssim"])
+    drop = sb - sr
+    verdict = "regression" if drop > allowed else ("improved" if -drop > allowed else "ok")
+    ch = "±0.0000" if abs(drop) < 0.00005 else f"{-drop:+.4f}"
+    return verdict, f"{ch} (limit -{allowed:.4f})", allowed
+
+
+# --------------------------------------------------------------------------------------------------
+# comparison
+
+
+def _f(v) -> float | None:
+    v = _plain(v)
+    return None if v is None else float(v)
+
+
+def _fmt_ms(v):
+    return "—" if v is None or math.isnan(v) else f"{v:.4g} ms"
+
+
+def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | None = None) -> Comparison:
+    """Compare two results DataFrames (as from :func:`records.read_results`); see the module docstring."""
+    th = (thresholds or Thresholds()).validate()
+    match = tuple(match)
+    for k in match:
+        if k not in MATCH_KEYS:
+            raise LdbenchError(f"unknown match key {k!r} (known: {', '.join(MATCH_KEYS)})")
+    bidx = _index(base, match, "baseline")
+    ridx = _index(run, match, "run")
+    union = {**{k: v for k, v in ridx.items()}, **{k: v for k, v in bidx.items() if k not in ridx}}
+    labels = _labels(union)
+    comp = Comparison(match=match, thresholds=th)
+    machine_warned = set()
+
+    order = list(bidx) + [k for k in ridx if k not in bidx]
+    for k in order:
+        name = labels[k]
+        brow, rrow = bidx.get(k), ridx.get(k)
+        if rrow is None:
+            comp.checks.append(Check(name, "status", str(_get(brow, "status")), "—", "row vanished",
+                                     "missing" if not th.allow_missing else "n/a",
+                                     "allowed by --allow-missing" if th.allow_missing else ""))
+            continue
+        if brow is None:
+            comp.checks.append(Check(name, "status", "—", str(_get(rrow, "status")), "new row", "new"))
+            continue
+        comp.matched += 1
+        diff = _config_diff(brow, rrow)
+        if diff:
+            comp.notes.append(f"{name}: {diff}")
+        bstat, rstat = str(_get(brow, "status") or "?"), str(_get(rrow, "status") or "?")
+        if rstat != "ok":
+            comp.checks.append(Check(name, "status", bstat, rstat, "", "failed"))
+            continue
+        if bstat != "ok":
+            comp.checks.append(Check(name, "status", bstat, rstat, "baseline had failed", "fixed"))
+            continue
+
+        # time
+        md = machine_diff(brow, rrow)
+        tb, tr = _f(_get(brow, "total_ms")), _f(_get(rrow, "total_ms"))
+        if not th.time:
+            comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), "", "skipped", "--no-time"))
+        elif (not th.cpu_time and _get(brow, "device") == "cpu-software"
+              and _get(rrow, "device") == "cpu-software"):
+            if "cpu" not in machine_warned:
+                machine_warned.add("cpu")
+                comp.warnings.append("software rasterizer (cpu-software): frame times are wall clock on "
+                                     "shared CPU cores and vary between runs far more than within a run; "
+                                     "time checks are off (--cpu-time turns them on), quality is gated")
+            comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), "", "skipped", "cpu-software"))
+        elif md:
+            sig = tuple(md)
+            if sig not in machine_warned:
+                machine_warned.add(sig)
+                comp.warnings.append("machine differs (" + "; ".join(
+                    f"{f}: {bv!r} → {rv!r}" for f, bv, rv in md) + "): time checks are off, quality is "
+                    "still gated")
+            comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), "", "skipped",
+                                     "machine differs"))
+        else:
+            t = time_check(_samples(brow), _samples(rrow), th)
+            if t["verdict"] in ("n/a", "inconclusive"):
+                change = "" if math.isnan(t["change"]) else f"{t['change']:+.1%}"
+            else:
+                p = t["p"] if t["verdict"] != "improved" else t["p_faster"]
+                change = f"{t['change']:+.1%} (p={p:.2g})"
+            comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), change, t["verdict"], t["note"]))
+
+        # quality
+        q = quality_thresholds(brow, rrow, th)
+        pb, pr = _f(_get(brow, "psnr")), _f(_get(rrow, "psnr"))
+        v, change, _ = _psnr_check(pb, pr, q, th)
+        if v != "n/a":
+            notes = [] if q["noise_known"] else ["reference noise unknown"]
+            if _get(brow, "scene_hash") != _get(rrow, "scene_hash"):
+                notes.append("scene differs")
+            elif not q["same_reference"]:
+                notes.append("references differ")
+            note = "; ".join(notes)
+            comp.checks.append(Check(name, "psnr", _fmt_db(pb), _fmt_db(pr), change, v, note))
+        sb, sr = _f(_get(brow, "ssim")), _f(_get(rrow, "ssim"))
+        v, change, _ = _ssim_check(sb, sr, q, th)
+        if v != "n/a":
+            comp.checks.append(Check(name, "ssim", _fmt_num(sb), _fmt_num(sr), change, v))
+    return comp
+
+
+def _fmt_db(v):
+    if v is None or math.isnan(v):
+        return "NaN"
+    return "∞ dB" if math.isinf(v) else f"{v:.2f} dB"
+
+
+def _fmt_num(v):
+    return "NaN" if v is None or math.isnan(v) else f"{v:.4f}"
+
+
+def _run_label(df, path) -> str:
+    ids = sorted({str(x) for x in df["run_id"].dropna()}) if "run_id" in df else []
+    commits = sorted({str(x)[:10] for x in df["commit"].dropna()}) if "commit" in df else []
+    dirty = bool(df["dirty"].fillna(False).any()) if "dirty" in df else False
+    parts = [f"`{path}`"]
+    if ids:
+        parts.append(f"run {', '.join(ids)}")
+    if commits:
+        parts.append(f"commit {', '.join(commits)}" + (" (dirty)" if dirty else ""))
+    return ", ".join(parts)
+
+
+_ICON = {"regression": "❌ regression", "failed": "❌ failed", "missing": "❌ missing", "ok": "✅ ok",
+         "improved": "🟢 improved", "new": "🆕 new", "fixed": "🟢 fixed", "skipped": "⏭ skipped",
+         "inconclusive": "❔ inconclusive", "n/a": "n/a"}
+
+
+def _md_cell(s) -> str:
+    return str(s).replace("|", "\\|").replace("\n", " ")
+
+
+def to_markdown(comp: Comparison) -> str:
+    """The Markdown report: header, warnings, the table, notes."""
+    th = comp.thresholds
+    n_reg = len(comp.regressions)
+    head = "❌ **regression**" if n_reg else "✅ **no regression**"
+    lines = [f"## ldbench compare: {head}", "",
+             f"- baseline: {comp.baseline_label}", f"- current: {comp.run_label}",
+             f"- matched by: {', '.join(comp.match)}; {comp.matched} benchmark(s) matched, "
+             f"{comp.count('missing')} missing, {comp.count('new')} new; "
+             f"{n_reg} failing check(s)",
+             f"- gate: time = one-sided Mann-Whitney U p < {th.alpha:g} and slow-down ≥ {th.min_effect:.0%}; "
+             f"PSNR drop > max({th.tol_db:g} dB, reference noise); SSIM drop > max({th.ssim_tol:g}, "
+             f"reference noise); reference noise at {th.noise_z:g} σ"
+             + ("" if th.time else "; time checks off (--no-time)"), ""]
+    for w in comp.warnings:
+        lines.append(f"> ⚠️ **warning:** {w}")
+    if comp.warnings:
+        lines.append("")
+    lines += ["| benchmark | metric | baseline | current | change | verdict |",
+              "|---|---|---|---|---|---|"]
+    for c in comp.checks:
+        verdict = _ICON.get(c.verdict, c.verdict) + (f" ({c.note})" if c.note else "")
+        lines.append("| " + " | ".join(_md_cell(x) for x in (c.benchmark, c.metric, c.baseline, c.current,
+                                                               c.change, verdict)) + " |")
+    if comp.notes:
+        lines += ["", "Configurations that differ between matched rows:", ""]
+        lines += [f"- {_md_cell(n)}" for n in comp.notes]
+    return "\n".join(lines) + "\n"
+
+
+def summary_text(comp: Comparison) -> str:
+    """A few lines for the terminal."""
+    n_reg = len(comp.regressions)
+    out = [f"compare: {comp.matched} matched, {comp.count('missing')} missing, {comp.count('new')} new, "
+           f"{len(comp.checks)} checks: " + (f"{n_reg} REGRESSION(S)" if n_reg else "no regression")]
+    for c in comp.regressions:
+        out.append(f"  {c.verdict.upper():<10} {c.benchmark} [{c.metric}] {c.baseline} → {c.current} "
+                   f"{c.change}".rstrip() + (f" ({c.note})" if c.note else ""))
+    imp = [c for c in comp.checks if c.verdict in ("improved", "fixed")]
+    if imp:
+        out.append(f"  {len(imp)} improved check(s)")
+    return "\n".join(out)
+
+
+def compare_paths(baseline, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | None = None) -> Comparison:
+    """Load two runs (directories or results files) and compare them."""
+    base_df = load_results(baseline, "baseline")
+    run_df = load_results(run, "run")
+    comp = compare_frames(base_df, run_df, match=match, thresholds=thresholds)
+    comp.baseline_label = _run_label(base_df, baseline)
+    comp.run_label = _run_label(run_df, run)
+    return comp
+
+
+# --------------------------------------------------------------------------------------------------
+# CLI
+
+
+def add_arguments(p):
+    p.add_argument("baseline", help="baseline run directory or results.parquet/.csv")
+    p.add_argument("run", help="current run directory or results.parquet/.csv")
+    p.add_argument("--match", default=None, metavar="KEYS",
+                   help=f"comma-separated match keys (default: {','.join(DEFAULT_MATCH)}; "
+                        f"known: {','.join(MATCH_KEYS)})")
+    p.add_argument("--alpha", type=float, default=Thresholds.alpha,
+                   help="significance of the one-sided Mann-Whitney U test on frame times (default 0.01)")
+    p.add_argument("--min-effect", type=float, default=Thresholds.min_effect,
+                   help="minimum relative slow-down of the median frame time (default 0.10 = 10%%)")
+    p.add_argument("--tol-db", type=float, default=Thresholds.tol_db,
+                   help="PSNR drop always tolerated, dB (default 0.5)")
+    p.add_argument("--ssim-tol", type=float, default=Thresholds.ssim_tol,
+                   help="SSIM drop always tolerated (default 0.01)")
+    p.add_argument("--noise-z", type=float, default=Thresholds.noise_z,
+                   help="reference-noise bound in standard deviations (default 3)")
+    p.add_argument("--allow-missing", action="store_true", help="rows that vanished do not fail")
+    p.add_argument("--no-time", action="store_true", help="skip time checks (quality only)")
+    p.add_argument("--cpu-time", action="store_true",
+                   help="gate time on a software rasterizer (cpu-software) too; off by default")
+    p.add_argument("--out", default=None, metavar="FILE",
+                   help="Markdown report (default: compare.md in RUN's directory)")
+
+
+def run_cli(args) -> int:
+    th = Thresholds(alpha=args.alpha, min_effect=args.min_effect, tol_db=args.tol_db,
+                    ssim_tol=args.ssim_tol, noise_z=args.noise_z, allow_missing=args.allow_missing,
+                    time=not args.no_time, cpu_time=args.cpu_time)
+    match = parse_match(args.match)
+    comp = compare_paths(args.baseline, args.run, match=match, thresholds=th)
+    run_path = Path(args.run)
+    out = Path(args.out) if args.out else (run_path if run_path.is_dir() else run_path.parent) / "compare.md"
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(to_markdown(comp), encoding="utf-8")
+    except OSError as e:
+        raise LdbenchError(f"cannot write {out}: {e.strerror or e}")
+    import sys
+    for w in comp.warnings:
+        print(f"ldbench: warning: {w}", file=sys.stderr)
+    print(summary_text(comp))
+    print(f"wrote {out}")
+    return comp.exit_code

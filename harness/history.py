@@ -1,0 +1,473 @@
+"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (issue 6).
+
+Storage
+    ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`harness.records.machine_key`
+    of device, GL renderer and driver: timings of different machines never share a series). The
+    files hold the result rows exactly as ``results.parquet`` does (JSON columns as JSON text, the
+    ``machine_key`` column filled in), sorted by time. Adding a run replaces any rows with the same
+    ``run_id`` first, so adding a run twice is idempotent. The default history directory is
+    ``history/`` under the current directory; it is meant to live outside git (a CI cache or
+    artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore`` if you keep one locally.
+
+Plots
+    One PNG per machine and benchmark (benchmarks as in :data:`harness.compare.DEFAULT_MATCH`):
+    the median frame time ``total_ms`` with its interquartile band (from the raw samples) and PSNR,
+    one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
+    checkout) and date. Detected change points are drawn as vertical lines and listed in
+    ``changes.md``.
+
+Change-point detection (:func:`detect_change_points`)
+    Binary segmentation with a rank test. For a segment of the series, every split ``k`` leaving at
+    least ``min_size`` points on each side is scored with a two-sided Mann-Whitney U test of the
+    points before against the points after; the best split is accepted when its Bonferroni-corrected
+    p-value (p times the number of candidate splits) is below ``alpha / 2`` **and** its median
+    shift is at least ``min_effect`` (relative for times, default 10 %; absolute for PSNR, default
+    0.5 dB). If no single split qualifies, the same test is run on every middle interval against the
+    points around it (a regression that was later fixed), again with Bonferroni and ``alpha / 2``.
+    The parts are then searched the same way. The rank test is robust to outlier nights; Bonferroni
+    keeps the false-alarm rate of each segment search at most ``alpha`` on pure noise; the effect
+    floor ignores shifts too small to matter. A step is found once enough runs lie on both sides of
+    it: with the defaults (``alpha`` 0.01, ``min_size`` 3) a clean step needs about 6 runs after it
+    in a 16-run series (4 after 30 runs, 6 after 10): a regression shows up in the plots within a
+    week of nightlies; the gate (``ldbench compare``) catches it the first night.
+"""
+from __future__ import annotations
+
+import math
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import LdbenchError
+
+DEFAULT_HISTORY_DIR = "history"
+
+
+# --------------------------------------------------------------------------------------------------
+# storage
+
+
+def row_machine_key(row) -> str:
+    """The row's ``machine_key``, else computed from its ``machine`` dict or machine columns."""
+    from . import records
+    from .compare import _get
+
+    k = _get(row, "machine_key")
+    if k:
+        return str(k)
+    m = _get(row, "machine")
+    if isinstance(m, dict) and any(m.get(f) for f in ("device", "gl_renderer", "driver")):
+        return records.machine_key(m)
+    return records.machine_key({f: _get(row, f) for f in ("device", "gl_renderer", "driver")})
+
+
+def _serialize(df):
+    """Parsed results (JSON columns as Python objects) back to their stored form (JSON text)."""
+    import pandas as pd
+    from .records import JSON_COLUMNS, to_json
+
+    out = df.copy()
+    for c in JSON_COLUMNS:
+        if c in out:
+            out[c] = pd.Series([to_json(v) if isinstance(v, (dict, list)) else (None if v is None else v)
+                                for v in out[c]], index=out.index, dtype=object)
+    return out
+
+
+def _atomic_parquet(df, path: Path):
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        df.to_parquet(tmp, index=False, engine="pyarrow")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _sort(df):
+    return df.sort_values(["time", "run_id"], kind="stable", na_position="first").reset_index(drop=True)
+
+
+def add_run(run, history_dir=DEFAULT_HISTORY_DIR) -> list[dict]:
+    """Append a run's rows to the per-machine history files (replacing rows of the same run_id).
+
+    Returns one dict per machine touched: ``{"machine_key", "path", "added", "rows", "runs"}``.
+    """
+    import pandas as pd
+    from .compare import load_results
+
+    df = load_results(run, "run")
+    if "run_id" not in df or df["run_id"].isna().any():
+        raise LdbenchError(f"run {run} has rows without a run_id")
+    df = df.copy()
+    df["machine_key"] = [row_machine_key(r) for _, r in df.iterrows()]
+    hdir = Path(history_dir)
+    try:
+        hdir.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise LdbenchError(f"cannot create history directory {hdir}: {e.strerror or e}")
+    out = []
+    for key, group in df.groupby("machine_key", sort=True):
+        path = hdir / f"{key}.parquet"
+        new = _serialize(group)
+        ids = set(new["run_id"])
+        if path.exists():
+            try:
+                old = pd.read_parquet(path, engine="pyarrow")
+            except Exception as e:  # a corrupt history file must not be silently overwritten
+                raise LdbenchError(f"cannot read history file {path}: {e}")
+            old = old[~old["run_id"].isin(ids)]
+            both = pd.concat([old, new], ignore_index=True) if len(old) else new
+        else:
+            both = new
+        both = _sort(both)
+        _atomic_parquet(both, path)
+        out.append({"machine_key": key, "path": path, "added": len(new), "rows": len(both),
+                    "runs": int(both["run_id"].nunique())})
+    return out
+
+
+def load_history(history_dir=DEFAULT_HISTORY_DIR, machine: str | None = None) -> dict:
+    """``{machine_key: DataFrame}`` of the history files (JSON columns parsed), sorted by time."""
+    from .records import read_results
+
+    hdir = Path(history_dir)
+    if not hdir.is_dir():
+        raise LdbenchError(f"history directory not found: {hdir}")
+    files = sorted(hdir.glob("*.parquet"))
+    if machine is not None:
+        files = [f for f in files if f.stem == machine]
+        if not files:
+            known = ", ".join(f.stem for f in sorted(hdir.glob("*.parquet"))) or "none"
+            raise LdbenchError(f"no history for machine {machine!r} in {hdir} (known: {known})")
+    if not files:
+        raise LdbenchError(f"no history files (*.parquet) in {hdir}; add runs with 'ldbench history add'")
+    return {f.stem: _sort(read_results(f)) for f in files}
+
+
+# --------------------------------------------------------------------------------------------------
+# change points
+
+
+@dataclass
+class ChangePoint:
+    index: int          # first point after the change
+    p: float            # Bonferroni-corrected p-value
+    before: float       # median of the segment before
+    after: float        # median of the segment after
+    change: float       # after/before - 1 (relative) or after - before (absolute)
+
+
+def _shift(left, right, relative: bool) -> float:
+    import numpy as np
+
+    mb, ma = float(np.median(left)), float(np.median(right))
+    if relative:
+        return ma / mb - 1.0 if mb != 0 else (0.0 if ma == 0 else math.inf)
+    return ma - mb
+
+
+def _rank_z(ranks, ties_term, i, j):
+    """Normal-approximation z of the Mann-Whitney U statistic of the points ``[i, j)`` of a segment
+    against the rest of it, for arrays of interval bounds ``i``, ``j`` (vectorized)."""
+    import numpy as np
+
+    n = ranks.size
+    c = np.concatenate([[0.0], np.cumsum(ranks)])
+    n1 = (j - i).astype(float)
+    n2 = n - n1
+    u = c[j] - c[i] - n1 * (n1 + 1) / 2
+    var = n1 * n2 / 12.0 * ((n + 1) - ties_term / (n * (n - 1)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(var > 0, (u - n1 * n2 / 2) / np.sqrt(var), 0.0)
+
+
+def detect_change_points(y, *, alpha: float = 0.01, min_size: int = 3, min_effect: float = 0.10,
+                         relative: bool = True) -> list[ChangePoint]:
+    """Change points of a series by binary segmentation with a Mann-Whitney U test.
+
+    For a segment ``y[a:b]`` (initially the whole series):
+
+    1. *Single split.* Every ``k`` with at least ``min_size`` points on each side is scored by the
+       Mann-Whitney U statistic of ``y[a:k]`` against ``y[k:b]`` (normal approximation with tie
+       correction, vectorized over ``k`` from one ranking). The best split's exact two-sided p-value
+       (:func:`scipy.stats.mannwhitneyu`) times the number of candidates (Bonferroni) must be below
+       ``alpha / 2``, and its median shift at least ``min_effect``.
+    2. *Epidemic change* (only if 1 found nothing): a regression that was later fixed, or a
+       temporary improvement, is a middle interval ``y[i:j]`` that differs from the points around it,
+       which no single split separates well. Every interval with ``min_size`` points inside and on
+       either side is scored against the rest of the segment in the same way, with Bonferroni over
+       the intervals and ``alpha / 2``; its two ends are change points.
+    3. Accepted points split the segment, and the parts are searched again.
+
+    The false-alarm probability of each segment search on pure noise is thus at most ``alpha``
+    (Bonferroni is conservative: the candidate tests are positively correlated). The rank test is
+    robust to outlier nights; the effect-size floor ignores shifts too small to matter.
+
+    Parameters
+    ----------
+    y : sequence of float
+        The series in time order; NaN points are ignored (indices refer to the original series).
+    alpha : float
+        Family-wise significance per segment.
+    min_size : int
+        Minimum number of points on each side of a change.
+    min_effect : float
+        Minimum median shift: relative (``after/before - 1``) if ``relative``, else absolute.
+
+    Returns
+    -------
+    list of ChangePoint (``index`` = first point after the change), sorted by index.
+    """
+    import numpy as np
+    from scipy.stats import mannwhitneyu, rankdata
+
+    y = np.asarray(list(y), float)
+    keep = np.flatnonzero(np.isfinite(y))
+    v = y[keep]
+    min_size = max(int(min_size), 1)
+    found: list[ChangePoint] = []
+
+    def point(k, lo, hi, p):
+        before, after = v[lo:k], v[k:hi]
+        found.append(ChangePoint(int(keep[k]), p, float(np.median(before)), float(np.median(after)),
+                                 _shift(before, after, relative)))
+
+    def search(a, b):
+        seg = v[a:b]
+        n = b - a
+        if n < 2 * min_size or np.ptp(seg) == 0:
+            return
+        ranks = rankdata(seg)
+        _, counts = np.unique(seg, return_counts=True)
+        ties = float(np.sum(counts.astype(float) ** 3 - counts))
+        # 1. single split at k (local index): [0, k) against [k, n)
+        ks = np.arange(min_size, n - min_size + 1)
+        z = _rank_z(ranks, ties, np.zeros_like(ks), ks)
+        k = int(ks[np.argmax(np.abs(z))])
+        p = float(mannwhitneyu(seg[:k], seg[k:], alternative="two-sided").pvalue) * ks.size
+        if min(p, 1.0) < alpha / 2 and abs(_shift(seg[:k], seg[k:], relative)) >= min_effect:
+            point(a + k, a, b, min(p, 1.0))
+            search(a, a + k)
+            search(a + k, b)
+            return
+        # 2. epidemic change: [i, j) against [0, i) + [j, n)
+        if n < 3 * min_size:
+            return
+        ii, jj = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        ok = (ii >= min_size) & (jj - ii >= min_size) & (n - jj >= min_size)
+        ii, jj = ii[ok], jj[ok]
+        z = _rank_z(ranks, ties, ii, jj)
+        best = int(np.argmax(np.abs(z)))
+        i, j = int(ii[best]), int(jj[best])
+        inside, outside = seg[i:j], np.concatenate([seg[:i], seg[j:]])
+        p = min(1.0, float(mannwhitneyu(inside, outside, alternative="two-sided").pvalue) * ii.size)
+        if p < alpha / 2 and abs(_shift(outside, inside, relative)) >= min_effect:
+            point(a + i, a, a + j, p)
+            point(a + j, a + i, b, p)
+            search(a, a + i)
+            search(a + i, a + j)
+            search(a + j, b)
+
+    search(0, len(v))
+    return sorted(found, key=lambda c: c.index)
+
+
+# --------------------------------------------------------------------------------------------------
+# plots
+
+
+def _slug(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", s).strip("_")[:120] or "benchmark"
+
+
+#: A benchmark's identity over time: the suite entry, not the method's parameters, so that a commit
+#: changing a method's defaults shows up as a step in its series (marked "params" on the plot).
+HISTORY_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "width", "height")
+
+
+def _series(df):
+    """One point per run for every benchmark: ``{key: (label, DataFrame of points)}``.
+
+    Benchmarks are keyed by :data:`HISTORY_MATCH`; if a run holds several rows of one such key (a
+    parameter sweep), the method parameters join the key (:data:`harness.compare.DEFAULT_MATCH`).
+    """
+    import numpy as np
+    import pandas as pd
+    from .compare import DEFAULT_MATCH, _canon, _get, _key, _labels
+    from .records import summarize_samples
+
+    match = HISTORY_MATCH
+    pairs = [(_get(r, "run_id"), _key(r, match)) for _, r in df.iterrows()]
+    if len(set(pairs)) < len(pairs):
+        match = DEFAULT_MATCH
+    keyed = {}
+    for _, row in df.iterrows():
+        keyed.setdefault(_key(row, match), []).append(row)
+    labels = _labels({k: rows[-1] for k, rows in keyed.items()})
+    out = {}
+    for k, rows in keyed.items():
+        pts = []
+        for row in rows:
+            ok = _get(row, "status") == "ok"
+            raw = _get(row, "raw_ms") or {}
+            s = summarize_samples((raw.get("total") or raw.get("wall") or []) if isinstance(raw, dict) else [])
+            med = _get(row, "total_ms")
+            med = float(med) if (ok and med is not None) else math.nan
+            if s["n"]:
+                q1, q3 = s["q1"], s["q3"]
+            else:
+                iqr = _get(row, "total_ms_iqr")
+                half = float(iqr) / 2 if iqr is not None else 0.0
+                q1, q3 = med - half, med + half
+            psnr = _get(row, "psnr")
+            commit = str(_get(row, "commit") or "")[:7] or "?"
+            if _get(row, "dirty"):
+                commit += "*"
+            t = str(_get(row, "time") or "")
+            pts.append({"run_id": _get(row, "run_id"), "time": t, "commit": commit,
+                        "total_ms": med, "q1": q1 if ok else math.nan, "q3": q3 if ok else math.nan,
+                        "psnr": float(psnr) if (ok and psnr is not None) else math.nan,
+                        "status": _get(row, "status"), "params": _canon(_get(row, "params"))})
+        p = pd.DataFrame(pts).drop_duplicates("run_id", keep="last").reset_index(drop=True)
+        p["psnr"] = p["psnr"].replace([np.inf], np.nan)  # a perfect match has no place on a dB axis
+        out[k] = (labels[k], p)
+    return out
+
+
+def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str | None = None,
+                 alpha: float = 0.01, min_effect: float = 0.10, min_db: float = 0.5,
+                 min_size: int = 3) -> dict:
+    """Draw one PNG per machine and benchmark and write ``changes.md``.
+
+    Returns ``{"pngs": [Path], "changes": Path, "change_points": [dict]}``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if not 0 < alpha < 1:
+        raise LdbenchError(f"--alpha must be in (0, 1), got {alpha}")
+    if min_size < 1:
+        raise LdbenchError(f"--min-size must be >= 1, got {min_size}")
+    hist = load_history(history_dir, machine)
+    out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
+    out.mkdir(parents=True, exist_ok=True)
+    pngs, cps = [], []
+    for mkey, df in hist.items():
+        mdir = out / mkey
+        mdir.mkdir(parents=True, exist_ok=True)
+        for k, (label, p) in _series(df).items():
+            n = len(p)
+            x = list(range(n))
+            tcp = detect_change_points(p["total_ms"], alpha=alpha, min_size=min_size,
+                                       min_effect=min_effect, relative=True)
+            qcp = detect_change_points(p["psnr"], alpha=alpha, min_size=min_size,
+                                       min_effect=min_db, relative=False)
+            fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(max(6.0, 0.35 * n + 3), 6), sharex=True)
+            ax1.fill_between(x, p["q1"], p["q3"], alpha=0.25, color="tab:blue", label="IQR")
+            ax1.plot(x, p["total_ms"], "o-", color="tab:blue", ms=3, label="median total_ms")
+            ax1.set_ylabel("frame time (ms)")
+            ax1.set_title(f"{label}\n{mkey}", fontsize=9)
+            ax2.plot(x, p["psnr"], "o-", color="tab:green", ms=3, label="PSNR")
+            ax2.set_ylabel("PSNR (dB)")
+            for i in range(1, n):
+                if p["params"].iloc[i] != p["params"].iloc[i - 1]:
+                    for ax in (ax1, ax2):
+                        ax.axvline(i - 0.5, color="0.5", ls=":", lw=1)
+                    ax2.annotate("params", (i - 0.5, 0.02), xycoords=("data", "axes fraction"),
+                                 ha="left", va="bottom", fontsize=7, color="0.4")
+            failed = [i for i, s in enumerate(p["status"]) if s != "ok"]
+            for i in failed:
+                for ax in (ax1, ax2):
+                    ax.axvspan(i - 0.5, i + 0.5, color="tab:red", alpha=0.12, lw=0)
+            for c in tcp:
+                ax1.axvline(c.index - 0.5, color="tab:red", ls="--", lw=1.2)
+                ax1.annotate(f"{c.change:+.0%}", (c.index - 0.5, 1.0), xycoords=("data", "axes fraction"),
+                             ha="left", va="top", fontsize=8, color="tab:red")
+            for c in qcp:
+                ax2.axvline(c.index - 0.5, color="tab:purple", ls="--", lw=1.2)
+                ax2.annotate(f"{c.change:+.2f} dB", (c.index - 0.5, 1.0), xycoords=("data", "axes fraction"),
+                             ha="left", va="top", fontsize=8, color="tab:purple")
+            ticks = [f"{c}\n{t[5:10]}" for c, t in zip(p["commit"], p["time"])]
+            step = max(1, n // 25)
+            ax2.set_xticks(x[::step])
+            ax2.set_xticklabels(ticks[::step], fontsize=7, rotation=90)
+            ax2.set_xlabel("run (commit, date)")
+            ax1.legend(fontsize=7, loc="best")
+            for ax in (ax1, ax2):
+                ax.grid(alpha=0.3)
+            fig.tight_layout()
+            path = mdir / f"{_slug(label)}.png"
+            fig.savefig(path, dpi=100)
+            plt.close(fig)
+            pngs.append(path)
+            for metric, lst in (("total_ms", tcp), ("psnr", qcp)):
+                for c in lst:
+                    r = p.iloc[c.index]
+                    cps.append({"machine": mkey, "benchmark": label, "metric": metric, "index": c.index,
+                                "run_id": r["run_id"], "commit": r["commit"], "time": r["time"],
+                                "before": c.before, "after": c.after, "change": c.change, "p": c.p,
+                                "png": path})
+    changes = out / "changes.md"
+    changes.write_text(_changes_md(cps, alpha, min_effect, min_db, min_size, out), encoding="utf-8")
+    return {"pngs": pngs, "changes": changes, "change_points": cps}
+
+
+def _changes_md(cps, alpha, min_effect, min_db, min_size, out) -> str:
+    lines = ["# Detected changes", "",
+             f"Binary segmentation with a two-sided Mann-Whitney U test (Bonferroni-corrected p < {alpha:g}, "
+             f"at least {min_size} runs on each side) and a minimum median shift of {min_effect:.0%} "
+             f"(time) or {min_db:g} dB (PSNR).", ""]
+    if not cps:
+        lines.append("No change points.")
+        return "\n".join(lines) + "\n"
+    lines += ["| machine | benchmark | metric | first run after | commit | date | before | after | change | p | plot |",
+              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in cps:
+        if c["metric"] == "total_ms":
+            b, a, ch = f"{c['before']:.3g} ms", f"{c['after']:.3g} ms", f"{c['change']:+.1%}"
+        else:
+            b, a, ch = f"{c['before']:.2f} dB", f"{c['after']:.2f} dB", f"{c['change']:+.2f} dB"
+        rel = os.path.relpath(c["png"], out)
+        lines.append(f"| {c['machine']} | {c['benchmark']} | {c['metric']} | {c['run_id']} | {c['commit']} "
+                     f"| {c['time'][:10]} | {b} | {a} | {ch} | {c['p']:.2g} | [png]({rel}) |")
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------------------------------
+# CLI
+
+
+def add_arguments(p):
+    sub = p.add_subparsers(dest="history_command", required=True, parser_class=type(p))
+    a = sub.add_parser("add", help="append a run's rows to the per-machine history")
+    a.add_argument("run", help="run directory or results.parquet/.csv")
+    a.add_argument("--history-dir", default=DEFAULT_HISTORY_DIR, help="default: history/")
+    q = sub.add_parser("plot", help="plot time and PSNR over runs with detected change points")
+    q.add_argument("--history-dir", default=DEFAULT_HISTORY_DIR, help="default: history/")
+    q.add_argument("--out", default=None, help="output directory (default: <history-dir>/plots)")
+    q.add_argument("--machine", default=None, help="only this machine key (a history file's stem)")
+    q.add_argument("--alpha", type=float, default=0.01, help="change-point significance (default 0.01)")
+    q.add_argument("--min-effect", type=float, default=0.10,
+                   help="minimum relative time shift of a change point (default 0.10)")
+    q.add_argument("--min-db", type=float, default=0.5, help="minimum PSNR shift of a change point (dB)")
+    q.add_argument("--min-size", type=int, default=3, help="minimum runs on each side of a change point")
+
+
+def run_cli(args) -> int:
+    if args.history_command == "add":
+        for r in add_run(args.run, args.history_dir):
+            print(f"history: {r['added']} row(s) of {args.run} → {r['path']} "
+                  f"({r['rows']} rows, {r['runs']} runs)")
+        return 0
+    res = plot_history(args.history_dir, args.out, machine=args.machine, alpha=args.alpha,
+                       min_effect=args.min_effect, min_db=args.min_db, min_size=args.min_size)
+    print(f"history: {len(res['pngs'])} plot(s), {len(res['change_points'])} change point(s)")
+    for c in res["change_points"]:
+        ch = f"{c['change']:+.1%}" if c["metric"] == "total_ms" else f"{c['change']:+.2f} dB"
+        print(f"  {c['benchmark']} [{c['metric']}] {ch} at {c['commit']} ({c['time'][:10]})")
+    print(f"wrote {res['changes']}")
+    return 0

@@ -1,0 +1,261 @@
+"""The nightly regression gate (``ldbench compare``) on synthetic run directories (no GPU)."""
+import math
+import zlib
+
+import numpy as np
+import pytest
+
+from harness import compare as C
+from harness import records as R
+from harness.cli import main
+
+GPU = {"device": "nvidia", "gl_renderer": "NVIDIA H100 80GB HBM3/PCIe/SSE2",
+       "gl_version": "4.6.0 NVIDIA 550.54.15", "driver": "550.54.15", "cpu": "Xeon", "gpu_name": "NVIDIA H100"}
+OTHER_GPU = {**GPU, "gl_renderer": "NVIDIA H200/PCIe/SSE2", "gpu_name": "NVIDIA H200"}
+
+BENCH = [("cornell", "ldm-ao", "ao"), ("cornell", "hbao", "ao"), ("atrium", "direct-raster", "direct")]
+
+
+def _row(scene, method, effect, *, run_id="r1", ms=10.0, frames=15, jitter=0.02, seed=0, psnr=30.0,
+         ssim=0.95, sigma=0.002, ref_key=None, params=None, machine=GPU, status="ok", size=(64, 64)):
+    rng = np.random.default_rng(seed)
+    total = list(ms * (1.0 + jitter * rng.standard_normal(frames)))
+    w, h = size
+    base = dict(run_id=run_id, suite="nightly", commit="abc1234def", dirty=False, scene=scene,
+                scene_hash="h-" + scene, triangles=100, method=method, paper="x", effect=effect,
+                effect_params={"effect": effect, "d_max": "inf", "falloff": "step"} if effect == "ao"
+                else {"effect": effect},
+                params=params if params is not None else {"directions": 64}, width=w, height=h,
+                warmup=2, **R.machine_columns(machine), ref_spp=256, ref_variant="llvm_ad_rgb",
+                ref_key=ref_key or f"ref-{scene}-{effect}", status=status)
+    if status != "ok":
+        return R.make_row(**base)
+    return R.make_row(**base, **R.timing_fields({"total": total, "wall": total}),
+                      memory={"heads": 1024}, psnr=psnr, ssim=ssim, flip=0.05, relmse=0.01,
+                      metric_settings={"psnr": {"data_range": 1.0}, "ssim": {"data_range": 1.0},
+                                       "valid_pixels": w * h},
+                      ref_noise={"rms_std_of_mean": sigma, "spp": 256})
+
+
+def _run(tmp_path, name, overrides=None, drop=(), extra=(), **common):
+    """A run directory with one row per BENCH entry; ``overrides[(scene, method, effect)]`` = kwargs."""
+    overrides = overrides or {}
+    rows = []
+    for i, b in enumerate(BENCH):
+        if b in drop:
+            continue
+        kw = {"run_id": name, "seed": zlib.crc32(f"{name}-{i}".encode()) % 1000, **common, **overrides.get(b, {})}
+        rows.append(_row(*b, **kw))
+    rows += [_row(*b, run_id=name, **kw) for b, kw in extra]
+    d = tmp_path / name
+    R.write_results(rows, d)
+    return d
+
+
+def _cli(capsys, *argv):
+    rc = main(["compare", *map(str, argv)])
+    out = capsys.readouterr()
+    return rc, out.out, out.err
+
+
+def test_identical_configuration_passes_and_writes_markdown(tmp_path, capsys):
+    base, run = _run(tmp_path, "base"), _run(tmp_path, "run")
+    rc, out, err = _cli(capsys, base, run)
+    assert rc == 0, out + err
+    md = (run / "compare.md").read_text()
+    assert "| benchmark | metric | baseline | current | change | verdict |" in md
+    assert "no regression" in md and "cornell · ldm-ao · ao(step, d_max=inf) · 64x64" in md
+    assert "no regression" in out and "wrote" in out
+    # results files are accepted too, and --out chooses the report file
+    rc, _, _ = _cli(capsys, base / "results.parquet", run / "results.csv", "--out", tmp_path / "x" / "c.md")
+    assert rc == 0 and (tmp_path / "x" / "c.md").is_file()
+    # self-comparison
+    rc, _, _ = _cli(capsys, base, base, "--match", "scene,method,effect")
+    assert rc == 0
+
+
+def test_2x_slowdown_fails_3pct_jitter_does_not(tmp_path, capsys):
+    base = _run(tmp_path, "base")
+    slow = _run(tmp_path, "slow", {("cornell", "ldm-ao", "ao"): {"ms": 20.0}})
+    jitter = _run(tmp_path, "jitter", ms=10.3)  # 3 % slower median, every benchmark
+    rc, out, _ = _cli(capsys, base, slow)
+    assert rc == 1
+    assert "REGRESSION" in out and "ldm-ao" in out and "[time]" in out
+    comp = C.compare_paths(base, slow)
+    (reg,) = comp.regressions
+    assert reg.metric == "time" and reg.benchmark.startswith("cornell · ldm-ao")
+    assert "+100" in reg.change or "+9" in reg.change  # about +100 %
+    rc, out, _ = _cli(capsys, base, jitter)
+    assert rc == 0, out
+    # the 3 % shift may well be significant, but it is below the 10 % minimum effect
+    comp = C.compare_paths(base, jitter)
+    assert all(c.verdict in ("ok", "improved") for c in comp.checks if c.metric == "time")
+    # ... and with --min-effect 0.01 it is caught
+    rc, _, _ = _cli(capsys, base, jitter, "--min-effect", "0.01")
+    assert rc == 1
+
+
+def test_pure_timing_noise_never_fails(tmp_path):
+    base = _run(tmp_path, "base", jitter=0.05)
+    for i in range(5):
+        run = _run(tmp_path, f"noise{i}", jitter=0.05)
+        assert C.compare_paths(base, run).exit_code == 0
+
+
+def test_too_few_frames_is_inconclusive_not_a_failure(tmp_path):
+    base = _run(tmp_path, "base", frames=3)
+    slow = _run(tmp_path, "slow", frames=3, ms=30.0)
+    comp = C.compare_paths(base, slow)
+    assert comp.exit_code == 0
+    assert {c.verdict for c in comp.checks if c.metric == "time"} == {"inconclusive"}
+    assert C.min_p_value(5, 5) < 0.01 < C.min_p_value(4, 4)
+
+
+def test_psnr_drop_of_3db_fails(tmp_path, capsys):
+    base = _run(tmp_path, "base", psnr=30.0)
+    run = _run(tmp_path, "run", {("cornell", "hbao", "ao"): {"psnr": 27.0}}, psnr=30.0)
+    rc, out, _ = _cli(capsys, base, run)
+    assert rc == 1
+    (reg,) = C.compare_paths(base, run).regressions
+    assert reg.metric == "psnr" and "hbao" in reg.benchmark and "-3.00 dB" in reg.change
+
+
+def test_drop_inside_reference_noise_does_not_fail(tmp_path):
+    # A noisy reference (16 spp AO: sigma up to 0.125) shared by both runs: a 1.5 dB drop at 30 dB is within
+    # what the reference noise can explain at 3 sigma over 4096 pixels.
+    noisy = dict(sigma=0.08, psnr=30.0)
+    base = _run(tmp_path, "base", **noisy)
+    run = _run(tmp_path, "run", {("cornell", "ldm-ao", "ao"): {"psnr": 28.5}}, **noisy)
+    comp = C.compare_paths(base, run)
+    assert comp.exit_code == 0, C.to_markdown(comp)
+    chk = next(c for c in comp.checks if c.metric == "psnr" and "ldm-ao" in c.benchmark)
+    assert chk.verdict == "ok" and "-1.50 dB" in chk.change
+    # the same drop with a clean reference fails
+    clean = dict(sigma=0.001, psnr=30.0)
+    base = _run(tmp_path, "base-clean", **clean)
+    run = _run(tmp_path, "run-clean", {("cornell", "ldm-ao", "ao"): {"psnr": 28.5}}, **clean)
+    assert C.compare_paths(base, run).exit_code == 1
+    # a small drop (0.3 dB) is inside the fixed tolerance
+    run = _run(tmp_path, "run-small", {("cornell", "ldm-ao", "ao"): {"psnr": 29.7, "ssim": 0.945}}, **clean)
+    assert C.compare_paths(base, run).exit_code == 0
+
+
+def test_noisier_reference_in_run_explains_the_drop(tmp_path):
+    # base reference sigma 0.01 (MSE 1e-3 at 30 dB); run re-rendered the reference at fewer spp
+    # (sigma 0.03): the noise floor alone adds 0.03^2 - 0.01^2 = 8e-4 -> 30 dB becomes ~27.4 dB.
+    base = _run(tmp_path, "base", sigma=0.01, psnr=30.0)
+    run = _run(tmp_path, "run", {("cornell", "ldm-ao", "ao"): {"psnr": 27.6, "sigma": 0.03, "ref_key": "other"}},
+               sigma=0.01, psnr=30.0)
+    comp = C.compare_paths(base, run)
+    assert comp.exit_code == 0, C.to_markdown(comp)
+    chk = next(c for c in comp.checks if c.metric == "psnr" and "ldm-ao" in c.benchmark)
+    assert "references differ" in chk.note
+
+
+def test_noise_bound_formulas():
+    # same reference: 2 z sigma (rmse_b + rmse_r) / sqrt(N)
+    B = C.noise_bound(sigma_b=0.02, sigma_r=0.02, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=True, z=3)
+    assert B == pytest.approx(2 * 3 * 0.02 * 0.07 / 64)
+    # different references add the floor difference and its fluctuation
+    B2 = C.noise_bound(sigma_b=0.01, sigma_r=0.03, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
+    assert B2 == pytest.approx(0.03 ** 2 - 0.01 ** 2 + 6 * (0.01 * 0.03 + 0.03 * 0.04) / 64
+                               + 3 * math.sqrt(2 / 4096) * (0.01 ** 2 + 0.03 ** 2))
+    # a less noisy run reference cannot fake a regression: no floor term
+    B3 = C.noise_bound(sigma_b=0.03, sigma_r=0.01, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
+    assert B3 < 0.03 ** 2 - 0.01 ** 2
+    assert C.mse_from_psnr(30.0, 1.0) == pytest.approx(1e-3) and C.mse_from_psnr(math.inf, 1.0) == 0.0
+
+
+def test_ssim_drop_fails(tmp_path):
+    base = _run(tmp_path, "base", ssim=0.95)
+    run = _run(tmp_path, "run", {("atrium", "direct-raster", "direct"): {"ssim": 0.90}}, ssim=0.95)
+    (reg,) = C.compare_paths(base, run).regressions
+    assert reg.metric == "ssim" and "direct-raster" in reg.benchmark
+
+
+def test_missing_row_fails_unless_allowed_and_new_row_is_reported(tmp_path, capsys):
+    base = _run(tmp_path, "base")
+    run = _run(tmp_path, "run", drop=[("cornell", "hbao", "ao")],
+               extra=[(("hairball", "ldm-ao", "ao"), {})])
+    rc, out, _ = _cli(capsys, base, run)
+    assert rc == 1 and "MISSING" in out and "1 missing, 1 new" in out
+    md = (run / "compare.md").read_text()
+    assert "missing" in md and "🆕 new" in md and "hairball" in md
+    rc, _, _ = _cli(capsys, base, run, "--allow-missing")
+    assert rc == 0
+
+
+def test_failed_row_in_run_is_a_regression(tmp_path):
+    base = _run(tmp_path, "base")
+    run = _run(tmp_path, "run", {("cornell", "hbao", "ao"): {"status": "error: shader failed"}})
+    (reg,) = C.compare_paths(base, run).regressions
+    assert reg.verdict == "failed" and reg.current.startswith("error")
+    # a NaN PSNR (broken output) is a regression as well
+    run = _run(tmp_path, "run-nan", {("cornell", "hbao", "ao"): {"psnr": math.nan}})
+    assert [c.metric for c in C.compare_paths(base, run).regressions] == ["psnr"]
+
+
+def test_machine_mismatch_disables_time_but_gates_quality(tmp_path, capsys):
+    base = _run(tmp_path, "base")
+    slow_other = _run(tmp_path, "other", {("cornell", "ldm-ao", "ao"): {"ms": 40.0}}, machine=OTHER_GPU)
+    rc, out, err = _cli(capsys, base, slow_other)
+    assert rc == 0, out
+    assert err.count("warning: machine differs") == 1 and "time checks are off" in err
+    md = (slow_other / "compare.md").read_text()
+    assert "machine differs" in md and "⏭ skipped" in md
+    both = _run(tmp_path, "other-worse", {("cornell", "ldm-ao", "ao"): {"ms": 40.0, "psnr": 26.0}},
+                machine=OTHER_GPU)
+    comp = C.compare_paths(base, both)
+    assert [(c.metric, c.verdict) for c in comp.regressions] == [("psnr", "regression")]
+
+
+def test_match_keys_compare_two_configurations(tmp_path, capsys):
+    base = _run(tmp_path, "base", params={"directions": 64})
+    fewer = _run(tmp_path, "fewer", {("cornell", "ldm-ao", "ao"): {"psnr": 25.0, "ms": 5.0}},
+                 params={"directions": 16})
+    # default match: the configurations differ -> every baseline row is missing
+    rc, out, _ = _cli(capsys, base, fewer)
+    assert rc == 1 and "3 missing, 3 new" in out
+    rc, out, _ = _cli(capsys, base, fewer, "--match", "scene,method,effect")
+    assert rc == 1
+    comp = C.compare_paths(base, fewer, match=C.parse_match("scene,method,effect"))
+    assert comp.matched == 3
+    assert [(c.metric, c.verdict) for c in comp.regressions] == [("psnr", "regression")]
+    assert any(c.metric == "time" and c.verdict == "improved" for c in comp.checks)
+    assert any("directions 64 → 16" in n for n in comp.notes)
+    assert "directions 64 → 16" in (fewer / "compare.md").read_text()
+
+
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys):
+    base = _run(tmp_path, "base")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    cases = [(tmp_path / "nope", base), (base, tmp_path / "nope"), (base, empty),
+             (base, base, "--match", "scene,colour"), (base, base, "--alpha", "2")]
+    for argv in cases:
+        rc, out, err = _cli(capsys, *argv)
+        assert rc == 2, argv
+        assert err.startswith("ldbench: error: ") and err.count("\n") == 1, err
+        assert "Traceback" not in err
+    # a match key that makes rows ambiguous is bad input too
+    two = _run(tmp_path, "two", extra=[(("cornell", "ldm-ao", "ao"), {"params": {"directions": 16}})])
+    rc, _, err = _cli(capsys, two, two, "--match", "scene,method,effect")
+    assert rc == 2 and "several rows" in err
+    # an empty results table
+    R.write_results([], tmp_path / "norows")
+    rc, _, err = _cli(capsys, base, tmp_path / "norows")
+    assert rc == 2 and "no result rows" in err
+
+
+def test_software_rasterizer_times_are_not_gated_unless_asked(tmp_path, capsys):
+    cpu = {"device": "cpu-software", "gl_renderer": "llvmpipe (LLVM 15.0.6, 256 bits)",
+           "gl_version": "4.5 (Core Profile) Mesa 22.3.6", "driver": "Mesa 22.3.6", "cpu": "EPYC", "gpu_name": None}
+    base = _run(tmp_path, "base", machine=cpu)
+    slow = _run(tmp_path, "slow", {("cornell", "ldm-ao", "ao"): {"ms": 20.0}}, machine=cpu)
+    rc, out, err = _cli(capsys, base, slow)
+    assert rc == 0 and "cpu-software" in err and "time checks are off" in err
+    rc, out, err = _cli(capsys, base, slow, "--cpu-time")
+    assert rc == 1 and "[time]" in out
+    worse = _run(tmp_path, "worse", {("cornell", "ldm-ao", "ao"): {"psnr": 26.0}}, machine=cpu)
+    rc, out, _ = _cli(capsys, base, worse)
+    assert rc == 1 and "[psnr]" in out
