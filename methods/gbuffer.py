@@ -31,12 +31,25 @@ class SceneGeometry:
         data[:, :, :3] = v[f]
         data[:, :, 3:6] = n[:, None, :]
         data[:, :, 6] = mid[:, None]
-        self.gpu, self.scene = gpu, scene
+        self.gpu, self.scene, self._res = gpu, scene, res
         self.triangles = len(f)
         self.vbo = res.buffer("geometry.vertices", data)
         self.albedo = res.buffer("geometry.albedo", np.concatenate(
             [albedo, np.ones((len(albedo), 1), np.float32)], axis=1))
         self.lo, self.hi = scene.bounds()
+        # Indexed, position-only copy for passes that need nothing but depth (layered builds run the
+        # vertex shader once per *vertex* per layer instead of three times per triangle).
+        self._indexed = None
+        self._v, self._f = v, f
+
+    def vao_positions(self, program):
+        """An indexed vertex array with ``in_position`` only (shared vertices, 12 bytes each)."""
+        if self._indexed is None:
+            res = self._res
+            self._indexed = (res.buffer("geometry.positions", self._v), res.buffer("geometry.indices", self._f))
+        pos, idx = self._indexed
+        return self.gpu.ctx.vertex_array(program, [(pos, "3f", "in_position")], index_buffer=idx,
+                                         index_element_size=4)
 
     def vao(self, program):
         """A vertex array binding this geometry to ``program`` (attributes it lacks are skipped)."""

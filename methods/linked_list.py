@@ -97,6 +97,8 @@ class LayeredLinkedLists:
     max_list : local-array size of the sort pass (unsorted variant).
     instanced : one instanced draw for all layers (True) or one draw per layer.
     page_nodes : nodes per SSBO page (a power of two; default from the driver's SSBO size limit).
+    indexed : rasterize the shared indexed position-only geometry (vertex shader once per vertex
+        and layer) instead of the non-indexed triangle list; same triangles, same fragments.
     aggregate : warp-aggregated node allocation (``ARB_shader_ballot``): one ``atomicAdd`` on the
         counter per subgroup instead of one per fragment.
     """
@@ -104,7 +106,7 @@ class LayeredLinkedLists:
     def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
                  sorted_insert: bool = True, pool: str = "grow", pool_capacity: int = 0,
                  max_list: int = 64, instanced: bool = True, page_nodes: int | None = None,
-                 aggregate: bool = False, prefix: str = "ll."):
+                 aggregate: bool = False, indexed: bool = True, prefix: str = "ll."):
         if pool not in POLICIES:
             raise LdbenchError(f"linked-list pool policy {pool!r} not one of {list(POLICIES)}")
         if pool == "fixed" and pool_capacity < 1:
@@ -114,6 +116,7 @@ class LayeredLinkedLists:
         self.height = int(height if height is not None else width)
         self.sorted_insert, self.pool, self.max_list = bool(sorted_insert), pool, int(max_list)
         self.instanced = bool(instanced)
+        self.indexed = bool(indexed)
         self.aggregate = bool(aggregate)
         if self.aggregate:
             missing = [e for e in ("GL_ARB_shader_ballot", "GL_ARB_gpu_shader_int64")
@@ -201,7 +204,7 @@ class LayeredLinkedLists:
         if getattr(self, "_vaos", None) is None:
             self._vaos = {}
         if key not in self._vaos:
-            self._vaos[key] = self.geo.vao(prog)
+            self._vaos[key] = self.geo.vao_positions(prog) if self.indexed else self.geo.vao(prog)
         return prog, self._vaos[key]
 
     def _reset_counters(self):

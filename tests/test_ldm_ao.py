@@ -182,7 +182,8 @@ def test_sorted_and_unsorted_lists_give_identical_ao(gpu):
     base, _ = render(gpu, scene, eff, size=48, directions=32, resolution=64)
     assert base.counters["max_list_length"] >= 4
     for kw in ({"sorted_insert": False}, {"sorted_insert": False, "max_list": 2},
-               {"instanced": False}, {"pool": "count"}, {"sorted_insert": False, "pool": "count"}):
+               {"instanced": False}, {"indexed": False}, {"pool": "count"},
+               {"sorted_insert": False, "pool": "count"}):
         other, _ = render(gpu, scene, eff, size=48, directions=32, resolution=64, **kw)
         assert np.array_equal(other.image, base.image), kw
         assert other.counters["fragments"] == base.counters["fragments"]

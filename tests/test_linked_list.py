@@ -118,12 +118,14 @@ def _total(expected):
 
 @pytest.mark.parametrize("sorted_insert", [True, False])
 @pytest.mark.parametrize("instanced", [True, False])
+@pytest.mark.parametrize("indexed", [True, False])
 @pytest.mark.parametrize("pool", ["grow", "count"])
 @pytest.mark.parametrize("aggregate", [False, True])
-def test_lists_sorted_and_exact(setup, expected, sorted_insert, instanced, pool, aggregate):
+def test_lists_sorted_and_exact(setup, expected, sorted_insert, instanced, indexed, pool, aggregate):
     if aggregate and "GL_ARB_shader_ballot" not in setup[0].ctx.extensions:
         pytest.skip("no ARB_shader_ballot")
-    ll = _build(setup, sorted_insert=sorted_insert, instanced=instanced, pool=pool, aggregate=aggregate)
+    ll = _build(setup, sorted_insert=sorted_insert, instanced=instanced, indexed=indexed, pool=pool,
+                aggregate=aggregate)
     _compare(ll, expected)
     st = ll.stats()
     n = _total(expected)

@@ -25,20 +25,21 @@ direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with 
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
-==================  ========  =======  ========================================================
-Parameter           Default   Paper    Meaning
-==================  ========  =======  ========================================================
-``directions``      128       512      number of LDMs (axes; each answers ±v)
-``resolution``      128       200, 50  texels per side of each LDM
-``bias``            0.25               self-intersection bias along the ray, in LDM texels
-``pool``            grow               node-pool sizing: grow | count | fixed (methods/linked_list.py)
-``pool_capacity``   0                  nodes for ``fixed`` (and first size for ``grow``)
-``sorted_insert``   True      True     lock-free sorted insert; False = yang2010 + sort pass
-``max_list``        64                 local-array length of the sort pass (longer: slow path)
-``instanced``       True               one instanced draw for all maps (False: a draw per map)
-``aggregate_atomics`` False            one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
-``estimator``       ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos
-==================  ========  =======  ========================================================
+======================  ========  =======  ========================================================
+Parameter               Default   Paper    Meaning
+======================  ========  =======  ========================================================
+``directions``          128       512      number of LDMs (axes; each answers ±v)
+``resolution``          128       200, 50  texels per side of each LDM
+``bias``                0.25               self-intersection bias along the ray, in LDM texels
+``pool``                grow               node-pool sizing: grow | count | fixed (methods/linked_list.py)
+``pool_capacity``       0                  nodes for ``fixed`` (and first size for ``grow``)
+``sorted_insert``       True      True     lock-free sorted insert; False = yang2010 + sort pass
+``max_list``            64                 local-array length of the sort pass (longer: slow path)
+``instanced``           True               one instanced draw for all maps (False: a draw per map)
+``aggregate_atomics``   False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
+``indexed``             True               build from indexed position-only geometry (vertex reuse)
+``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos
+======================  ========  =======  ========================================================
 """
 from __future__ import annotations
 
@@ -94,6 +95,7 @@ class LdmAOParams(ParamsBase):
                           lo=1, hi=1024)
     instanced: bool = param(True, "one instanced draw for all maps (False: one draw per map)")
     aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
+    indexed: bool = param(True, "build from indexed position-only geometry (else the triangle list)")
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2)",
                            choices=("ratio", "paper"), paper="paper")
 
@@ -118,7 +120,7 @@ class LdmAO(Method):
         self.ll = LayeredLinkedLists(gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
                                      sorted_insert=p.sorted_insert, pool=p.pool,
                                      pool_capacity=p.pool_capacity, max_list=p.max_list,
-                                     instanced=p.instanced, aggregate=p.aggregate_atomics,
+                                     instanced=p.instanced, aggregate=p.aggregate_atomics, indexed=p.indexed,
                                      prefix="ldm.")
         self.ll.set_layers(clip, rows)
         basis = np.zeros((p.directions, 3, 4), np.float32)
