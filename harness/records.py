@@ -261,11 +261,15 @@ def git_info(repo_dir) -> dict:
     dict
         ``commit`` (full hash; None before the first commit), ``dirty`` (True when
         ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
-        detached HEAD). All None when git is missing or ``repo_dir`` is not in a repository.
+        detached HEAD). All None when git is missing or ``repo_dir`` is not in a repository, unless
+        ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a copied working tree without
+        ``.git`` (a remote GPU runner) can still record which commit it ran.
     """
     status = _git(repo_dir, "status", "--porcelain")
     if status is None:
-        return {"commit": None, "dirty": None, "branch": None}
+        env = os.environ.get("LDBENCH_COMMIT")
+        dirty = os.environ.get("LDBENCH_DIRTY")
+        return {"commit": env or None, "dirty": None if dirty is None else dirty == "1", "branch": None}
     commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
     branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
     return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
