@@ -253,6 +253,13 @@ def _git(repo_dir, *args) -> str | None:
     return p.stdout if p.returncode == 0 else None
 
 
+def git_info_from_env() -> dict:
+    """``LDBENCH_COMMIT`` / ``LDBENCH_DIRTY`` (0/1) as :func:`git_info` fields (None when unset)."""
+    dirty = os.environ.get("LDBENCH_DIRTY")
+    return {"commit": os.environ.get("LDBENCH_COMMIT") or None,
+            "dirty": None if dirty is None else dirty == "1", "branch": None}
+
+
 def git_info(repo_dir) -> dict:
     """Commit, dirty flag and branch of the git checkout holding ``repo_dir``.
 
@@ -267,10 +274,10 @@ def git_info(repo_dir) -> dict:
     """
     status = _git(repo_dir, "status", "--porcelain")
     if status is None:
-        env = os.environ.get("LDBENCH_COMMIT")
-        dirty = os.environ.get("LDBENCH_DIRTY")
-        return {"commit": env or None, "dirty": None if dirty is None else dirty == "1", "branch": None}
+        return git_info_from_env()
     commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
+    if not commit and os.environ.get("LDBENCH_COMMIT"):  # a tree copied without its history
+        return git_info_from_env()
     branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
     return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
             "branch": branch.strip() if branch else None}
