@@ -159,7 +159,19 @@ class Method:
         raise NotImplementedError
 
     def release(self) -> None:
-        """Free every GPU object."""
+        """Free every GPU object (everything allocated through ``self.res``)."""
+        if getattr(self, "res", None) is not None:
+            self.res.release()
+
+    def setup_scene(self, gpu, scene) -> None:
+        """The common part of ``setup``: ``self.res`` (memory-accounted allocations), the scene's
+        triangles on the GPU (``self.geo``) and a G-buffer pass (``self.gbuf``)."""
+        from methods.gbuffer import GBuffer, SceneGeometry
+
+        self.gpu, self.scene = gpu, scene
+        self.res = gpu.resources()
+        self.geo = SceneGeometry(gpu, scene, self.res)
+        self.gbuf = GBuffer(gpu, self.geo, self.res)
 
     def shader(self, name: str) -> Path:
         return Path(importlib.import_module(type(self).__module__).__file__).parent / name

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from analytic import disk_occlusion
 from harness.effects import Effect
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene
@@ -80,30 +81,6 @@ def disk_ao(a, h=1.0, r=1.0):
     """Classic AO (d_max = ∞): 1 − ½[1 − (h² + a² − r²)/√((h² + a² + r²)² − 4a²r²)]."""
     a = np.asarray(a, np.float64)
     return 1 - 0.5 * (1 - (h * h + a * a - r * r) / np.sqrt((h * h + a * a + r * r) ** 2 - 4 * a * a * r * r))
-
-
-def disk_occlusion(a, h=1.0, r=1.0, d_max=math.inf, falloff="step", nphi=2048):
-    """(1/π)∫ρ(t) cosθ dω over the directions hitting the disk (= 1 − AO), as in test_references.py:
-    polar coordinates about the point's projection, closed-form radial integral, midpoint rule in φ."""
-    a = np.asarray(a, np.float64).reshape(-1)
-    phi = (np.arange(nphi) + 0.5) / nphi * 2 * np.pi
-    c, s = np.cos(phi)[None], np.sin(phi)[None]
-    out = np.empty_like(a)
-    for i0 in range(0, len(a), 512):
-        A = a[i0:i0 + 512, None]
-        D = r * r - A * A * s * s
-        sq = np.sqrt(np.maximum(D, 0))
-        s2 = -A * c + sq
-        s1 = np.maximum(0.0, -A * c - sq)
-        if math.isfinite(d_max):
-            s2 = np.minimum(s2, math.sqrt(max(d_max * d_max - h * h, 0.0)))
-        ok = (D > 0) & (s2 > s1)
-        h2 = h * h
-        g = h2 / 2 * (1 / (h2 + s1 ** 2) - 1 / (h2 + s2 ** 2))
-        if falloff == "quadratic":
-            g = g - h2 / (2 * d_max ** 2) * np.log((h2 + s2 ** 2) / (h2 + s1 ** 2))
-        out[i0:i0 + 512] = np.where(ok, g, 0.0).sum(1) * (2 * np.pi / nphi) / np.pi
-    return out
 
 
 def test_disk_formula_matches_quadrature():

@@ -16,13 +16,14 @@ Parameter           Default   Meaning
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from harness.gpu import GLSL_DIR, read_texture
 from harness.scene import Camera
 from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import GBuffer, SceneGeometry, mat_bytes
-from dataclasses import dataclass
+from methods.gbuffer import mat_bytes
 
 # Cube faces in atlas order: (forward, up), as in the OpenGL cube-map convention.
 CUBE_FACES = (((1, 0, 0), (0, -1, 0)), ((-1, 0, 0), (0, -1, 0)), ((0, 1, 0), (0, 0, 1)),
@@ -67,10 +68,8 @@ class DirectRaster(Method):
         if not scene.lights:
             from harness.errors import LdbenchError
             raise LdbenchError(f"scene {scene.name!r} has no spot or point light; effect 'direct' needs one")
-        self.gpu, self.scene, self.light = gpu, scene, scene.lights[0]
-        self.res = gpu.resources()
-        self.geo = SceneGeometry(gpu, scene, self.res)
-        self.gbuf = GBuffer(gpu, self.geo, self.res)
+        self.light = scene.lights[0]
+        self.setup_scene(gpu, scene)
         s = self.params.shadow_size
         self.shadow_prog = gpu.program(GLSL_DIR / "cube_shadow.glsl")
         self.shadow_vao = self.geo.vao(self.shadow_prog)
@@ -117,5 +116,3 @@ class DirectRaster(Method):
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
                       counters={"shadow_texels": 6 * s * s})
 
-    def release(self):
-        self.res.release()

@@ -83,7 +83,7 @@ import numpy as np
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import GBuffer, SceneGeometry, mat_bytes
+from methods.gbuffer import mat_bytes
 
 INTEGRALS = ("hbao", "cosine")
 DEFAULT_BIAS_DEG = {"hbao": 10.0, "cosine": 0.0}
@@ -136,10 +136,7 @@ class HBAO(Method):
 
     def setup(self, gpu, scene):
         p = self.params
-        self.gpu, self.scene = gpu, scene
-        self.res = gpu.resources()
-        self.geo = SceneGeometry(gpu, scene, self.res)
-        self.gbuf = GBuffer(gpu, self.geo, self.res)
+        self.setup_scene(gpu, scene)
         self.prog = gpu.compute(self.shader("hbao.glsl"), {"INTEGRAL": INTEGRALS.index(p.integral),
                                                                 "PLANE_FIT": p.plane_fit})
         self.blur_prog = gpu.compute(self.shader("blur.glsl"))
@@ -197,5 +194,3 @@ class HBAO(Method):
                       counters={"directions": p.directions, "steps": p.steps,
                                 "samples_per_pixel": p.directions * p.steps})
 
-    def release(self):
-        self.res.release()

@@ -51,7 +51,6 @@ import numpy as np
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, orthonormal_basis
-from methods.gbuffer import GBuffer, SceneGeometry
 from methods.linked_list import POLICIES, LayeredLinkedLists
 
 B_AXES = 11
@@ -110,10 +109,7 @@ class LdmAO(Method):
 
     def setup(self, gpu, scene):
         p = self.params
-        self.gpu, self.scene = gpu, scene
-        self.res = gpu.resources()
-        self.geo = SceneGeometry(gpu, scene, self.res)
-        self.gbuf = GBuffer(gpu, self.geo, self.res)
+        self.setup_scene(gpu, scene)
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
@@ -169,5 +165,3 @@ class LdmAO(Method):
                  texel_world=self.texel, bounding_radius=self.radius)
         return c
 
-    def release(self):
-        self.res.release()
