@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from contextlib import contextmanager
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -182,6 +183,23 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
             mask.reshape(H, W))
 
 
+@contextmanager
+def _variant_active(variant: str):
+    """Mitsuba with ``variant`` set for the block; the caller's variant restored afterwards."""
+    import mitsuba as mi
+
+    prev = mi.variant()
+    mi.set_variant(variant)
+    try:
+        yield mi
+    finally:
+        if prev is not None and prev != variant:
+            try:
+                mi.set_variant(prev)
+            except Exception:
+                pass
+
+
 def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024, cache: bool = True,
                      cache_dir=None, progress: bool = True, seed: int = 0,
                      batch_rays: int | None = None) -> Reference:
@@ -208,11 +226,7 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
     variant = choose_variant()
     if batch_rays is None:
         batch_rays = BATCH_RAYS.get(variant, 1 << 22)
-    import mitsuba as mi
-
-    prev = mi.variant()
-    mi.set_variant(variant)
-    try:
+    with _variant_active(variant):
         version = mitsuba_version()
         fields = _cache.key_fields(scene, effect, width, height, spp_eff, seed, version, variant)
         key = _cache.cache_key(fields)
@@ -250,12 +264,6 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
             except LdbenchError as e:  # the reference itself is fine: keep it, say why it is not cached
                 warnings.warn(f"reference not cached: {e}", RuntimeWarning, stacklevel=2)
         return Reference(mean, var, mask, meta)
-    finally:
-        if prev is not None and prev != variant:
-            try:
-                mi.set_variant(prev)
-            except Exception:
-                pass
 
 
 def primary_hits(scene, width: int, height: int) -> dict:
@@ -267,11 +275,8 @@ def primary_hits(scene, width: int, height: int) -> dict:
     """
     variant = choose_variant()
     import drjit as dr
-    import mitsuba as mi
 
-    prev = mi.variant()
-    mi.set_variant(variant)
-    try:
+    with _variant_active(variant) as mi:
         mscene = _int.build_scene(scene, with_lights=False)
         o, d = _int.primary_rays(scene, width, height)
         ray, si = _int.trace_primary(mi, dr, mscene, o, d)
@@ -289,9 +294,3 @@ def primary_hits(scene, width: int, height: int) -> dict:
             "distance": np.where(m, _int.np1(si.t), np.inf).astype(np.float32).reshape(H, W),
             "albedo": z3(_int.np3(mi.Color3f(alb))),
         }
-    finally:
-        if prev is not None and prev != variant:
-            try:
-                mi.set_variant(prev)
-            except Exception:
-                pass
