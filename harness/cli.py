@@ -143,14 +143,42 @@ def _run_args(p):
     p.add_argument("--no-progress", action="store_true")
 
 
+def _method_sets(pairs) -> dict:
+    """``--set METHOD.PARAM=VALUE`` flags as {method: {param: value}}."""
+    params: dict = {}
+    for kv in pairs or []:
+        if "=" not in kv or "." not in kv.split("=", 1)[0]:
+            raise LdbenchError(f"--set expects METHOD.PARAM=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        m, p = k.split(".", 1)
+        params.setdefault(m, {})[p] = _literal(v)
+    return params
+
+
 def suite_from_args(args):
     """A suite from a TOML file, or from --scene/--method/--effect flags (flags override the file)."""
     from .suite import load_suite, suite_from_dict
 
     if args.suite and (args.scene or args.method or args.effect):
         raise LdbenchError("give either a suite file or --scene/--method/--effect, not both")
+    # --set with a suite overrides parameters (e.g. a deliberately degraded nightly run)
+    params = _method_sets(args.set)
     if args.suite:
         suite = load_suite(args.suite)
+        if params:  # --set overrides a method's parameters in every job of the suite that runs it
+            import dataclasses
+            from methods.base import get_method
+            for m, ps in params.items():
+                if not any(j.method == m for j in suite.jobs):
+                    raise LdbenchError(f"--set names method {m!r}, which this suite does not run")
+            jobs = []
+            for j in suite.jobs:
+                if j.method in params:
+                    merged = {**dict(j.params), **params[j.method]}
+                    get_method(j.method).Params.from_dict(merged, method=j.method)
+                    j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
+                jobs.append(j)
+            suite.jobs = jobs
         if any(v is not None for v in (args.size, args.spp, args.warmup, args.frames)):
             import dataclasses
             from .suite import parse_size
@@ -162,15 +190,9 @@ def suite_from_args(args):
         return suite
     if not (args.scene and args.method and args.effect):
         raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
-    params: dict = {}
-    for kv in args.set or []:
-        if "=" not in kv or "." not in kv.split("=", 1)[0]:
-            raise LdbenchError(f"--set expects METHOD.PARAM=VALUE, got {kv!r}")
-        k, v = kv.split("=", 1)
-        m, p = k.split(".", 1)
+    for m in params:
         if m not in args.method:
-            raise LdbenchError(f"--set {kv!r} names method {m!r}, which is not in --method")
-        params.setdefault(m, {})[p] = _literal(v)
+            raise LdbenchError(f"--set names method {m!r}, which is not in --method")
     run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
            "scene_params": _scene_params(args.scene_set)}
     if args.d_max is not None:

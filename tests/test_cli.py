@@ -109,3 +109,19 @@ def test_no_gl43_is_one_line(tmp_path):
                         "--size", "16x16", "--out", str(tmp_path / "r"), "--no-progress", env=env)
     assert_one_line_error(rc, se, "OpenGL 4.3")
     assert not (tmp_path / "r").exists()
+
+
+def test_set_overrides_suite_params(tmp_path):
+    from harness.cli import build_parser, suite_from_args
+
+    suite = tmp_path / "s.toml"
+    suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "ao"\n'
+                     'methods = ["ldm-ao", "hbao"]\n[run.params.ldm-ao]\ndirections = 32\n')
+    args = build_parser().parse_args(["run", str(suite), "--set", "ldm-ao.directions=8",
+                                      "--set", "ldm-ao.resolution=16"])
+    jobs = {j.method: dict(j.params) for j in suite_from_args(args).jobs}
+    assert jobs == {"ldm-ao": {"directions": 8, "resolution": 16}, "hbao": {}}
+    rc, _, se = run_cli("run", str(suite), "--set", "direct-raster.shadow_size=64")
+    assert_one_line_error(rc, se, "direct-raster", "does not run")
+    rc, _, se = run_cli("run", str(suite), "--set", "ldm-ao.directions=0")
+    assert_one_line_error(rc, se, "directions")
