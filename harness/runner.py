@@ -90,6 +90,8 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         for job in suite.jobs:
             if job.scene_key not in scenes:
                 scenes[job.scene_key] = load_scene(job.scene, **dict(job.scene_params))
+                for w in scenes[job.scene_key].warnings:
+                    print(f"ldbench: warning: {w}", file=sys.stderr)
             sc = scenes[job.scene_key]
             from .effects import NEEDS_LIGHT
             if job.effect.name in NEEDS_LIGHT and not sc.lights:
