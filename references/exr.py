@@ -55,6 +55,7 @@ def write_exr(path, channels: dict, header: dict | None = None) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp.exr", dir=path.parent)
         os.close(fd)
+        os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
     except OSError as e:
         raise LdbenchError(f"cannot write {path}: {e.strerror or e}")
     try:
