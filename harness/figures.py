@@ -242,6 +242,14 @@ def _series_label(r, keys) -> str:
     return ", ".join(parts)
 
 
+def _log_x(ax):
+    """Log x axis with labelled decades only (minor labels overlap on narrow panels)."""
+    from matplotlib.ticker import NullFormatter
+
+    ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _x_positions(values):
     """Numeric x positions; inf goes to the right of the largest finite value. Returns (xs, inf_x, log)."""
     fin = [v for v in values if v is not None and math.isfinite(v)]
@@ -339,7 +347,7 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
         else:
             ax.plot(x, y, marker="o", color=pal[k], label=lab)
     if log:
-        ax.set_xscale("log")
+        _log_x(ax)
     ticks = sorted({v for v in xs_all if v is not None and v != inf_x})
     if len(ticks) <= 12:  # label the measured values themselves (∞ for d_max = inf)
         ax.set_xticks(ticks + ([inf_x] if inf_x is not None else []))
@@ -484,7 +492,7 @@ def figure_quality(df, run_dir: Path, key, rows) -> Figure | None:
         ax.set_xlabel("time per frame (ms)")
         ax.set_ylabel(lab + ("" if hib else " — lower is better"))
         if log:
-            ax.set_xscale("log")
+            _log_x(ax)
         ax.grid(True, alpha=0.3)
     axes[0][0].legend(loc="best")
     scene, eff, size, eslug = key
