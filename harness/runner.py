@@ -139,6 +139,7 @@ def _run_one(gpu, job, scene, ref, out, suite_name, run_id, machine, git, get_me
             gpu.begin_frame()
             result = method.frame(view, job.effect)
             stages, wall = gpu.end_frame()
+            result.stages_ms = stages
             if i >= job.warmup:
                 for k, v in stages.items():
                     samples.setdefault(k, []).append(v)
