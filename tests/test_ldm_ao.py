@@ -7,54 +7,26 @@ import math
 import numpy as np
 import pytest
 
-from analytic import disk_occlusion
+from testkit import disk, disk_occlusion, plane
+from testkit import cornell_like as _cornell_like
+from testkit import disk_ao_formula as disk_ao
 from harness.effects import Effect
 from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
+from harness.scene import Camera, Scene
 from methods.base import View, get_method, registry
 from methods.ldm_ao import LdmAO, LdmAOParams
 
 
 # ---------------------------------------------------------------------------------------------------
-# scenes (the plane/disk setup of tests/test_references.py)
-
-def quad(p0, p1, p2, p3, name, albedo=(0.8, 0.8, 0.8)):
-    return Mesh(name, np.array([p0, p1, p2, p3], np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32), albedo)
-
-
-def plane(size=40.0):
-    s = size / 2
-    return quad((-s, 0, -s), (-s, 0, s), (s, 0, s), (s, 0, -s), "plane")
-
-
-def disk(r=1.0, h=1.0, seg=128):
-    a = np.arange(seg) * 2 * np.pi / seg
-    v = np.concatenate([[[0, h, 0]], np.stack([r * np.cos(a), np.full(seg, h), r * np.sin(a)], -1)])
-    f = np.array([[0, 1 + (i + 1) % seg, 1 + i] for i in range(seg)], np.int32)
-    return Mesh("disk", v.astype(np.float32), f, (0.5, 0.5, 0.5))
-
-
-def box(lo, hi, name):
-    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], np.float32)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
-                  [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.int32)
-    return Mesh(name, v, f)
-
-
-def sphere(c, r, n, name):
-    th, ph = np.linspace(0, np.pi, n + 1), np.linspace(0, 2 * np.pi, 2 * n + 1)
-    T, P = np.meshgrid(th, ph, indexing="ij")
-    v = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3) * r + np.array(c)
-    w, f = 2 * n + 1, []
-    for i in range(n):
-        for j in range(2 * n):
-            a = i * w + j
-            f += [[a, a + w, a + 1], [a + 1, a + w, a + w + 1]]
-    return Mesh(name, v.astype(np.float32), np.array(f, np.int32))
-
+# scenes (the plane/disk setup of tests/test_references.py, from tests/testkit.py)
 
 OVERHEAD = Camera(origin=(0, 8, 0), target=(0, 0, 0), up=(0, 0, -1), fov_y=2 * math.degrees(math.atan(0.4)))
 LOW = Camera(origin=(0, 1.6, 6.0), target=(0, 0.2, 0), fov_y=45.0)  # sees the plane under the disk
+
+
+def cornell_like():
+    """The references' small Cornell-like box (lights play no part in AO)."""
+    return _cornell_like(light=False)
 
 
 def plane_disk_scene(camera=OVERHEAD):
@@ -62,26 +34,8 @@ def plane_disk_scene(camera=OVERHEAD):
     return Scene("plane_disk", [plane(), disk()], camera, [])
 
 
-def cornell_like():
-    """Open-front 2 m box with a block and a sphere (the references' small test scene)."""
-    ms = [quad((-1, 0, -1), (-1, 0, 1), (1, 0, 1), (1, 0, -1), "floor"),
-          quad((-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1), "ceiling"),
-          quad((-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1), "back"),
-          quad((-1, 0, -1), (-1, 2, -1), (-1, 2, 1), (-1, 0, 1), "left", (0.63, 0.06, 0.04)),
-          quad((1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1), "right", (0.14, 0.45, 0.09)),
-          box((-0.7, 0, -0.6), (-0.1, 1.2, 0.0), "block"),
-          sphere((0.45, 0.35, 0.3), 0.35, 15, "ball")]
-    return Scene("cornell_like", ms, Camera(origin=(0, 1, 3.9), target=(0, 1, 0), fov_y=39.3), [])
-
-
 # ---------------------------------------------------------------------------------------------------
 # analytic AO of a plane point at distance a from the axis of a disk (r = 1, h = 1)
-
-def disk_ao(a, h=1.0, r=1.0):
-    """Classic AO (d_max = ∞): 1 − ½[1 − (h² + a² − r²)/√((h² + a² + r²)² − 4a²r²)]."""
-    a = np.asarray(a, np.float64)
-    return 1 - 0.5 * (1 - (h * h + a * a - r * r) / np.sqrt((h * h + a * a + r * r) ** 2 - 4 * a * a * r * r))
-
 
 def test_disk_formula_matches_quadrature():
     a = np.linspace(0, 4, 21)

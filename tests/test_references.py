@@ -11,7 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from analytic import disk_occlusion as _disk_occlusion
+from testkit import H_DISK, R_DISK, box, cornell_like, disk, disk_ao_formula, plane, quad
+from testkit import disk_occlusion as _disk_occlusion
 from harness.effects import Effect
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene, SpotLight
@@ -32,63 +33,10 @@ except LdbenchError as e:  # pragma: no cover - machine without a usable Mitsuba
 # scene builders
 
 
-def quad(p0, p1, p2, p3, name, albedo=(0.8, 0.8, 0.8)):
-    return Mesh(name, np.array([p0, p1, p2, p3], np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32),
-                albedo)
-
-
-def plane(size=40.0, y=0.0, albedo=(0.8, 0.8, 0.8), name="plane"):
-    s = size / 2
-    return quad((-s, y, -s), (-s, y, s), (s, y, s), (s, y, -s), name, albedo)
-
-
-def disk(r=1.0, h=1.0, seg=128, name="disk"):
-    a = np.arange(seg) * 2 * np.pi / seg
-    v = np.concatenate([[[0, h, 0]], np.stack([r * np.cos(a), np.full(seg, h), r * np.sin(a)], -1)])
-    f = np.array([[0, 1 + (i + 1) % seg, 1 + i] for i in range(seg)], np.int32)
-    return Mesh(name, v.astype(np.float32), f, (0.5, 0.5, 0.5))
-
-
-def box(lo, hi, name, albedo=(0.75, 0.75, 0.75)):
-    v = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])], np.float32)
-    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
-                  [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.int32)
-    return Mesh(name, v, f, albedo)
-
-
-def sphere(c, r, n, name, albedo=(0.75, 0.75, 0.75)):
-    th, ph = np.linspace(0, np.pi, n + 1), np.linspace(0, 2 * np.pi, 2 * n + 1)
-    T, P = np.meshgrid(th, ph, indexing="ij")
-    v = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3) * r + np.array(c)
-    w, f = 2 * n + 1, []
-    for i in range(n):
-        for j in range(2 * n):
-            a = i * w + j
-            f += [[a, a + w, a + 1], [a + 1, a + w, a + w + 1]]
-    return Mesh(name, v.astype(np.float32), np.array(f, np.int32), albedo)
-
-
-H_DISK, R_DISK = 1.0, 1.0
-
-
 def plane_disk_scene():
     """Plane y=0 (40×40) under a two-sided disk (r=1, 128 segments) at height 1; camera straight down."""
     cam = Camera(origin=(0, 8, 0), target=(0, 0, 0), up=(0, 0, -1), fov_y=2 * math.degrees(math.atan(0.4)))
     return Scene("plane_disk", [plane(), disk(R_DISK, H_DISK)], cam, [])
-
-
-def cornell_like(light=True):
-    """Open-front 2×2×2 box with a block and a 16-ring sphere (~1k triangles)."""
-    ms = [quad((-1, 0, -1), (-1, 0, 1), (1, 0, 1), (1, 0, -1), "floor"),
-          quad((-1, 2, -1), (1, 2, -1), (1, 2, 1), (-1, 2, 1), "ceiling"),
-          quad((-1, 0, -1), (1, 0, -1), (1, 2, -1), (-1, 2, -1), "back"),
-          quad((-1, 0, -1), (-1, 2, -1), (-1, 2, 1), (-1, 0, 1), "left", (0.63, 0.06, 0.04)),
-          quad((1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1), "right", (0.14, 0.45, 0.09)),
-          box((-0.7, 0, -0.6), (-0.1, 1.2, 0.0), "block"),
-          sphere((0.45, 0.35, 0.3), 0.35, 15, "ball")]
-    cam = Camera(origin=(0, 1, 3.9), target=(0, 1, 0), up=(0, 1, 0), fov_y=39.3)
-    lights = [SpotLight(position=(0, 1.95, 0), target=(0, 0, 0), intensity=(5, 5, 5), cutoff_angle=60)] if light else []
-    return Scene("cornell_like", ms, cam, lights)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -97,12 +45,6 @@ def cornell_like(light=True):
 
 def disk_occlusion(a, h=H_DISK, r=R_DISK, **kw):
     return _disk_occlusion(a, h=h, r=r, **kw)
-
-
-def disk_ao_formula(a, h=H_DISK, r=R_DISK):
-    """Classic AO (d_max = ∞) under a coaxial parallel disk: 1 − ½[1 − (h²+a²−r²)/√((h²+a²+r²)² − 4a²r²)]."""
-    a = np.asarray(a, np.float64)
-    return 1 - 0.5 * (1 - (h * h + a * a - r * r) / np.sqrt((h * h + a * a + r * r) ** 2 - 4 * a * a * r * r))
 
 
 def test_disk_quadrature_matches_closed_form():
