@@ -43,12 +43,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import meshio
 from .errors import LdbenchError
 from .scene import Camera, Mesh, Scene, SpotLight
 
 SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk")
-DISK_SEGMENTS = 64
-SPHERE_SUBDIVISIONS = 4  # icosphere: 20 · 4^4 = 5120 triangles
 DEFAULT_FILM = (768, 576)  # Mitsuba's hdrfilm default
 _PARAM_RE = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
 
@@ -343,26 +342,18 @@ class _Loader:
             p = Path(fn) if os.path.isabs(fn) else self.dir / fn
             if not p.is_file():
                 raise self.err(f"mesh file {p} not found", el)
-            from .scenes import read_mesh
             try:
-                v, f = read_mesh(p)
+                v, f = meshio.read_mesh(p)
             except LdbenchError as e:
                 raise self.err(str(e), el) from None
         elif t == "rectangle":
-            v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], np.float64)
-            f = np.array([[0, 1, 2], [0, 2, 3]])
+            v, f = meshio.rectangle()
         elif t == "cube":
-            from .scenes import _box
-            v, f = _box((-1, -1, -1), (1, 1, 1))
+            v, f = meshio.box((-1, -1, -1), (1, 1, 1))
         elif t == "disk":
-            phi = np.arange(DISK_SEGMENTS) * (2 * math.pi / DISK_SEGMENTS)
-            v = np.concatenate([[[0.0, 0.0, 0.0]], np.stack([np.cos(phi), np.sin(phi), 0 * phi], -1)])
-            k = np.arange(DISK_SEGMENTS)
-            f = np.stack([np.zeros_like(k), 1 + k, 1 + (k + 1) % DISK_SEGMENTS], -1)
+            v, f = meshio.disk()
         else:  # sphere
-            import trimesh
-            ico = trimesh.creation.icosphere(subdivisions=SPHERE_SUBDIVISIONS, radius=1.0)
-            v, f = np.asarray(ico.vertices, np.float64), np.asarray(ico.faces)
+            v, f = meshio.icosphere()
             props = self.props(el)
             center = self.vec3(props["center"]) if "center" in props else np.zeros(3)
             radius = self.number(el, "radius", 1.0)

@@ -27,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LdbenchError
+from .meshio import (box, box_parts, cylinder, grid_faces, half_ring, instances, merge, quad, read_mesh,
+                     rot_y)
 from .scene import Camera, Mesh, Scene, SpotLight
 
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off")
@@ -80,113 +82,6 @@ def _albedo_param(scene: str, name: str, value) -> tuple:
     return tuple(vals)
 
 
-# ---------------------------------------------------------------------------------------------------
-# vectorised geometry helpers. A "part" is (vertices (N,3) float64, faces (M,3) int64).
-
-def _grid_faces(rows: int, cols: int, wrap: bool = False) -> np.ndarray:
-    """Faces of a rows × cols vertex grid (vertex (r, c) = r * cols + c).
-
-    Each cell gives (a_c, b_c, b_c+1), (a_c, b_c+1, a_c+1) with a = row r, b = row r + 1, so the
-    front normal is (row direction) × (column direction). ``wrap`` closes the columns (tubes).
-    """
-    ncell = cols if wrap else cols - 1
-    r = np.arange(rows - 1)[:, None]
-    c = np.arange(ncell)[None, :]
-    c1 = (c + 1) % cols
-    a0, a1 = r * cols + c, r * cols + c1
-    b0, b1 = (r + 1) * cols + c, (r + 1) * cols + c1
-    f = np.stack([np.stack([a0, b0, b1], -1), np.stack([a0, b1, a1], -1)], -2)
-    return f.reshape(-1, 3)
-
-
-def _quad(p0, a, b, n: int = 1):
-    """Parallelogram p0 + s a + t b (s, t in [0, 1]) split into n × n cells; front normal a × b."""
-    p0, a, b = (np.asarray(x, np.float64) for x in (p0, a, b))
-    s = np.linspace(0.0, 1.0, n + 1)
-    v = p0 + s[:, None, None] * a + s[None, :, None] * b
-    return v.reshape(-1, 3), _grid_faces(n + 1, n + 1)
-
-
-def _merge(parts):
-    vs, fs, off = [], [], 0
-    for v, f in parts:
-        vs.append(v)
-        fs.append(f + off)
-        off += len(v)
-    return np.concatenate(vs), np.concatenate(fs)
-
-
-def _box_parts(lo, hi, n: int = 1, skip=(), inward: bool = False):
-    """Faces of the axis-aligned box [lo, hi], keyed '+x', '-x', '+y', '-y', '+z', '-z'.
-
-    Normals point out of the box (into it with ``inward``); faces named in ``skip`` are left out.
-    """
-    x0, y0, z0 = lo
-    x1, y1, z1 = hi
-    X, Y, Z = np.array([x1 - x0, 0, 0]), np.array([0, y1 - y0, 0]), np.array([0, 0, z1 - z0])
-    faces = {
-        "+x": ((x1, y0, z0), Y, Z), "-x": ((x0, y0, z0), Z, Y),
-        "+y": ((x0, y1, z0), Z, X), "-y": ((x0, y0, z0), X, Z),
-        "+z": ((x0, y0, z1), X, Y), "-z": ((x0, y0, z0), Y, X),
-    }
-    out = {}
-    for k, (p, a, b) in faces.items():
-        if k in skip:
-            continue
-        out[k] = _quad(p, b, a, n) if inward else _quad(p, a, b, n)
-    return out
-
-
-def _box(lo, hi, n: int = 1, skip=()):
-    return _merge(_box_parts(lo, hi, n, skip).values())
-
-
-def _rot_y(deg: float) -> np.ndarray:
-    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
-    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
-
-def _instances(template, offsets):
-    """Copies of a template part translated by each offset (vectorised)."""
-    v, f = template
-    offsets = np.asarray(offsets, np.float64).reshape(-1, 3)
-    k = len(offsets)
-    vv = (v[None] + offsets[:, None]).reshape(-1, 3)
-    ff = (f[None] + (np.arange(k) * len(v))[:, None, None]).reshape(-1, 3)
-    return vv, ff
-
-
-def _cylinder(radius: float, y0: float, y1: float, around: int, rings: int):
-    """Open cylinder side around the y axis, outward normals: around × rings × 2 triangles."""
-    phi = np.arange(around) * (2 * math.pi / around)
-    y = np.linspace(y0, y1, rings + 1)
-    v = np.empty((rings + 1, around, 3))
-    v[..., 0] = radius * np.cos(phi)
-    v[..., 1] = y[:, None]
-    v[..., 2] = radius * np.sin(phi)
-    return v.reshape(-1, 3), _grid_faces(rings + 1, around, wrap=True)
-
-
-def _half_ring(r_in: float, r_out: float, depth: float, segs: int):
-    """Arch: half annulus in the xy plane (angles 0..π about the origin), extruded over z ∈ ±depth/2.
-
-    Four surfaces (intrados, extrados, front, back), normals outwards: 8 × segs triangles.
-    """
-    th = np.linspace(0.0, math.pi, segs + 1)
-    c, s = np.cos(th), np.sin(th)
-
-    def ring(r, z):
-        return np.stack([r * c, r * s, np.full_like(c, z)], -1)
-
-    A, B = ring(r_in, depth / 2), ring(r_out, depth / 2)  # front inner / outer
-    C, D = ring(r_in, -depth / 2), ring(r_out, -depth / 2)  # back inner / outer
-    g = _grid_faces(2, segs + 1)
-    return _merge([(np.concatenate([A, B]), g),   # front (+z)
-                   (np.concatenate([D, C]), g),   # back (-z)
-                   (np.concatenate([B, D]), g),   # extrados (outwards)
-                   (np.concatenate([C, A]), g)])  # intrados (towards the opening)
-
-
 def _mesh(name, part, albedo) -> Mesh:
     v, f = part
     return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo)
@@ -209,7 +104,7 @@ def build_cornell(subdivide=0) -> Scene:
     """
     s = _int_param("cornell", "subdivide", subdivide, 0, 128)
     n = s + 1
-    walls = _box_parts((-1, 0, -1), (1, 2, 1), n, skip=("+z",), inward=True)
+    walls = box_parts((-1, 0, -1), (1, 2, 1), n, skip=("+z",), inward=True)
     meshes = [
         _mesh("floor", walls["-y"], WHITE),
         _mesh("ceiling", walls["+y"], WHITE),
@@ -221,8 +116,8 @@ def build_cornell(subdivide=0) -> Scene:
     blocks = {"short_block": (0.328631, 0.374592, 0.595, 0.6, 0.604, 73.36),
               "tall_block": (-0.335439, -0.291415, 0.607, 1.2, 0.598, 19.19)}
     for name, (cx, cz, sx, h, sz, ang) in blocks.items():
-        v, f = _box((-sx / 2, 0, -sz / 2), (sx / 2, h, sz / 2), n, skip=("-y",))
-        v = v @ _rot_y(ang).T + np.array([cx, 0, cz])
+        v, f = box((-sx / 2, 0, -sz / 2), (sx / 2, h, sz / 2), n, skip=("-y",))
+        v = v @ rot_y(ang).T + np.array([cx, 0, cz])
         meshes.append(_mesh(name, (v, f), WHITE))
     cam = Camera(origin=(0.0, 1.0, 3.9), target=(0.0, 1.0, 0.0), up=(0, 1, 0), fov_y=39.3077)
     light = SpotLight(position=(0.0, 1.95, 0.0), target=(0.0, 0.0, 0.0), intensity=(10.0, 10.0, 10.0),
@@ -245,9 +140,9 @@ _AT_PIERS = np.arange(-_AT["xh"], _AT["xh"] + 1e-9, _AT["pier_dx"])  # column x 
 def _atrium_fixed(xh, zh, wall_h, za, depth, **_):
     """Tessellation-independent parts of the atrium, by material."""
     d2 = depth / 2
-    floor = _quad((-xh, 0, -zh), (0, 0, 2 * zh), (2 * xh, 0, 0))
-    room = _box_parts((-xh, 0, -zh), (xh, wall_h, zh), 1, skip=("+y", "-y"), inward=True)
-    walls = _merge(room.values())
+    floor = quad((-xh, 0, -zh), (0, 0, 2 * zh), (2 * xh, 0, 0))
+    room = box_parts((-xh, 0, -zh), (xh, wall_h, zh), 1, skip=("+y", "-y"), inward=True)
+    walls = merge(room.values())
     gallery, trim = [], []
     for sgn in (1.0, -1.0):
         for y0, y1, rad, ch, cht, band, slab in _AT_STOREYS:
@@ -255,15 +150,15 @@ def _atrium_fixed(xh, zh, wall_h, za, depth, **_):
             top = spring + _AT["r_out"]
             zin, zout = sgn * (za - d2), sgn * zh
             zb = sorted((sgn * (za - d2), sgn * (za + d2)))
-            gallery.append(_box((-xh, top, zb[0]), (xh, top + band, zb[1])))
+            gallery.append(box((-xh, top, zb[0]), (xh, top + band, zb[1])))
             slab_lo = (-xh, top + band, min(zin, zout))
             slab_hi = (xh, top + band + slab, max(zin, zout))
-            gallery.append(_box(slab_lo, slab_hi))
+            gallery.append(box(slab_lo, slab_hi))
             # capitals on top of the column shafts
-            cap = _box((-ch, y1, -ch), (ch, y1 + cht, ch))
+            cap = box((-ch, y1, -ch), (ch, y1 + cht, ch))
             xs = _AT_PIERS[1:-1]
-            trim.append(_instances(cap, np.stack([xs, np.zeros_like(xs), np.full_like(xs, sgn * za)], -1)))
-    return floor, walls, _merge(gallery), _merge(trim)
+            trim.append(instances(cap, np.stack([xs, np.zeros_like(xs), np.full_like(xs, sgn * za)], -1)))
+    return floor, walls, merge(gallery), merge(trim)
 
 
 def _atrium_curtains(xh, zh, za, depth, **_):
@@ -280,8 +175,8 @@ def _atrium_curtains(xh, zh, za, depth, **_):
             p0 = (cx - w / 2, y0 + 0.5, z)
             a, b = (w, 0, 0), (0, top - y0 - 0.5, 0)
             # face the courtyard (normal -sgn z)
-            parts[names[i % 3]].append(_quad(p0, a, b) if sgn < 0 else _quad(p0, b, a))
-    return {k: _merge(v) for k, v in parts.items()}
+            parts[names[i % 3]].append(quad(p0, a, b) if sgn < 0 else quad(p0, b, a))
+    return {k: merge(v) for k, v in parts.items()}
 
 
 def _atrium_count(fixed: int, around: int, rings: int, arch: int) -> int:
@@ -337,18 +232,18 @@ def build_atrium(triangles=20000) -> Scene:
     centres = (_AT_PIERS[:-1] + _AT_PIERS[1:]) / 2
     xs = _AT_PIERS[1:-1]
     for y0, y1, rad, ch, cht, band, slab in _AT_STOREYS:
-        shaft = _cylinder(rad, y0, y1, around, rings)
-        a = _half_ring(_AT["r_in"], _AT["r_out"], _AT["depth"], arch)
+        shaft = cylinder(rad, y0, y1, around, rings)
+        a = half_ring(_AT["r_in"], _AT["r_out"], _AT["depth"], arch)
         for sgn in (1.0, -1.0):
             z = sgn * _AT["za"]
-            cols.append(_instances(shaft, np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], -1)))
-            arches.append(_instances(a, np.stack([centres, np.full_like(centres, y1 + cht),
+            cols.append(instances(shaft, np.stack([xs, np.zeros_like(xs), np.full_like(xs, z)], -1)))
+            arches.append(instances(a, np.stack([centres, np.full_like(centres, y1 + cht),
                                                   np.full_like(centres, z)], -1)))
     meshes = [
         _mesh("floor", floor, (0.62, 0.58, 0.52)),
         _mesh("walls", walls, (0.70, 0.66, 0.58)),
-        _mesh("columns", _merge(cols), (0.75, 0.72, 0.66)),
-        _mesh("arches", _merge(arches), (0.72, 0.68, 0.60)),
+        _mesh("columns", merge(cols), (0.75, 0.72, 0.66)),
+        _mesh("arches", merge(arches), (0.72, 0.68, 0.60)),
         _mesh("galleries", gallery, (0.60, 0.58, 0.55)),
         _mesh("capitals", trim, (0.68, 0.64, 0.58)),
         _mesh("curtain_red", curtains["curtain_red"], (0.60, 0.08, 0.06)),
@@ -425,46 +320,16 @@ def build_hairball(triangles=20000, seed=0) -> Scene:
     phi = np.arange(sides) * (2 * math.pi / sides)
     ring = (np.cos(phi)[None, None, :, None] * nrm[:, :, None] + np.sin(phi)[None, None, :, None] * bin_[:, :, None])
     v = pts[:, :, None] + radius * ring  # (T, S+1, sides, 3)
-    f1 = _grid_faces(segs + 1, sides, wrap=True)[:, ::-1]  # reversed: outward normals
+    f1 = grid_faces(segs + 1, sides, wrap=True)[:, ::-1]  # reversed: outward normals
     nv = (segs + 1) * sides
     faces = (f1[None] + (np.arange(ntubes) * nv)[:, None, None]).reshape(-1, 3)
     tubes = (v.reshape(-1, 3), faces)
-    floor = _quad((-3, -1.1, -3), (0, 0, 6), (6, 0, 0))
+    floor = quad((-3, -1.1, -3), (0, 0, 6), (6, 0, 0))
     meshes = [_mesh("tubes", tubes, (0.72, 0.55, 0.38)), _mesh("floor", floor, (0.6, 0.6, 0.6))]
     cam = Camera(origin=(0.0, 0.8, 4.2), target=(0.0, 0.0, 0.0), up=(0, 1, 0), fov_y=45.0)
     light = SpotLight(position=(2.0, 4.0, 3.0), target=(0.0, 0.0, 0.0), intensity=(60.0,) * 3,
                       cutoff_angle=35.0, up=(0.0, 1.0, 0.0))
     return Scene("hairball", meshes, cam, [light], params={"triangles": target, "seed": seed})
-
-
-def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices float64, faces int64) of a mesh file, via trimesh (scenes merged, ``process=False``);
-    vertices that no face uses are dropped (as Mitsuba's OBJ loader does), so bounds are the surface's.
-
-    Any failure is ``LdbenchError("cannot read mesh <path>: <reason>")``.
-    """
-    import trimesh
-
-    path = str(path)
-    if not os.path.isfile(path):
-        raise LdbenchError(f"cannot read mesh {path}: no such file")
-    try:
-        m = trimesh.load(path, force="mesh", process=False)
-        v = np.asarray(m.vertices, np.float64).reshape(-1, 3)
-        f = np.asarray(m.faces, np.int64).reshape(-1, 3)
-    except LdbenchError:
-        raise
-    except Exception as e:  # trimesh raises many types for bad files
-        msg = " ".join(str(e).split()) or type(e).__name__
-        raise LdbenchError(f"cannot read mesh {path}: {msg}") from None
-    if len(f) == 0:
-        raise LdbenchError(f"cannot read mesh {path}: no triangles in the file")
-    if not np.all(np.isfinite(v)):
-        raise LdbenchError(f"cannot read mesh {path}: non-finite vertex coordinates")
-    if f.min() < 0 or f.max() >= len(v):
-        raise LdbenchError(f"cannot read mesh {path}: face index out of range")
-    used, f = np.unique(f, return_inverse=True)  # drop vertices no face uses (scans often have them)
-    return v[used], f.reshape(-1, 3)
 
 
 def build_mesh(path=None, albedo=(0.8, 0.8, 0.8)) -> Scene:
@@ -487,7 +352,7 @@ def build_mesh(path=None, albedo=(0.8, 0.8, 0.8)) -> Scene:
         raise LdbenchError(f"cannot read mesh {path}: the mesh has zero extent")
     v = (v - np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])) / ext
     name = Path(str(path)).stem
-    room = _box_parts((-1.25, 0, -1.25), (1.25, 2.0, 1.25), 1, skip=("+z", "+y"), inward=True)
+    room = box_parts((-1.25, 0, -1.25), (1.25, 2.0, 1.25), 1, skip=("+z", "+y"), inward=True)
     meshes = [
         _mesh(name, (v, f), albedo),
         _mesh("floor", room["-y"], WHITE),
