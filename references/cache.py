@@ -5,8 +5,9 @@ effect's ``key()``, width, height, the effective spp, seed, the Mitsuba version,
 :data:`REFERENCE_VERSION`. The EXR holds the layers ``mean.*`` and ``variance.*`` (``Y`` for ``ao``,
 ``R,G,B`` otherwise) and the channel ``mask`` (1 = hit); the JSON holds the key fields and the meta of
 the render. Both files are written atomically (temporary file in the same folder + ``os.replace``),
-the EXR first, so a JSON file always describes a complete EXR. A missing, unreadable or mismatching
-entry is a cache miss, never an error.
+the EXR first, so a JSON file always describes a complete EXR. The EXR header carries the key
+(``ldbench_key``); an entry is used only when the file name, the JSON and the EXR header all name the
+same key. A missing, unreadable or mismatching entry is a cache miss, never an error.
 
 ``cache_dir`` defaults to ``$LDBENCH_CACHE`` or ``<repo>/.cache/references/``.
 """
@@ -22,7 +23,7 @@ import numpy as np
 
 from harness.errors import LdbenchError
 
-from .exr import image_channels, read_exr, write_exr
+from .exr import image_channels, read_exr, read_exr_header, write_exr
 
 # Bump whenever an integrator changes what it computes (invalidates every cached reference).
 REFERENCE_VERSION = 2  # 2: secondary rays start nudged towards the camera (edge pixels)
@@ -100,6 +101,8 @@ def load(cache_dir, key: str, fields: dict):
     try:
         doc = json.loads(js.read_text())
         if doc.get("key") != key or cache_key(doc.get("fields", {})) != key:
+            return None
+        if read_exr_header(exr).get("ldbench_key") != key:  # e.g. another entry's EXR copied over it
             return None
         ch = read_exr(exr)
         names = "Y" if int(doc["channels"]) == 1 else "RGB"

@@ -18,7 +18,7 @@ import numpy as np
 
 from harness.errors import LdbenchError
 
-__all__ = ["write_exr", "read_exr", "write_image", "read_image", "image_channels"]
+__all__ = ["write_exr", "read_exr", "read_exr_header", "write_image", "read_image", "image_channels"]
 
 
 def _openexr():
@@ -79,6 +79,19 @@ def read_exr(path) -> dict:
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             return {name: np.asarray(ch.pixels, dtype=np.float32).copy() for name, ch in f.channels().items()}
+    except Exception as e:
+        raise LdbenchError(f"cannot read EXR {path}: {e}")
+
+
+def read_exr_header(path) -> dict:
+    """The string attributes of an EXR header (e.g. ``ldbench_key``), without decoding any pixels."""
+    OpenEXR = _openexr()
+    path = Path(path)
+    if not path.is_file():
+        raise LdbenchError(f"EXR file not found: {path}")
+    try:
+        f = OpenEXR.File(str(path), header_only=True)
+        return {k: v for k, v in f.header().items() if isinstance(v, str)}
     except Exception as e:
         raise LdbenchError(f"cannot read EXR {path}: {e}")
 
