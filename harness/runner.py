@@ -7,8 +7,8 @@ and each frame by wall clock after ``finish()``. Raw samples are kept; median an
 ``total_ms`` is the sum of a frame's stage times (GPU timer queries on a GPU, wall clock on llvmpipe);
 ``wall_ms`` is the frame's wall clock.
 
-The run directory is written under a temporary name and renamed into place only when complete, so a
-failed run never leaves a folder that looks finished.
+The run directory is written under a temporary name and renamed into place only when complete
+(:mod:`harness.rundir`), so a failed run never leaves a folder that looks finished.
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import LdbenchError
+from .rundir import RunDir
 from .suite import Job, Suite
 
 REPO = Path(__file__).resolve().parent.parent
@@ -77,9 +78,8 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
     from .scenes import load_scene
 
     out_dir = Path(out_dir)
-    tmp = out_dir.parent / f".{out_dir.name}.partial-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
+    rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
+    tmp = rundir.open()
     try:
         gpu = Gpu()
         machine = records.machine_info(gpu.info)
@@ -114,11 +114,9 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         if report:
             from .report import write_report
             write_report(tmp)
-        if out_dir.exists():
-            shutil.rmtree(out_dir)
-        tmp.rename(out_dir)
+        rundir.commit()  # old run aside, new one in, old one deleted
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        rundir.abort()
         raise
     return records.read_results(out_dir)
 

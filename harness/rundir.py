@@ -1,0 +1,276 @@
+"""Run directories: written under a temporary name, replaced atomically, never someone else's folder.
+
+A run directory (``ldbench run --out DIR``) holds ``results.parquet`` and ``suite.json`` (see
+:func:`is_run_dir`). :class:`RunDir` is the only code that creates, replaces or deletes one:
+
+* **Refuse** (one-line :class:`~harness.errors.LdbenchError`) when DIR exists and is neither an
+  ldbench run nor an empty folder, when it is a file or a symbolic link, when it is the current
+  directory or contains it, and when its parent cannot be written. All of this is checked by
+  :meth:`RunDir.open`, before anything is rendered.
+* **Lock**: ``.DIR.lock`` beside DIR, held with ``flock`` for the whole run (the pid inside is
+  informational). The kernel drops the lock when its process dies, so a stale lock file left by a
+  killed run is simply taken over; a second live run into the same DIR stops with one line.
+* **Write** into ``.DIR.partial-PID`` (with a marker file ``.ldbench-partial``, so that only folders
+  ldbench made are ever swept).
+* **Sweep**, under the lock: ``.DIR.partial-PID`` folders with the marker whose process is gone are
+  deleted; a ``.DIR.old-PID`` left by a run killed during its commit is deleted when DIR exists, and
+  renamed back to DIR when it does not (it is the last complete run).
+* **Commit**: move the old DIR aside (``.DIR.old-PID``), rename the partial folder in, then delete
+  the old run. A reader sees either the old or the new complete run, never a half-deleted one.
+* **Abort** (any exception, including KeyboardInterrupt): delete only this run's partial folder.
+
+Usage (the runner)::
+
+    rd = RunDir(out_dir)
+    tmp = rd.open()            # checks, lock, sweep, partial folder
+    try:
+        ...write into tmp...
+        rd.commit()
+    except BaseException:
+        rd.abort()
+        raise
+
+or ``with RunDir(out_dir) as tmp: ...`` (commit on a clean exit, abort on an exception).
+"""
+from __future__ import annotations
+
+import errno
+import fcntl
+import os
+import re
+import shutil
+from pathlib import Path
+
+from .errors import LdbenchError
+
+RUN_FILES = ("results.parquet", "suite.json")
+MARKER = ".ldbench-partial"
+
+
+def is_run_dir(path) -> bool:
+    """True if ``path`` is a directory (not a link) holding ``results.parquet`` and ``suite.json``."""
+    p = Path(path)
+    return p.is_dir() and not p.is_symlink() and all((p / f).is_file() for f in RUN_FILES)
+
+
+def _replaceable(p: Path) -> bool:
+    """An existing DIR that may be replaced: an ldbench run, or an empty folder."""
+    if p.is_symlink() or not p.is_dir():
+        return False
+    return is_run_dir(p) or not any(p.iterdir())
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's live process
+        return True
+    return True
+
+
+def _why(e: OSError) -> str:
+    return e.strerror or str(e)
+
+
+class RunDir:
+    """One run's output directory ``out`` (see the module docstring)."""
+
+    def __init__(self, out):
+        self.out = Path(os.path.abspath(os.fspath(out)))
+        self.parent = self.out.parent
+        name = self.out.name
+        self.pid = os.getpid()
+        self.lock_path = self.parent / f".{name}.lock"
+        self.partial = self.parent / f".{name}.partial-{self.pid}"
+        self.old = self.parent / f".{name}.old-{self.pid}"
+        self._stale = re.compile(rf"^\.{re.escape(name)}\.(partial|old)-(\d+)$")
+        self._lock_fd = None
+        self._opened = False
+
+    # ---- checks -----------------------------------------------------------------------------
+    def check(self) -> None:
+        """Refuse an ``--out`` that is not ours to replace (raises LdbenchError). Creates nothing."""
+        out = self.out
+        if not out.name or out.name in (".", ".."):
+            raise LdbenchError(f"--out {out}: not a usable run directory name")
+        cwd = Path(os.path.abspath(os.getcwd()))
+        if out == cwd or out in cwd.parents:
+            raise LdbenchError(f"--out {out} is the current directory or contains it; give a new folder")
+        if out.is_symlink():
+            raise LdbenchError(f"--out {out} is a symbolic link; give the folder it points to")
+        if out.exists():
+            if not out.is_dir():
+                raise LdbenchError(f"--out {out} exists and is not a directory")
+            if not _replaceable(out):
+                raise LdbenchError(f"--out {out} exists and is not an ldbench run (no "
+                                   f"{' and '.join(RUN_FILES)}); not replacing it")
+        if self.parent.exists() and not self.parent.is_dir():
+            raise LdbenchError(f"--out {out}: {self.parent} is not a directory")
+
+    # ---- lock --------------------------------------------------------------------------------
+    def _lock(self) -> None:
+        while True:
+            try:
+                fd = os.open(self.lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as e:
+                raise LdbenchError(f"cannot write to {self.parent}: {_why(e)}")
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError as e:
+                if e.errno not in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+                    os.close(fd)
+                    raise LdbenchError(f"cannot lock {self.lock_path}: {_why(e)}")
+                try:
+                    holder = os.read(fd, 64).decode(errors="replace").strip() or "?"
+                finally:
+                    os.close(fd)
+                raise LdbenchError(f"another ldbench run (pid {holder}) is writing {self.out}; "
+                                   f"wait for it or choose another --out")
+            # The file may have been unlinked by its previous holder between our open and flock:
+            # then we hold a lock on a dead inode, and must retry on the current file.
+            try:
+                same = os.stat(self.lock_path).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                break
+            os.close(fd)
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{self.pid}\n".encode())
+        self._lock_fd = fd
+
+    def _unlock(self) -> None:
+        if self._lock_fd is None:
+            return
+        try:
+            os.unlink(self.lock_path)  # while still holding it (see the inode check in _lock)
+        except OSError:
+            pass
+        os.close(self._lock_fd)
+        self._lock_fd = None
+
+    # ---- sweep -------------------------------------------------------------------------------
+    def sweep(self) -> None:
+        """Remove what killed runs into this DIR left behind (call with the lock held)."""
+        try:
+            entries = list(self.parent.iterdir())
+        except OSError:
+            return
+        for p in entries:
+            m = self._stale.match(p.name)
+            if not m or p.is_symlink() or not p.is_dir():
+                continue
+            kind, pid = m.group(1), int(m.group(2))
+            if pid != self.pid and _pid_alive(pid):
+                continue
+            if kind == "partial":
+                if (p / MARKER).is_file():
+                    shutil.rmtree(p, ignore_errors=True)
+            elif _replaceable(p):  # an old run moved aside by a commit that was killed
+                if self.out.exists() or self.out.is_symlink():
+                    _remove_run(p)
+                else:
+                    os.rename(p, self.out)
+
+    # ---- life cycle --------------------------------------------------------------------------
+    def open(self) -> Path:
+        """Check ``out``, take the lock, sweep, create the partial folder; returns the partial folder."""
+        if self._opened:
+            raise RuntimeError("RunDir.open called twice")
+        self.check()
+        try:
+            self.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise LdbenchError(f"cannot create {self.parent}: {_why(e)}")
+        self._lock()
+        try:
+            self.check()  # again, under the lock
+            self.sweep()
+            self.partial.mkdir()
+            (self.partial / MARKER).write_text(f"{self.pid}\n")
+        except BaseException as e:
+            if self.partial.is_dir():
+                shutil.rmtree(self.partial, ignore_errors=True)
+            self._unlock()
+            if isinstance(e, OSError):
+                raise LdbenchError(f"cannot write to {self.parent}: {_why(e)}") from e
+            raise
+        self._opened = True
+        return self.partial
+
+    def commit(self) -> Path:
+        """Replace ``out`` by the partial folder (old run aside, new one in, old one deleted)."""
+        if not self._opened:
+            raise RuntimeError("RunDir.commit before open")
+        try:
+            if (self.out.exists() or self.out.is_symlink()) and not _replaceable(self.out):
+                raise LdbenchError(f"--out {self.out} was changed during the run and is no longer an "
+                                   f"ldbench run; not replacing it")
+            (self.partial / MARKER).unlink()
+            moved = False
+            if self.out.exists():
+                os.rename(self.out, self.old)
+                moved = True
+            try:
+                os.rename(self.partial, self.out)
+            except BaseException:
+                if moved:
+                    os.rename(self.old, self.out)
+                raise
+            _fsync_dir(self.parent)
+            if moved:
+                _remove_run(self.old)
+        except OSError as e:
+            raise LdbenchError(f"cannot move the run into {self.out}: {_why(e)}")
+        finally:
+            self._opened = False
+            self._unlock()
+        return self.out
+
+    def abort(self) -> None:
+        """Delete this run's partial folder (and nothing else); release the lock."""
+        try:
+            if self.partial.is_dir() and not self.partial.is_symlink():
+                shutil.rmtree(self.partial, ignore_errors=True)
+        finally:
+            self._opened = False
+            self._unlock()
+
+    def __enter__(self) -> Path:
+        return self.open()
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.commit()
+        else:
+            self.abort()
+        return False
+
+
+def _remove_run(p: Path) -> None:
+    """Delete a replaced run (rmtree) or an empty folder (rmdir); anything else is left alone."""
+    if is_run_dir(p):
+        shutil.rmtree(p, ignore_errors=True)
+    else:
+        try:
+            os.rmdir(p)
+        except OSError:
+            pass
+
+
+def _fsync_dir(d: Path) -> None:
+    """Make the renames durable (best effort: not every file system supports it)."""
+    try:
+        fd = os.open(d, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)

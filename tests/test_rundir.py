@@ -1,0 +1,191 @@
+"""Run directories (harness/rundir.py): users' folders are never deleted, replacement is atomic, one
+writer at a time, and killed runs leave nothing that a later run does not clean up."""
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from harness.errors import LdbenchError
+from harness.rundir import MARKER, RunDir, is_run_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def make_run(d: Path, tag: str = "old") -> Path:
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "results.parquet").write_text(tag)
+    (d / "suite.json").write_text("{}")
+    return d
+
+
+def dead_pid() -> int:
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_is_run_dir(tmp_path):
+    assert not is_run_dir(tmp_path)
+    (tmp_path / "results.parquet").write_text("x")
+    assert not is_run_dir(tmp_path)
+    (tmp_path / "suite.json").write_text("{}")
+    assert is_run_dir(tmp_path)
+    assert not is_run_dir(tmp_path / "results.parquet")
+
+
+def test_new_run_commits_and_leaves_nothing_else(tmp_path):
+    out = tmp_path / "run"
+    with RunDir(out) as tmp:
+        assert tmp.name == f".run.partial-{os.getpid()}" and tmp.parent == tmp_path
+        make_run(tmp, "new")
+    assert is_run_dir(out) and (out / "results.parquet").read_text() == "new"
+    assert not (out / MARKER).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no lock, partial or old folder
+
+
+def test_replaces_a_run_atomically(tmp_path, monkeypatch):
+    out = make_run(tmp_path / "run", "old")
+    renames = []
+    real = os.rename
+
+    def spy(a, b):
+        renames.append((Path(a).name, Path(b).name, is_run_dir(out)))
+        real(a, b)
+
+    monkeypatch.setattr(os, "rename", spy)
+    with RunDir(out) as tmp:
+        make_run(tmp, "new")
+    pid = os.getpid()
+    # old aside first, then the new one in: no moment where DIR holds a half-deleted run
+    assert renames == [("run", f".run.old-{pid}", True), (f".run.partial-{pid}", "run", False)]
+    assert (out / "results.parquet").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+@pytest.mark.parametrize("setup", ["foreign_dir", "file", "symlink"])
+def test_refuses_what_is_not_a_run(tmp_path, setup):
+    out = tmp_path / "precious"
+    if setup == "foreign_dir":
+        out.mkdir()
+        (out / "thesis.tex").write_text("years of work")
+    elif setup == "file":
+        out.write_text("years of work")
+    else:
+        (tmp_path / "target").mkdir()
+        out.symlink_to(tmp_path / "target")
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    with pytest.raises(LdbenchError) as e:
+        RunDir(out).open()
+    assert str(out) in str(e.value) and "\n" not in str(e.value)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing created or deleted
+
+
+def test_empty_folder_may_be_used(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    with RunDir(out) as tmp:
+        make_run(tmp)
+    assert is_run_dir(out)
+
+
+def test_refuses_current_directory(tmp_path, monkeypatch):
+    make_run(tmp_path / "r")
+    monkeypatch.chdir(tmp_path / "r")
+    for out in (".", str(tmp_path / "r"), str(tmp_path)):
+        with pytest.raises(LdbenchError, match="current directory"):
+            RunDir(out).open()
+    assert is_run_dir(tmp_path / "r")
+
+
+def test_read_only_parent_fails_before_anything(tmp_path):
+    if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses even root
+        parent = Path("/sys/ldbench-no-such-dir")
+        if not Path("/sys").is_dir():
+            pytest.skip("no /sys")
+    else:
+        parent = tmp_path / "ro"
+        parent.mkdir()
+        parent.chmod(0o555)
+    with pytest.raises(LdbenchError, match="cannot"):
+        RunDir(parent / "run").open()
+
+
+def test_abort_removes_only_its_partial(tmp_path):
+    out = make_run(tmp_path / "run", "old")
+    with pytest.raises(KeyboardInterrupt):
+        with RunDir(out) as tmp:
+            make_run(tmp, "new")
+            raise KeyboardInterrupt
+    assert (out / "results.parquet").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_second_writer_is_refused_and_stale_lock_taken_over(tmp_path):
+    out = tmp_path / "run"
+    first = RunDir(out)
+    first.open()
+    with pytest.raises(LdbenchError, match=f"pid {os.getpid()}"):
+        RunDir(out).open()
+    first.abort()
+    # a lock file left by a killed run (its pid is gone, its flock died with it) is taken over
+    (tmp_path / ".run.lock").write_text(f"{dead_pid()}\n")
+    with RunDir(out) as tmp:
+        make_run(tmp)
+    assert is_run_dir(out)
+
+
+def test_sweeps_stale_partials_but_not_foreign_folders(tmp_path):
+    pid = dead_pid()
+    stale = tmp_path / f".run.partial-{pid}"
+    stale.mkdir()
+    (stale / MARKER).write_text(str(pid))
+    (stale / "half.exr").write_text("x")
+    unmarked = tmp_path / f".run.partial-{pid + 1 if pid + 1 != os.getpid() else pid + 2}"
+    unmarked.mkdir()  # matches the name, but ldbench did not make it
+    other = tmp_path / f".other.partial-{pid}"
+    other.mkdir()
+    (other / MARKER).write_text(str(pid))
+    live = tmp_path / f".run.partial-{os.getppid()}"  # a live process's: left alone
+    live.mkdir()
+    (live / MARKER).write_text("x")
+    with RunDir(tmp_path / "run") as tmp:
+        make_run(tmp)
+    assert not stale.exists()
+    assert unmarked.exists() and other.exists() and live.exists()
+
+
+def test_old_run_of_a_killed_commit_is_restored(tmp_path):
+    """Killed between "old aside" and "new in": the next run puts the old run back first."""
+    old = make_run(tmp_path / f".run.old-{dead_pid()}", "old")
+    rd = RunDir(tmp_path / "run")
+    rd.open()
+    assert not old.exists() and (tmp_path / "run" / "results.parquet").read_text() == "old"
+    rd.abort()
+    assert (tmp_path / "run" / "results.parquet").read_text() == "old"
+
+
+def test_concurrent_cli_run_into_same_out_exits_2(tmp_path):
+    """A second `ldbench run` into a DIR another process is writing: one line, exit 2, and the first
+    run's partial folder is untouched."""
+    out = tmp_path / "run"
+    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import sys, time
+        from harness.rundir import RunDir
+        RunDir({str(out)!r}).open(); print("locked", flush=True); time.sleep(60)""")],
+        cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        p = subprocess.run([sys.executable, "-m", "harness.cli", "run", "--scene", "cornell", "--method",
+                            "direct-raster", "--effect", "direct", "--size", "16x16", "--spp", "4",
+                            "--out", str(out), "--no-progress"], cwd=ROOT, capture_output=True, text=True,
+                           timeout=300)
+        assert p.returncode == 2, p.stderr
+        lines = p.stderr.strip().splitlines()
+        assert len(lines) == 1 and "another ldbench run" in lines[0], p.stderr
+        assert (tmp_path / f".run.partial-{holder.pid}").is_dir() and not out.exists()
+    finally:
+        holder.kill()
+        holder.wait()
