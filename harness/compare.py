@@ -124,10 +124,24 @@ class Comparison:
 # input
 
 
-def load_results(path, what: str = "results"):
+#: Columns the gate reads besides the match keys; a table without one of them cannot be gated (a missing
+#: ``psnr`` would otherwise pass every quality check as "n/a").
+REQUIRED_COLUMNS = ("status", "total_ms", "raw_ms", "psnr", "ssim")
+
+
+def check_schema(df, what: str, path, match=DEFAULT_MATCH) -> None:
+    """Refuse a results table without a column the comparison needs (LdbenchError naming it)."""
+    missing = [c for c in (*match, *REQUIRED_COLUMNS) if c not in df.columns]
+    if missing:
+        raise LdbenchError(f"{what} {path} is not an ldbench results table: no column {missing[0]!r}"
+                           + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
+
+
+def load_results(path, what: str = "results", match=DEFAULT_MATCH):
     """Results of a run directory or results file as a DataFrame (see :func:`records.read_results`).
 
-    Raises :class:`LdbenchError` for a missing path, a directory without results, or an empty table.
+    Raises :class:`LdbenchError` for a missing path, a directory without results, an empty table, or
+    a table without the columns of ``match`` and :data:`REQUIRED_COLUMNS`.
     """
     from .records import read_results
 
@@ -135,6 +149,7 @@ def load_results(path, what: str = "results"):
     if not p.exists():
         raise LdbenchError(f"{what} not found: {path}")
     df = read_results(p)
+    check_schema(df, what, path, match)
     if len(df) == 0:
         raise LdbenchError(f"{what} {path} holds no result rows")
     return df
@@ -699,8 +714,8 @@ def summary_text(comp: Comparison) -> str:
 
 def compare_paths(baseline, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | None = None) -> Comparison:
     """Load two runs (directories or results files) and compare them."""
-    base_df = load_results(baseline, "baseline")
-    run_df = load_results(run, "run")
+    base_df = load_results(baseline, "baseline", match)
+    run_df = load_results(run, "run", match)
     comp = compare_frames(base_df, run_df, match=match, thresholds=thresholds)
     comp.baseline_label = _run_label(base_df, baseline)
     comp.run_label = _run_label(run_df, run)

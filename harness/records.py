@@ -526,7 +526,7 @@ def read_results(path_or_dir):
     Raises
     ------
     LdbenchError
-        If no results file is found or the file type is unknown.
+        If no results file is found, the file type is unknown, or the file cannot be parsed.
     """
     import pandas as pd
 
@@ -540,20 +540,27 @@ def read_results(path_or_dir):
             raise LdbenchError(f"no {RESULTS_PARQUET} or {RESULTS_CSV} in {path_or_dir}")
     if not p.is_file():
         raise LdbenchError(f"results file not found: {path_or_dir}")
-    if p.suffix == ".parquet":
-        df = pd.read_parquet(p, engine="pyarrow")
-    elif p.suffix == ".csv":
-        df = pd.read_csv(p, dtype=str, keep_default_na=False)
-        df = df.replace({"": None}).astype(object)
-        for c in df:
-            if COLUMN_TYPES.get(c) == "bool":
-                df[c] = [None if v is None else {"true": True, "false": False}[v.lower()] for v in df[c]]
-    else:
+    if p.suffix not in (".parquet", ".csv"):
         raise LdbenchError(f"unknown results file type {p.suffix!r}: {p}")
-    df = _apply_types(df)
-    for c in JSON_COLUMNS:
-        if c in df:
-            df[c] = pd.Series([_parse_json(v) for v in df[c]], index=df.index, dtype=object)
+    import pyarrow
+
+    try:
+        if p.suffix == ".parquet":
+            df = pd.read_parquet(p, engine="pyarrow")
+        else:
+            df = pd.read_csv(p, dtype=str, keep_default_na=False)
+            df = df.replace({"": None}).astype(object)
+            for c in df:
+                if COLUMN_TYPES.get(c) == "bool":
+                    df[c] = [None if v is None else {"true": True, "false": False}[v.lower()] for v in df[c]]
+        df = _apply_types(df)
+        for c in JSON_COLUMNS:
+            if c in df:
+                df[c] = pd.Series([_parse_json(v) for v in df[c]], index=df.index, dtype=object)
+    except (pyarrow.ArrowException, pd.errors.ParserError, pd.errors.EmptyDataError, OSError, ValueError,
+            TypeError, KeyError, AttributeError) as e:  # a corrupt or foreign file: one line, not a traceback
+        why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+        raise LdbenchError(f"cannot read results {p}: {why}") from e
     return df
 
 
