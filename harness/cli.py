@@ -104,9 +104,9 @@ def _reference(args):
     from .scenes import load_scene
     from .suite import parse_size
 
+    from .suite import MAX_SPP, _int, check_budget
     w, h = parse_size(args.size)
-    if args.spp < 1:
-        raise LdbenchError(f"--spp must be >= 1, got {args.spp}")
+    check_budget(w, h, _int(args.spp, "--spp", 1, MAX_SPP))
     effect = _effect_from(args)
     scene = load_scene(args.scene, **_scene_params(args.scene_set))
     for w_ in scene.warnings:
@@ -179,15 +179,8 @@ def suite_from_args(args):
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)
             suite.jobs = jobs
-        if any(v is not None for v in (args.size, args.spp, args.warmup, args.frames)):
-            import dataclasses
-            from .suite import parse_size
-            size = parse_size(args.size) if args.size else None
-            suite.jobs = [dataclasses.replace(
-                j, width=size[0] if size else j.width, height=size[1] if size else j.height,
-                spp=args.spp or j.spp, warmup=j.warmup if args.warmup is None else args.warmup,
-                frames=args.frames or j.frames) for j in suite.jobs]
-        return suite
+        from .suite import override  # --size/--spp/--warmup/--frames, validated like the file's values
+        return override(suite, size=args.size, spp=args.spp, warmup=args.warmup, frames=args.frames)
     if not (args.scene and args.method and args.effect):
         raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
     for m in params:

@@ -30,6 +30,13 @@ STAGES = {
     "fragment_shader": "FRAGMENT_SHADER",
 }
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+#: Peak host memory of one job per image pixel: 358 B measured (maximum RSS of `ldbench run` with a
+#: report, direct-raster at 1024^2 vs 2048^2 on llvmpipe, whose GPU memory is host memory; ldm-ao 292 B).
+HOST_BYTES_PER_PIXEL = 400
+#: GPU memory per image pixel: G-buffer (position, normal, albedo RGBA32F, depth) and an RGBA32F output,
+#: 68 B in the records' ``memory`` column; rounded up for framebuffers and read-back staging.
+GPU_BYTES_PER_PIXEL = 96
+_GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX = 0x9049  # glGetIntegerv, KiB
 
 
 def classify_device(renderer: str, vendor: str = "") -> str:
@@ -215,11 +222,78 @@ class Gpu:
         self._pending, self._frame_t0 = [], None
         return stages, wall
 
+    # ---- limits --------------------------------------------------------------------------
+    def check_image_size(self, width: int, height: int) -> None:
+        """Refuse, before anything is rendered, an image size this GPU or this machine cannot hold:
+        the GL limits (``GL_MAX_TEXTURE_SIZE``, ``GL_MAX_RENDERBUFFER_SIZE``, ``GL_MAX_VIEWPORT_DIMS``,
+        ``GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT``), host memory (:data:`HOST_BYTES_PER_PIXEL` against
+        ``MemAvailable``) and, where the driver reports it (NVX_gpu_memory_info), GPU memory
+        (:data:`GPU_BYTES_PER_PIXEL`)."""
+        info = self.ctx.info
+        for name, i in (("GL_MAX_TEXTURE_SIZE", None), ("GL_MAX_RENDERBUFFER_SIZE", None),
+                        ("GL_MAX_VIEWPORT_DIMS", 0), ("GL_MAX_VIEWPORT_DIMS", 1),
+                        ("GL_MAX_FRAMEBUFFER_WIDTH", None), ("GL_MAX_FRAMEBUFFER_HEIGHT", None)):
+            lim = info.get(name)
+            if lim is None:
+                continue
+            lim = int(lim[i] if i is not None else lim)
+            side = {"GL_MAX_FRAMEBUFFER_WIDTH": width, "GL_MAX_FRAMEBUFFER_HEIGHT": height}.get(
+                name, height if i == 1 else width if i == 0 else max(width, height))
+            if side > lim:
+                raise LdbenchError(f"size {width}x{height} exceeds this GPU's {name} ({lim}; "
+                                   f"{self.info['GL_RENDERER']})")
+        px = width * height
+        host = _host_available_bytes()
+        if host is not None and px * HOST_BYTES_PER_PIXEL > host:
+            raise LdbenchError(f"size {width}x{height} needs about {px * HOST_BYTES_PER_PIXEL / 2**30:.1f} GiB of "
+                               f"memory, this machine has {host / 2**30:.1f} GiB available")
+        vram = self.available_gpu_memory()
+        if vram is not None and px * GPU_BYTES_PER_PIXEL > vram:
+            raise LdbenchError(f"size {width}x{height} needs about {px * GPU_BYTES_PER_PIXEL / 2**30:.1f} GiB of "
+                               f"GPU memory, {vram / 2**30:.1f} GiB are free")
+
+    def available_gpu_memory(self) -> int | None:
+        """Free GPU memory in bytes (GL_NVX_gpu_memory_info), or None where the driver does not say
+        (software rasterizers use host memory, checked separately)."""
+        if self.device == "cpu-software" or "GL_NVX_gpu_memory_info" not in self.ctx.extensions:
+            return None
+        try:
+            import ctypes
+
+            egl = ctypes.CDLL("libEGL.so.1")
+            egl.eglGetProcAddress.restype = ctypes.c_void_p
+            addr = egl.eglGetProcAddress(b"glGetIntegerv")  # this thread's current context (ours)
+            if not addr:
+                return None
+            get = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(addr)
+            kib = ctypes.c_int(-1)
+            get(_GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX, ctypes.byref(kib))
+            self.ctx.error  # reading it clears a GL error the query may have set
+            return kib.value * 1024 if kib.value > 0 else None
+        except (OSError, AttributeError):
+            return None
+
     def release(self):
         for p in self._programs.values():
             p.release()
         self._programs.clear()
         self.ctx.release()
+
+
+def _host_available_bytes() -> int | None:
+    """``MemAvailable`` of /proc/meminfo (Linux), else free physical pages, else None."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        import os
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
 
 
 def _first_error(e: Exception) -> str:

@@ -25,7 +25,8 @@ import numpy as np
 
 from .errors import LdbenchError
 from .rundir import RunDir
-from .suite import Job, Suite
+from .checks import camera_sees_geometry, unique_scene_names
+from .suite import Job, Suite, resolve_sizes
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -97,11 +98,16 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
             if job.effect.name in NEEDS_LIGHT and not sc.lights:
                 raise LdbenchError(f"scene {sc.name!r} has no spot or point light; effect "
                                    f"{job.effect.name!r} needs one")
+        scenes = unique_scene_names(scenes)  # a/scene.xml and b/scene.xml: two names, two image folders
+        suite.jobs = resolve_sizes(suite.jobs, scenes)  # no size given: the XML film's
+        for w, h in sorted({(j.width, j.height) for j in suite.jobs}):
+            gpu.check_image_size(w, h)  # GL limits and memory, before anything is rendered
         ref_keys = sorted({(j.scene_key, j.effect, j.width, j.height, j.spp) for j in suite.jobs}, key=str)
         for key in _progress(ref_keys, len(ref_keys), "references", progress):
             sk, eff, w, h, spp = key
             refs[key] = render_reference(scenes[sk], eff, width=w, height=h, spp=spp,
                                          cache=reference_cache, progress=progress)
+            camera_sees_geometry(scenes[sk], refs[key], w, h)  # else every metric is NaN
         for job in _progress(suite.jobs, len(suite.jobs), "runs", progress):
             sc = scenes[job.scene_key]
             ref = refs[(job.scene_key, job.effect, job.width, job.height, job.spp)]

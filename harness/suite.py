@@ -4,7 +4,7 @@ A suite file::
 
     [suite]
     name = "default"
-    size = "128x128"        # default image size, "WxH" or [W, H]
+    size = "128x128"        # default image size, "WxH" or [W, H]; default: the scene's film, else 128x128
     spp = 256               # reference samples per pixel
     warmup = 2              # warm-up frames
     frames = 5              # measured frames
@@ -46,8 +46,8 @@ class Job:
     method: str
     params: tuple  # sorted (key, value) pairs of the method's parameters as given (not defaults)
     effect: Effect
-    width: int
-    height: int
+    width: int | None  # None until resolve_sizes: the scene's film size
+    height: int | None
     spp: int
     warmup: int
     frames: int
@@ -64,30 +64,110 @@ class Suite:
     source: str = ""
 
 
+#: Image sides: SSIM's smallest window is 3 x 3 (:func:`harness.metrics.ssim_win_size`); 16384 is the
+#: largest texture any GL driver we know offers (the GPU's own limits are checked by
+#: :meth:`harness.gpu.Gpu.check_image_size` before rendering).
+MIN_SIDE, MAX_SIDE = 3, 16384
+#: Default image size when neither the suite nor the scene (a Mitsuba XML ``<film>``) gives one.
+DEFAULT_SIZE = (128, 128)
+#: Reference samples per pixel, at most 2^20 (a 1024^2 reference at that spp is already 2^40 samples).
+MAX_SPP = 1 << 20
+#: Reference samples (pixels x spp) per job, at most 2^40: about 11 minutes of AO rays at the 1.7 G
+#: rays/s Mitsuba reaches on an H200, many hours on a CPU. Beyond it a typo (spp = 10^11) is far likelier
+#: than intent.
+MAX_REFERENCE_SAMPLES = 1 << 40
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
 def parse_size(v) -> tuple[int, int]:
-    try:
-        if isinstance(v, str):
-            w, h = v.lower().split("x")
-            w, h = int(w), int(h)
-        else:
-            w, h = (int(x) for x in v)
-    except (ValueError, TypeError):
+    """``"WxH"`` or ``[W, H]`` (integers; no floats, no booleans) as (W, H), each in [3, 16384]."""
+    w = h = None
+    if isinstance(v, str) and v.lower().count("x") == 1:
+        a, b = v.lower().split("x")
+        if a.strip().isdigit() and b.strip().isdigit():
+            w, h = int(a), int(b)
+    elif isinstance(v, (list, tuple)) and len(v) == 2 and all(_is_int(x) for x in v):
+        w, h = v
+    if w is None:
         raise LdbenchError(f"size must be WxH (e.g. 256x256), got {v!r}")
-    if not (1 <= w <= 16384 and 1 <= h <= 16384):
-        raise LdbenchError(f"size {w}x{h} out of range")
+    if not (MIN_SIDE <= w <= MAX_SIDE and MIN_SIDE <= h <= MAX_SIDE):
+        raise LdbenchError(f"size {w}x{h} out of range: each side must be in [{MIN_SIDE}, {MAX_SIDE}] "
+                           f"(SSIM needs at least {MIN_SIDE}x{MIN_SIDE})")
     return w, h
 
 
-def _int(v, name, lo):
-    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+def _int(v, name, lo, hi=None):
+    """An integer (a bool or a float is not one, even 2.0) in [lo, hi]."""
+    if not _is_int(v):
         raise LdbenchError(f"{name} must be an integer, got {v!r}")
-    try:
-        i = int(v)
-    except ValueError:
-        raise LdbenchError(f"{name} must be an integer, got {v!r}")
-    if i < lo:
-        raise LdbenchError(f"{name} must be >= {lo}, got {i}")
-    return i
+    if v < lo:
+        raise LdbenchError(f"{name} must be >= {lo}, got {v}")
+    if hi is not None and v > hi:
+        raise LdbenchError(f"{name} must be <= {hi}, got {v}")
+    return v
+
+
+def _str(v, name):
+    if not isinstance(v, str):
+        raise LdbenchError(f"{name} must be a string, got {v!r}")
+    return v
+
+
+def _names(v, name) -> list:
+    """A string or a list of strings (effect, methods)."""
+    vs = _listify(v)
+    if not vs or not all(isinstance(x, str) for x in vs):
+        raise LdbenchError(f"{name} must be a string or a list of strings, got {v!r}")
+    return vs
+
+
+def check_budget(width: int, height: int, spp: int) -> None:
+    """Refuse a reference of more than :data:`MAX_REFERENCE_SAMPLES` samples."""
+    if width * height * spp > MAX_REFERENCE_SAMPLES:
+        raise LdbenchError(f"a {width}x{height} reference at spp {spp} is {width * height * spp:.3g} samples, "
+                           f"more than the limit of 2^40 ({MAX_REFERENCE_SAMPLES:.3g}); lower --spp or --size")
+
+
+def resolve_sizes(jobs: list, scenes: dict) -> list:
+    """Jobs with no size (none in the suite or on the command line) take their scene's film size
+    (``scene.params['film']``, Mitsuba XML scenes), else :data:`DEFAULT_SIZE`. ``scenes`` maps
+    ``job.scene_key`` to the loaded scene."""
+    import dataclasses
+
+    out = []
+    for j in jobs:
+        if j.width is None or j.height is None:
+            film = scenes[j.scene_key].params.get("film") if j.scene_key in scenes else None
+            w, h = parse_size(list(film) if film else list(DEFAULT_SIZE))
+            check_budget(w, h, j.spp)
+            j = dataclasses.replace(j, width=w, height=h)
+        out.append(j)
+    return out
+
+
+def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None) -> "Suite":
+    """``suite`` with the command line's --size/--spp/--warmup/--frames (None = keep), validated as
+    strictly as the suite file's own values."""
+    import dataclasses
+
+    wh = parse_size(size) if size is not None else None
+    spp = None if spp is None else _int(spp, "spp", 1, MAX_SPP)
+    warmup = None if warmup is None else _int(warmup, "warmup", 0)
+    frames = None if frames is None else _int(frames, "frames", 1)
+    jobs = []
+    for j in suite.jobs:
+        j = dataclasses.replace(
+            j, width=wh[0] if wh else j.width, height=wh[1] if wh else j.height,
+            spp=j.spp if spp is None else spp, warmup=j.warmup if warmup is None else warmup,
+            frames=j.frames if frames is None else frames)
+        if j.width is not None:
+            check_budget(j.width, j.height, j.spp)
+        jobs.append(j)
+    suite.jobs = jobs
+    return suite
 
 
 def _listify(v):
@@ -122,11 +202,14 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
         raise LdbenchError("a [[run]] table needs a 'scene'")
     if "effect" not in run:
         raise LdbenchError("a [[run]] table needs an 'effect'")
-    scene = str(run["scene"])
+    scene = _str(run["scene"], "scene")
     if base_dir is not None and scene.endswith((".xml", ".ply", ".obj")) and not Path(scene).is_absolute():
         scene = str((base_dir / scene).resolve()) if (base_dir / scene).exists() else scene
-    w, h = parse_size(run.get("size", defaults["size"]))
-    spp = _int(run.get("spp", defaults["spp"]), "spp", 1)
+    size = run.get("size", defaults["size"])
+    w, h = parse_size(size) if size is not None else (None, None)  # None: the scene's (resolve_sizes)
+    spp = _int(run.get("spp", defaults["spp"]), "spp", 1, MAX_SPP)
+    if w is not None:
+        check_budget(w, h, spp)
     warmup = _int(run.get("warmup", defaults["warmup"]), "warmup", 0)
     frames = _int(run.get("frames", defaults["frames"]), "frames", 1)
     scene_params = run.get("scene_params", {}) or {}
@@ -135,7 +218,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
 
     reg = registry()
     effects = []
-    for name in _listify(run["effect"]):
+    for name in _names(run["effect"], "effect"):
         opts = {k: run[k] for k in ("d_max", "falloff") if k in run}
         if name != "ao" and opts:
             raise LdbenchError(f"effect {name!r} takes no d_max/falloff")
@@ -144,10 +227,15 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
             effects.append(Effect.parse(name, combo))
 
     methods = run.get("methods", "all")
+    if methods != "all":
+        _names(methods, "methods")
     params = run.get("params", {}) or {}
+    if not isinstance(params, dict) or not all(isinstance(v, dict) for v in params.values()):
+        raise LdbenchError("params must be a table of tables ([run.params.METHOD])")
     for m in params:
         if m not in reg:
             raise LdbenchError(f"unknown method {m!r} in params (known: {', '.join(reg)})")
+    used = set()
     jobs = []
     for eff in effects:
         if methods == "all":
@@ -156,6 +244,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
                 raise LdbenchError(f"no registered method supports effect {eff.name!r}")
         else:
             names = _listify(methods)
+        used.update(names)
         for m in names:
             if m not in reg:
                 raise LdbenchError(f"unknown method {m!r} (known: {', '.join(reg)})")
@@ -167,6 +256,10 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
                 cls.Params.from_dict(p, method=m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames))
+    for m in params:
+        if m not in used:  # as on the command line (--set): parameters nothing uses are a mistake
+            raise LdbenchError(f"params for method {m!r}, which this [[run]] does not run "
+                               f"(it runs: {', '.join(sorted(used))})")
     return jobs
 
 
@@ -190,10 +283,13 @@ def suite_from_dict(data: dict, *, name: str, base_dir: Path | None = None, sour
     extra = set(data) - {"suite", "run"}
     if extra:
         raise LdbenchError(f"unknown table {sorted(extra)[0]!r} in suite (expected [suite] and [[run]])")
-    defaults = {"size": head.get("size", "128x128"), "spp": head.get("spp", 256),
+    for k in ("name", "description"):
+        if k in head:
+            _str(head[k], k)
+    defaults = {"size": head.get("size"), "spp": head.get("spp", 256),
                 "warmup": head.get("warmup", 2), "frames": head.get("frames", 5)}
     runs = data.get("run", [])
     if not runs:
         raise LdbenchError("the suite has no [[run]] tables")
     jobs = [j for r in runs for j in expand_run(r, defaults, base_dir)]
-    return Suite(name=str(head.get("name", name)), jobs=jobs, source=source)
+    return Suite(name=head.get("name", name), jobs=jobs, source=source)

@@ -73,25 +73,45 @@ class ParamsBase:
 
 
 def _coerce(kind, v, name):
-    try:
-        if kind is bool:
-            if isinstance(v, str):
-                if v.lower() in ("1", "true", "yes", "on"):
-                    return True
-                if v.lower() in ("0", "false", "no", "off"):
-                    return False
-                raise ValueError
+    """``v`` as the declared type ``kind``, strictly: a bool only from a bool (or the text true/false
+    of a command line), an int from an integer (not a bool) or integral text, a float from an int or
+    float (not a bool) or numeric text (``inf``), a str from a str. Anything else is an error naming
+    the parameter, never a silent conversion (``directions = true`` is not 1)."""
+    import numbers
+
+    bad = LdbenchError(f"parameter {name}={v!r} is not a valid {kind.__name__}")
+    if kind is bool:
+        if isinstance(v, (bool, np.bool_)):
             return bool(v)
-        if kind is int:
-            if isinstance(v, float) and not v.is_integer():
-                raise ValueError
+        if isinstance(v, str) and v.strip().lower() in ("true", "false"):
+            return v.strip().lower() == "true"
+        raise bad
+    if kind is int:
+        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
             return int(v)
-        if kind is float:
-            return math.inf if isinstance(v, str) and v.lower() in ("inf", "infinity") else float(v)
-        if kind is str:
-            return str(v)
-    except (TypeError, ValueError):
-        raise LdbenchError(f"parameter {name}={v!r} is not a valid {kind.__name__}")
+        if isinstance(v, str):
+            try:
+                return int(v.strip())
+            except ValueError:
+                raise bad from None
+        raise bad
+    if kind is float:
+        if isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)):
+            x = float(v)
+        elif isinstance(v, str):
+            try:
+                x = float(v.strip())  # also "inf" / "infinity"
+            except ValueError:
+                raise bad from None
+        else:
+            raise bad
+        if math.isnan(x):
+            raise bad
+        return x
+    if kind is str:
+        if isinstance(v, str):
+            return v
+        raise bad
     return v
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from harness.cli import main
+from harness.errors import LdbenchError
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -126,3 +127,150 @@ def test_set_overrides_suite_params(tmp_path):
     assert_one_line_error(rc, se, "direct-raster", "does not run")
     rc, _, se = run_cli("run", str(suite), "--set", "ldm-ao.directions=0")
     assert_one_line_error(rc, se, "directions")
+
+
+# ---- issue 17: users' files, bad input --------------------------------------------------------------
+TINY = ("--spp", "4", "--frames", "1", "--warmup", "0", "--no-progress", "--no-report")
+
+
+def tiny_run(out, *extra, scene="cornell", method="hbao", effect="ao", size="16x16", env=None):
+    args = ["run", "--scene", scene, "--method", method, "--effect", effect, *TINY, "--out", str(out), *extra]
+    if size:
+        args += ["--size", size]
+    return run_cli(*args, env=env)
+
+
+def test_out_never_deletes_a_foreign_folder(tmp_path):
+    precious = tmp_path / "precious"
+    precious.mkdir()
+    (precious / "thesis.tex").write_text("years of work")
+    rc, _, se = tiny_run(precious)
+    assert_one_line_error(rc, se, "not an ldbench run")
+    assert (precious / "thesis.tex").read_text() == "years of work"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["precious"]
+
+
+def test_out_dot_is_refused(tmp_path):
+    (tmp_path / "mine.txt").write_text("x")
+    p = subprocess.run([sys.executable, "-m", "harness.cli", "run", "--scene", "cornell", "--method", "hbao",
+                        "--effect", "ao", "--size", "16x16", *TINY, "--out", "."], cwd=tmp_path,
+                       capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=300)
+    assert_one_line_error(p.returncode, p.stderr, "current directory")
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["mine.txt"]
+
+
+def test_out_on_a_file_or_read_only_parent_fails_before_rendering(tmp_path):
+    cache = tmp_path / "cache"
+    f = tmp_path / "file"
+    f.write_text("x")
+    rc, _, se = tiny_run(f, env={"LDBENCH_CACHE": str(cache)})
+    assert_one_line_error(rc, se, "not a directory")
+    assert f.read_text() == "x"
+    if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses even root
+        parent = Path("/sys/ldbench-no-such-dir")
+    else:
+        parent = tmp_path / "ro"
+        parent.mkdir()
+        parent.chmod(0o555)
+    rc, _, se = tiny_run(parent / "run", env={"LDBENCH_CACHE": str(cache)})
+    assert_one_line_error(rc, se, "cannot")
+    assert not cache.exists()  # nothing was rendered (no reference cached)
+
+
+def test_rerun_replaces_the_run(tmp_path):
+    out = tmp_path / "run"
+    assert tiny_run(out)[0] == 0
+    first = (out / "results.csv").read_text()
+    rc, _, se = tiny_run(out, "--set", "hbao.directions=4")
+    assert rc == 0, se
+    assert (out / "results.csv").read_text() != first
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def xml_scene(path: Path, *, target="0, 0, 0", shape_extra="", film=(24, 18), box=1.0):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"""<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="45"/>
+<transform name="to_world"><lookat origin="0, 0.5, 5" target="{target}" up="0, 1, 0"/></transform>
+<film type="hdrfilm"><integer name="width" value="{film[0]}"/><integer name="height" value="{film[1]}"/></film>
+</sensor>
+<shape type="cube"><transform name="to_world">{shape_extra}<scale value="{box}"/></transform><bsdf type="diffuse"/></shape>
+<shape type="rectangle"><transform name="to_world">{shape_extra}<scale value="3"/><rotate x="1" angle="-90"/>
+<translate y="-1"/></transform><bsdf type="diffuse"/></shape>
+<emitter type="point"><point name="position" x="0" y="3" z="3"/><rgb name="intensity" value="10"/></emitter>
+</scene>
+""")
+    return path
+
+
+@pytest.mark.parametrize("how", ["facing_away", "zero_scale"])
+@pytest.mark.parametrize("method,effect", [("direct-raster", "direct"), ("hbao", "ao")])
+def test_scene_without_visible_geometry(tmp_path, how, method, effect):
+    kw = {"target": "0, 0.5, 10"} if how == "facing_away" else {"shape_extra": '<scale value="0"/>'}
+    sc = xml_scene(tmp_path / "empty.xml", **kw)
+    rc, _, se = tiny_run(tmp_path / "r", scene=str(sc), method=method, effect=effect)
+    assert_one_line_error(rc, se, "sees no geometry")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.xml"]
+
+
+def test_size_beyond_the_gpu_or_memory_fails_before_rendering(tmp_path):
+    cache = tmp_path / "cache"
+    for size, needle in (("16384x16384", "16384x16384"), ("1x1", "1x1")):
+        rc, _, se = tiny_run(tmp_path / "r", size=size, env={"LDBENCH_CACHE": str(cache)})
+        assert_one_line_error(rc, se, needle)
+    assert not cache.exists() and not (tmp_path / "r").exists()
+
+
+def test_gpu_size_limits(gpu):
+    lim = int(gpu.ctx.info["GL_MAX_TEXTURE_SIZE"])
+    gpu.check_image_size(64, 48)
+    with pytest.raises(LdbenchError, match="GL_MAX"):
+        gpu.check_image_size(lim + 1, 16)
+    from harness.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
+    side = int((_host_available_bytes() / HOST_BYTES_PER_PIXEL) ** 0.5) + 1
+    if side <= lim:
+        with pytest.raises(LdbenchError, match="memory"):
+            gpu.check_image_size(side, side)
+
+
+def test_same_named_scene_files_get_distinct_labels_and_film_size(tmp_path):
+    a = xml_scene(tmp_path / "a" / "scene.xml", film=(20, 15))
+    b = xml_scene(tmp_path / "b" / "scene.xml", film=(20, 15), box=0.5)
+    s = tmp_path / "s.toml"
+    s.write_text('[suite]\nspp = 4\nframes = 1\nwarmup = 0\n'  # no size: the films' 20x15
+                 f'[[run]]\nscene = "{a}"\neffect = "ao"\nmethods = ["hbao"]\n'
+                 f'[[run]]\nscene = "{b}"\neffect = "ao"\nmethods = ["hbao"]\n')
+    out = tmp_path / "r"
+    rc, so, se = run_cli("run", str(s), "--out", str(out), "--no-progress", "--no-report")
+    assert rc == 0, se
+    from harness.records import read_results
+    df = read_results(out)
+    assert len(set(df["scene"])) == 2 and all(n.startswith("scene-") for n in df["scene"])
+    assert set(zip(df["width"], df["height"])) == {(20, 15)}
+    folders = {Path(i["image"]).parent for i in df["images"]}
+    assert len(folders) == 2 and all((out / f).is_dir() for f in folders)
+
+
+def test_corrupt_results_are_one_line(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "results.parquet").write_bytes(b"PAR1" + os.urandom(200))
+    (run / "suite.json").write_text("{}")
+    rc, _, se = run_cli("report", str(run))
+    assert_one_line_error(rc, se, "results.parquet")
+    rc, _, se = run_cli("compare", str(run), str(run))
+    assert_one_line_error(rc, se, "results.parquet")
+
+
+def test_compare_checks_the_schema(tmp_path):
+    unrelated = tmp_path / "unrelated.csv"
+    unrelated.write_text("a,b\n1,2\n")
+    rc, _, se = run_cli("compare", str(unrelated), str(unrelated))
+    assert_one_line_error(rc, se, "no column 'scene'")
+    out = tmp_path / "run"
+    assert tiny_run(out)[0] == 0
+    import pandas as pd
+    df = pd.read_csv(out / "results.csv")
+    df.drop(columns=["psnr"]).to_csv(tmp_path / "base.csv", index=False)
+    rc, _, se = run_cli("compare", str(tmp_path / "base.csv"), str(out))
+    assert_one_line_error(rc, se, "no column 'psnr'")
