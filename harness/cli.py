@@ -19,18 +19,41 @@ class _Parser(argparse.ArgumentParser):
 
 # ---- scenes / methods -----------------------------------------------------------------------------
 def _scenes_args(p):
-    pass
+    p.add_argument("action", nargs="?", default="list", choices=("list", "fetch"),
+                   help="list (default) | fetch: put registered real scenes into the scene cache")
+    p.add_argument("names", nargs="*", metavar="NAME", help="fetch: registered scene names, or 'all'")
+    p.add_argument("--from", dest="source", metavar="MIRROR",
+                   help="fetch: copy from a local mirror (one folder per scene) instead of downloading")
 
 
 def _scenes(args):
+    from . import scene_registry
     from .scenes import list_scenes
 
+    reg = scene_registry.registry()
+    if args.action == "fetch":
+        if not args.names:
+            raise LdbenchError(f"ldbench scenes fetch needs scene names or 'all' (registered: {', '.join(reg)})")
+        names = list(reg) if "all" in args.names else args.names
+        for n in names:
+            scene_registry.get(n)  # every name checked before anything is fetched
+        for n in names:
+            scene_registry.fetch(n, source=args.source)
+        return 0
+    if args.names or args.source:
+        raise LdbenchError("ldbench scenes lists scenes; to fetch: ldbench scenes fetch NAME|all [--from MIRROR]")
+    print("built-in:")
     for s in list_scenes():
         params = ", ".join(f"{k}={v!r}" for k, v in s.get("parameters", {}).items())
-        print(f"{s['name']:<10} {s.get('description', '')}")
+        print(f"  {s['name']:<17} {s.get('description', '')}")
         if params:
-            print(f"{'':<10} parameters: {params}")
-    print("Any Mitsuba 3 XML file path, or a .ply/.obj mesh path (mesh-in-a-box), is also a scene.")
+            print(f"  {'':<17} parameters: {params}")
+    root = scene_registry.scenes_dir()
+    print(f"registered real scenes (cache {root}; LDBENCH_SCENES sets it):")
+    for name, e in reg.items():
+        print(f"  {name:<17} {scene_registry.status(e, root):<12} {e.triangles:>7,} triangles  {e.title}")
+    print("Fetch with: ldbench scenes fetch NAME|all [--from MIRROR]. Any Mitsuba 3 XML file path, or a "
+          ".ply/.obj mesh path (mesh-in-a-box), is also a scene.")
     return 0
 
 
@@ -271,7 +294,7 @@ def _reproduce(args):
 
 
 COMMANDS = {
-    "scenes": (_scenes_args, _scenes, "list built-in scenes"),
+    "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
     "methods": (_methods_args, _methods, "list method adapters and their parameters"),
     "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
     "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),

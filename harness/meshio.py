@@ -145,6 +145,15 @@ def rot_y(deg: float) -> np.ndarray:
     return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
 
 
+def rotation(axis, deg: float) -> np.ndarray:
+    """3 × 3 right-handed rotation by ``deg`` degrees about ``axis`` (normalised here)."""
+    a = np.asarray(axis, np.float64)
+    a = a / np.linalg.norm(a)
+    t = math.radians(deg)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + math.sin(t) * K + (1 - math.cos(t)) * (K @ K)
+
+
 def instances(template, offsets):
     """Copies of a template part translated by each offset (vectorised)."""
     v, f = template

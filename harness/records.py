@@ -260,18 +260,36 @@ def git_info_from_env() -> dict:
             "dirty": None if dirty is None else dirty == "1", "branch": None}
 
 
-def git_info(repo_dir) -> dict:
-    """Commit, dirty flag and branch of the git checkout holding ``repo_dir``.
+#: ldbench's own root: the folder holding the ``harness`` package (and pyproject.toml in a checkout).
+LDBENCH_ROOT = Path(__file__).resolve().parent.parent
+
+
+def _same_dir(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def git_info(repo_dir=LDBENCH_ROOT) -> dict:
+    """Commit, dirty flag and branch of ldbench's own git checkout, whose root is ``repo_dir``.
+
+    The repository counts only when ``repo_dir`` is its top level: an ldbench installed or copied
+    inside another repository (a wheel in a project's virtualenv, a vendored copy) must not record
+    that repository's commit.
 
     Returns
     -------
     dict
         ``commit`` (full hash; None before the first commit), ``dirty`` (True when
         ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
-        detached HEAD). All None when git is missing or ``repo_dir`` is not in a repository, unless
-        ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a copied working tree without
-        ``.git`` (a remote GPU runner) can still record which commit it ran.
+        detached HEAD). All None (reported as "unknown") when git is missing or ``repo_dir`` is not the
+        top level of a repository, unless ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a
+        copied working tree without ``.git`` (a remote GPU runner) can still record which commit it ran.
     """
+    top = _git(repo_dir, "rev-parse", "--show-toplevel")
+    if top is None or not _same_dir(top.strip(), repo_dir):
+        return git_info_from_env()
     status = _git(repo_dir, "status", "--porcelain")
     if status is None:
         return git_info_from_env()

@@ -6,11 +6,13 @@
   appended as ``name:key=value,key=value`` (e.g. ``atrium:triangles=260000``);
 * a path ending in ``.xml``: a Mitsuba 3 scene file (:func:`harness.mitsuba_xml.load_mitsuba_xml`;
   ``params`` then override the file's ``<default>`` values);
-* a path to a mesh file (``.ply``, ``.obj``, ``.stl``, ``.off``): the ``mesh`` scene (mesh in an open box).
+* a path to a mesh file (``.ply``, ``.obj``, ``.stl``, ``.off``): the ``mesh`` scene (mesh in an open box);
+* a registered real scene (``sponza``, ``sibenik``, ``dragon``, ...; ``harness/scene_registry.toml``),
+  read from the scene cache after its checksums are verified (:func:`build_registered`).
 
 Every builder is deterministic and vectorised numpy (300k triangles in well under a second), and gives
 a camera and one spot light that lights most of what the camera sees, so ``direct`` and ``indirect``
-are meaningful. Conventions (DESIGN.md): metres, y up, right-handed, triangles counter-clockwise seen
+are meaningful. Conventions (docs/design.md): metres, y up, right-handed, triangles counter-clockwise seen
 from the front (walls face into the room, solids face outwards); methods treat them as two-sided.
 ``scene.params`` holds exactly the builder parameters used, defaults included (so
 ``load_scene(builder, **scene.params)`` rebuilds the same scene — the builder is ``scene.name``, or
@@ -28,7 +30,7 @@ import numpy as np
 
 from .errors import LdbenchError
 from .meshio import (box, box_parts, cylinder, grid_faces, half_ring, instances, merge, quad, read_mesh,
-                     rot_y)
+                     read_mtl, rot_y, rotation)
 from .scene import Camera, Mesh, Scene, SpotLight
 
 MESH_SUFFIXES = (".ply", ".obj", ".stl", ".off")
@@ -346,24 +348,79 @@ def build_mesh(path=None, albedo=(0.8, 0.8, 0.8)) -> Scene:
         raise LdbenchError("scene 'mesh' needs the parameter 'path' (a .ply or .obj file)")
     albedo = _albedo_param("mesh", "albedo", albedo)
     v, f = read_mesh(path)
+    name = Path(str(path)).stem
+    cam = Camera(origin=(0.0, 0.9, 3.6), target=(0.0, 0.5, 0.0), up=(0, 1, 0), fov_y=40.0)
+    light = SpotLight(position=(0.9, 2.4, 1.8), target=(0.0, 0.35, 0.0), intensity=(12.0,) * 3,
+                      cutoff_angle=45.0, up=(0.0, 1.0, 0.0))
+    return Scene(name, _object_in_box(name, v, f, albedo, str(path)), cam, [light],
+                 params={"path": str(path), "albedo": list(albedo)})
+
+
+def _object_in_box(name, v, f, albedo, path) -> list:
+    """The mesh scene's layout: the object scaled to a largest side of 1 m, centred at x = z = 0 on the
+    floor of the open 2.5 × 2 × 2.5 m box (floor and back wall white, left red, right green)."""
     lo, hi = v.min(0), v.max(0)
     ext = float((hi - lo).max())
     if not ext > 0:
         raise LdbenchError(f"cannot read mesh {path}: the mesh has zero extent")
     v = (v - np.array([(lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2])) / ext
-    name = Path(str(path)).stem
     room = box_parts((-1.25, 0, -1.25), (1.25, 2.0, 1.25), 1, skip=("+z", "+y"), inward=True)
-    meshes = [
+    return [
         _mesh(name, (v, f), albedo),
         _mesh("floor", room["-y"], WHITE),
         _mesh("back_wall", room["-z"], WHITE),
         _mesh("left_wall", room["-x"], RED),
         _mesh("right_wall", room["+x"], GREEN),
     ]
-    cam = Camera(origin=(0.0, 0.9, 3.6), target=(0.0, 0.5, 0.0), up=(0, 1, 0), fov_y=40.0)
-    light = SpotLight(position=(0.9, 2.4, 1.8), target=(0.0, 0.35, 0.0), intensity=(12.0,) * 3,
-                      cutoff_angle=45.0, up=(0.0, 1.0, 0.0))
-    return Scene(name, meshes, cam, [light], params={"path": str(path), "albedo": list(albedo)})
+
+
+def build_registered(name: str, root=None) -> Scene:
+    """A registered real scene, built from its files in the scene cache (``root``: another cache).
+
+    The entry in ``harness/scene_registry.toml`` says how (``load.kind``): ``mesh`` (one file, one
+    albedo), ``parts`` (one file per material, albedo = the MTL's Kd), ``object`` (rotated, then placed
+    in the :func:`build_mesh` box) or ``xml`` (a Mitsuba 3 file, camera from the file). ``load.scale``
+    converts model units to metres (geometry and the file's camera); the spot light, and the camera
+    unless the file gives it, are the entry's. Checksums are verified before anything is read; a scene
+    that is not fetched is one :class:`LdbenchError` line saying how to fetch it.
+    """
+    from fnmatch import fnmatch
+
+    from . import scene_registry
+
+    entry = scene_registry.get(name)
+    folder = scene_registry.verified_root(name, root)
+    ld, camera = entry.load, entry.camera
+    s = float(ld.get("scale", 1.0))
+    warnings = [entry.warning] if entry.warning else []
+    if ld["kind"] == "mesh":
+        v, f = read_mesh(folder / ld["mesh"])
+        meshes = [_mesh(Path(ld["mesh"]).stem, (v * s, f), tuple(ld["albedo"]))]
+    elif ld["kind"] == "parts":
+        kd = read_mtl(folder / ld["mtl"])
+        meshes = []
+        for spec in entry.files:
+            if not fnmatch(spec.path, ld["parts"]):
+                continue
+            mat = Path(spec.path).stem
+            if mat not in kd:
+                raise LdbenchError(f"scene {name!r}: material {mat!r} has no Kd in {folder / ld['mtl']}")
+            v, f = read_mesh(folder / spec.path)
+            meshes.append(_mesh(mat, (v * s, f), kd[mat]))
+    elif ld["kind"] == "object":
+        v, f = read_mesh(folder / ld["mesh"])
+        for ax, ay, az, deg in ld.get("rotate", ()):
+            v = v @ rotation((ax, ay, az), deg).T
+        meshes = _object_in_box(Path(ld["mesh"]).stem, v, f, tuple(ld["albedo"]), folder / ld["mesh"])
+    else:  # xml
+        from .mitsuba_xml import load_mitsuba_xml
+
+        sc = load_mitsuba_xml(folder / ld["xml"])
+        meshes = [Mesh(m.name, m.vertices * s, m.faces, m.albedo) for m in sc.meshes]
+        c = sc.camera
+        camera = camera or Camera(np.multiply(c.origin, s), np.multiply(c.target, s), c.up, c.fov_y)
+        warnings += sc.warnings
+    return Scene(name, meshes, camera, [entry.light], params={}, source=f"registry:{name}", warnings=warnings)
 
 
 BUILDERS = {
@@ -418,6 +475,13 @@ def load_scene(spec, **params) -> Scene:
     if not isinstance(spec, str) or not spec.strip():
         raise LdbenchError(f"scene must be a name or a file path, got {spec!r}")
     spec = spec.strip()
+    from .scene_registry import registry
+
+    if spec.split(":", 1)[0] in registry():
+        if params or ":" in spec:
+            given = ", ".join(params) or spec.split(":", 1)[1]
+            raise LdbenchError(f"registered scene {spec.split(':', 1)[0]!r} takes no parameters (got {given})")
+        return build_registered(spec)
     if spec in BUILDERS or (":" in spec and spec.split(":", 1)[0] in BUILDERS):
         name, _, inline = spec.partition(":")
         params = {**_parse_inline_params(inline, spec), **params}
@@ -438,5 +502,6 @@ def load_scene(spec, **params) -> Scene:
     if os.path.exists(spec):
         raise LdbenchError(f"cannot tell what scene file {spec!r} is: expected a Mitsuba .xml or a mesh "
                            f"({', '.join(MESH_SUFFIXES)})")
-    raise LdbenchError(f"unknown scene {spec!r} (built-in: {', '.join(BUILDERS)}; or a path to a "
-                       f"Mitsuba .xml file or a {'/'.join(s[1:] for s in MESH_SUFFIXES)} mesh)")
+    raise LdbenchError(f"unknown scene {spec!r} (built-in: {', '.join(BUILDERS)}; registered: "
+                       f"{', '.join(registry())}; or a path to a Mitsuba .xml file or a "
+                       f"{'/'.join(s[1:] for s in MESH_SUFFIXES)} mesh)")

@@ -3,7 +3,12 @@ from pathlib import Path
 
 import pytest
 
-SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+# The shared scene mirror beside the checkout (or LDBENCH_SHARED). Tests that need it skip with a reason
+# containing SHARED_SKIP, and pytest_terminal_summary counts them in one loud line.
+SHARED = Path(os.environ.get("LDBENCH_SHARED") or Path(__file__).resolve().parents[1].parent / "shared")
+SHARED_SCENES = SHARED / "scenes"
+SHARED_SKIP = "shared scenes not present"
+needs_shared_scenes = pytest.mark.skipif(not SHARED_SCENES.is_dir(), reason=f"{SHARED_SKIP} ({SHARED_SCENES})")
 
 
 @pytest.fixture(scope="session")
@@ -31,3 +36,17 @@ def pytest_collection_modifyitems(config, items):
     for it in items:
         if "slow" in it.keywords:
             it.add_marker(skip)
+
+
+def _skip_reason(report) -> str:
+    lr = report.longrepr
+    return str(lr[2] if isinstance(lr, tuple) and len(lr) == 3 else lr or "")
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """One loud line when tests skipped for lack of the shared scenes (never a silent skip)."""
+    n = sum("shared scenes" in _skip_reason(r).lower() for r in terminalreporter.stats.get("skipped", []))
+    if n:
+        terminalreporter.write_sep(
+            "!", f"{n} test{'s' if n != 1 else ''} SKIPPED: the shared scenes are missing ({SHARED_SCENES}); real "
+                 f"scenes, their checksums and `scenes fetch --from` went untested", red=True, bold=True)

@@ -1,5 +1,4 @@
 """Mitsuba 3 XML loader (harness/mitsuba_xml.py), checked against Mitsuba itself where it matters."""
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,11 +7,12 @@ from harness.errors import LdbenchError
 from harness.mitsuba_xml import load_mitsuba_xml
 from harness.scenes import load_scene
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "scenes"
+from conftest import SHARED_SCENES as SHARED
+
 CBOX = SHARED / "cornell_box_mitsuba3" / "classic" / "cbox.xml"
 BITTERLI = SHARED / "cornell_box_bitterli" / "scene_mitsuba3.xml"
-needs_cbox = pytest.mark.skipif(not CBOX.exists(), reason="shared cornell_box_mitsuba3 not present")
-needs_bitterli = pytest.mark.skipif(not BITTERLI.exists(), reason="shared cornell_box_bitterli not present")
+needs_cbox = pytest.mark.skipif(not CBOX.exists(), reason="shared scenes not present (cornell_box_mitsuba3)")
+needs_bitterli = pytest.mark.skipif(not BITTERLI.exists(), reason="shared scenes not present (cornell_box_bitterli)")
 
 
 @pytest.fixture(scope="module")

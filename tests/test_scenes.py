@@ -1,6 +1,5 @@
 """Built-in scene builders and the scene dispatcher (harness/scenes.py)."""
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -9,11 +8,12 @@ from harness.errors import LdbenchError
 from harness.scene import Scene
 from harness.scenes import BUILDERS, list_scenes, load_scene
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "scenes"
+from conftest import SHARED_SCENES as SHARED
+
 BUNNY = SHARED / "stanford_bunny" / "bun_zipper_res4.ply"
 DRAGON = SHARED / "stanford_dragon" / "dragon_vrip_res4.ply"
-needs_bunny = pytest.mark.skipif(not BUNNY.exists(), reason="shared/scenes/stanford_bunny not present")
-needs_dragon = pytest.mark.skipif(not DRAGON.exists(), reason="shared/scenes/stanford_dragon not present")
+needs_bunny = pytest.mark.skipif(not BUNNY.exists(), reason="shared scenes not present (stanford_bunny)")
+needs_dragon = pytest.mark.skipif(not DRAGON.exists(), reason="shared scenes not present (stanford_dragon)")
 
 
 def first_hits(scene, origins, dirs, tmin=1e-4):
@@ -272,7 +272,7 @@ def test_list_scenes():
 def test_xml_dispatch():
     p = SHARED / "cornell_box_mitsuba3" / "classic" / "cbox.xml"
     if not p.exists():
-        pytest.skip("shared cbox.xml not present")
+        pytest.skip("shared scenes not present (cornell_box_mitsuba3)")
     sc = load_scene(str(p), res=64)
     assert sc.source == str(p) and sc.params["film"] == (64, 64)
 
