@@ -292,5 +292,6 @@ def fetch(name: str, source: Path | str | None = None, root: Path | None = None,
         raise LdbenchError(f"cannot write scene {name!r} into {root}: {e.strerror or e}") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)  # our temporary folder (gone after a successful rename)
-    log(f"{name}: fetched into {target} ({len(entry.files)} files, checksums verified)")
+    n = len(entry.files)
+    log(f"{name}: fetched into {target} ({n} file{'s' if n != 1 else ''}, checksums verified)")
     return target
