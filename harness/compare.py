@@ -17,8 +17,9 @@ time (``total_ms``)
     ``p < alpha`` with too few frames (smallest one-sided p is ``1 / C(n+m, n)``: 5 + 5 frames give
     0.004, 4 + 4 give 0.014); such a check is reported ``inconclusive`` and never fails. A
     significant speed-up of at least ``min_effect`` is reported ``improved``.
-    When the machines differ (``device``, ``gl_renderer``, ``driver`` or ``gpu_name``) times are not
-    comparable: a warning is printed and time checks are skipped; quality is still gated.
+    When the machines differ (``device``, ``gl_renderer``, ``driver`` or ``gpu_name``, and ``cpu`` when
+    the device is the CPU; :func:`harness.device.timing_fields`) times are not comparable: a warning
+    is printed and time checks are skipped; quality is still gated.
     On a software rasterizer (``device = cpu-software``, Mesa llvmpipe) time checks are skipped as
     well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, and two identical
     runs on a 2-core CI machine differ by up to ~50 % in their median (measured), far beyond the
@@ -46,15 +47,15 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .device import timing_fields
 from .errors import LdbenchError
+from .records import effect_d_max, effect_param
 
 #: Default match keys: one benchmark = one scene (with builder parameters), method, effect (with its
 #: parameters), method parameters and image size.
 DEFAULT_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "params", "width", "height")
 #: Every column ``--match`` accepts.
 MATCH_KEYS = DEFAULT_MATCH + ("suite", "scene_hash", "ref_spp")
-#: Columns that must agree for timings to be comparable.
-MACHINE_FIELDS = ("device", "gl_renderer", "driver", "gpu_name")
 
 REGRESSING_VERDICTS = ("regression", "failed", "missing")
 
@@ -250,9 +251,9 @@ def _fmt_value(v):
 
 def _effect_label(row) -> str:
     eff = _get(row, "effect") or "?"
-    ep = _get(row, "effect_params") or {}
-    if eff == "ao" and isinstance(ep, dict):
-        return f"ao({ep.get('falloff', 'step')}, d_max={ep.get('d_max', 'inf')})"
+    if eff == "ao":
+        d = effect_d_max(row)
+        return f"ao({effect_param(row, 'falloff', 'step')}, d_max={'inf' if d is None or math.isinf(d) else f'{d:g}'})"
     return str(eff)
 
 
@@ -356,9 +357,10 @@ def time_check(base_samples, run_samples, th: Thresholds) -> dict:
 
 
 def machine_diff(brow, rrow) -> list:
-    """``[(field, baseline value, run value)]`` for the machine fields that differ."""
+    """``[(field, baseline value, run value)]`` for the machine fields that differ
+    (:func:`harness.device.timing_fields`: the CPU too where it is the device)."""
     out = []
-    for f in MACHINE_FIELDS:
+    for f in timing_fields(_get(brow, "device"), _get(rrow, "device")):
         bv, rv = _get(brow, f), _get(rrow, f)
         if (bv or None) != (rv or None):
             out.append((f, bv, rv))

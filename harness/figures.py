@@ -34,6 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .naming import slug
+from .records import effect_d_max, effect_param
+
 MB = float(2**20)
 
 QUALITY = (  # column, axis label, higher is better
@@ -56,12 +59,6 @@ def _plt():
     plt.rcParams.update({"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
                          "legend.fontsize": 8, "figure.dpi": 100, "pdf.fonttype": 42})
     return plt
-
-
-def slug(s: str, n: int = 60) -> str:
-    """File-name-safe version of ``s`` (letters, digits, ``-_.``), at most ``n`` characters."""
-    out = "".join(c if c.isalnum() or c in "-_." else "_" for c in str(s))
-    return out[:n] or "x"
 
 
 def short_hash(*parts) -> str:
@@ -98,15 +95,6 @@ def fmt_value(v) -> str:
     return str(v)
 
 
-def d_max_of(effect_params: dict):
-    d = effect_params.get("d_max")
-    if d is None:
-        return None
-    if isinstance(d, str) and d.lower() in ("inf", "infinity"):
-        return math.inf
-    return _num(d)
-
-
 def effect_text(r) -> str:
     """``ao (quadratic, d_max = 10.3)`` or the effect name."""
     ep = r["effect_params"]
@@ -137,8 +125,8 @@ def prepare(df):
     for c in ("scene", "method", "effect", "status", "scene_hash", "device"):
         if c not in df:
             df[c] = None
-    df["d_max"] = [d_max_of(ep) if e == "ao" else None for e, ep in zip(df["effect"], df["effect_params"])]
-    df["falloff"] = [ep.get("falloff") for ep in df["effect_params"]]
+    df["d_max"] = [effect_d_max(r) for _, r in df.iterrows()]
+    df["falloff"] = [effect_param(r, "falloff") for _, r in df.iterrows()]
     w = [int(x) if _num(x) is not None else 0 for x in df.get("width", [0] * len(df))]
     h = [int(x) if _num(x) is not None else 0 for x in df.get("height", [0] * len(df))]
     df["size"] = [f"{a}x{b}" for a, b in zip(w, h)]

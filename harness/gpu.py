@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 
 GLSL_DIR = Path(__file__).resolve().parent.parent / "methods" / "glsl"
@@ -37,16 +38,6 @@ HOST_BYTES_PER_PIXEL = 400
 #: 68 B in the records' ``memory`` column; rounded up for framebuffers and read-back staging.
 GPU_BYTES_PER_PIXEL = 96
 _GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX = 0x9049  # glGetIntegerv, KiB
-
-
-def classify_device(renderer: str, vendor: str = "") -> str:
-    """``nvidia``, ``cpu-software`` (llvmpipe/softpipe/swrast) or ``gpu``."""
-    s = f"{renderer} {vendor}".lower()
-    if "nvidia" in s:
-        return "nvidia"
-    if any(k in s for k in ("llvmpipe", "softpipe", "swrast", "software")):
-        return "cpu-software"
-    return "gpu"
 
 
 def expand_includes(path: Path, seen: tuple = ()) -> str:

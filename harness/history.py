@@ -35,11 +35,11 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from .errors import LdbenchError
+from .naming import slug
 
 DEFAULT_HISTORY_DIR = "history"
 
@@ -278,10 +278,6 @@ def detect_change_points(y, *, alpha: float = 0.01, min_size: int = 3, min_effec
 # plots
 
 
-def _slug(s: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", s).strip("_")[:120] or "benchmark"
-
-
 #: A benchmark's identity over time: the suite entry, not the method's parameters, so that a commit
 #: changing a method's defaults shows up as a step in its series (marked "params" on the plot).
 HISTORY_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "width", "height")
@@ -400,7 +396,7 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
             for ax in (ax1, ax2):
                 ax.grid(alpha=0.3)
             fig.tight_layout()
-            path = mdir / f"{_slug(label)}.png"
+            path = mdir / f"{slug(label, 120, fallback='benchmark')}.png"
             fig.savefig(path, dpi=100)
             plt.close(fig)
             pngs.append(path)

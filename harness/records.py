@@ -40,7 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
+from .naming import key_slug
 
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -69,22 +71,6 @@ _SUBPROCESS_TIMEOUT_S = 10
 
 # --------------------------------------------------------------------------------------------------
 # machine
-
-
-def classify_device(renderer: str | None, vendor: str | None = None) -> str | None:
-    """Device class from the GL renderer and vendor strings.
-
-    Returns ``"nvidia"`` if either mentions NVIDIA, ``"cpu-software"`` for Mesa's software rasterizers
-    (llvmpipe, softpipe, swrast), ``"gpu"`` for anything else, and None when both are unknown.
-    """
-    text = f"{renderer or ''} {vendor or ''}".lower()
-    if not text.strip():
-        return None
-    if "nvidia" in text:
-        return "nvidia"
-    if any(s in text for s in ("llvmpipe", "softpipe", "swrast", "software rasterizer")):
-        return "cpu-software"
-    return "gpu"
 
 
 def _driver_from_gl_version(gl_version: str | None) -> str | None:
@@ -215,11 +201,6 @@ def machine_info(gl_info: dict | None = None) -> dict:
     return info
 
 
-def _slug(s: str | None, n: int) -> str:
-    s = re.sub(r"[^a-z0-9]+", "-", (s or "").lower()).strip("-")
-    return s[:n].strip("-") or "unknown"
-
-
 def machine_key(info: dict) -> str:
     """Short stable key of (device, GL renderer, driver) for per-machine history files.
 
@@ -229,7 +210,7 @@ def machine_key(info: dict) -> str:
     """
     device, renderer, driver = info.get("device"), info.get("gl_renderer"), info.get("driver")
     h = hashlib.sha1(json.dumps([device, renderer, driver]).encode()).hexdigest()[:8]
-    return f"{_slug(device, 16)}-{_slug(renderer, 32)}-{h}"
+    return f"{key_slug(device, 16)}-{key_slug(renderer, 32)}-{h}"
 
 
 def machine_columns(info: dict) -> dict:
@@ -580,6 +561,43 @@ def read_results(path_or_dir):
         why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
         raise LdbenchError(f"cannot read results {p}: {why}") from e
     return df
+
+
+# --------------------------------------------------------------------------------------------------
+# reading a row
+
+
+def effect_param(row, name: str, default=None):
+    """One parameter of a row's effect, from its ``effect_params`` column.
+
+    ``row`` is a dict or a pandas row; ``effect_params`` a dict (as :func:`read_results` gives) or
+    the JSON text stored in the files, e.g. ``{"effect": "ao", "d_max": "inf", "falloff": "step"}``.
+    Returns ``default`` when the row has no such parameter. Values come as stored (``"inf"`` is text):
+    typed readers such as :func:`effect_d_max` sit on top.
+    """
+    ep = row.get("effect_params") if hasattr(row, "get") else None
+    if isinstance(ep, str):
+        try:
+            ep = json.loads(ep)
+        except ValueError:
+            return default
+    if not isinstance(ep, dict):
+        return default
+    v = ep.get(name, default)
+    return default if _is_missing(v) else v
+
+
+def effect_d_max(row):
+    """The row's effect parameter ``d_max`` as a float (``math.inf`` for "inf"), None when the row's
+    effect has none (or it is not a number)."""
+    v = effect_param(row, "d_max")
+    if isinstance(v, str) and v.strip().lower() in ("inf", "+inf", "infinity"):
+        return math.inf
+    try:
+        d = float(v)
+    except (TypeError, ValueError):
+        return None
+    return None if math.isnan(d) else d
 
 
 if __name__ == "__main__":  # pragma: no cover - quick look at this machine

@@ -27,6 +27,7 @@ import urllib.parse
 from pathlib import Path
 
 from . import figures as F
+from .device import MACHINE_FIELDS
 
 # --------------------------------------------------------------------------------------------------
 # formatting
@@ -64,10 +65,6 @@ def _md(s) -> str:
 
 # --------------------------------------------------------------------------------------------------
 # machine header
-
-
-MACHINE_FIELDS = (("device", "device"), ("gl_renderer", "GL renderer"), ("gl_version", "GL version"),
-                  ("driver", "driver"), ("cpu", "CPU"), ("gpu_name", "GPU"))
 
 
 def machines(df) -> list[dict]:

@@ -1,21 +1,50 @@
 """``ldbench reproduce``: one paper table or figure, our numbers beside the published ones.
 
-The registry :data:`REGISTRY` holds one :class:`Reproduction` per paper table/figure. An entry is data:
+This module is the engine (the :class:`Claim` and :class:`Reproduction` records, row matching,
+verdicts, printing, the command); the papers' numbers are data in :mod:`harness.reproductions`, one
+module per paper, collected by :func:`registry`. An entry is data:
 
 * where the numbers come from (paper key, figure/table, the GPU and resolution the paper used),
-* the suite that reproduces it (a TOML path relative to the repository root),
+* the suite that reproduces it (``suites/<name>.toml``, one of the bundled suites),
 * ``rows``: a list of dicts, one per published row (or one per row of ours that a claim needs), each
-  with a ``match`` that selects our result row (scene, method, effect, d_max, falloff, params,
-  scene_params, size) and the published values under the keys of :data:`QUANTITIES`,
+  with a ``match`` that selects our result row (scene, method, effect, size, params, scene_params;
+  any other key is a parameter of the effect, e.g. d_max, falloff) and the published values under the
+  keys of :data:`QUANTITIES`,
 * ``claims``: the paper's statements as comparisons between rows (:class:`Claim`), each with a verdict
   on our numbers: ``holds`` / ``does not hold on this machine`` / ``not measured`` (a row is missing or
-  failed) / ``inconclusive`` (two times differ by less than the larger of their interquartile ranges),
+  failed) / for times, ``inconclusive`` or ``not measurable here`` (see "Timing verdicts" below),
 * ``scales``: suite overrides for ``--scale ci`` (tiny, for CI on llvmpipe) and ``--scale paper`` (the
   suite as written). A scale's parameter overrides are applied to the rows' ``match`` too, so the same
   rows find their counterparts at every scale.
 
-Adding a table (e.g. niessner2010 Table 1) is a data addition: write its suite TOML, transcribe the rows
-and claims into one more :class:`Reproduction` in :data:`REGISTRY`.
+Adding a paper (e.g. niessner2010 Table 1) is a data addition:
+
+1. write the suite that runs our side, ``suites/<paper>-<table>.toml``;
+2. add ``harness/reproductions/<paper>.py`` defining ``REPRODUCTIONS = (Reproduction(...), ...)``:
+   the published rows (with the ``match`` that finds our row), the claims, the ``paper`` and ``ci``
+   scales and notes on what was read into the paper (``aalund2015.py`` is the example);
+3. ``ldbench reproduce --list`` shows it; ``tests/test_reproduce.py`` checks every entry's structure
+   (suite present, claim rows exist, both scales) without further code.
+
+No engine code changes: the module is found by :func:`registry` (pkgutil over the package).
+
+Timing verdicts
+---------------
+A time claim compares two rows' medians (``total_ms``). On a GPU (timer queries) the verdict is
+``inconclusive`` when the medians differ by no more than the larger of the two rows' interquartile
+ranges. On a software rasterizer (either row's ``device`` is ``cpu-software``) frames are wall clock
+on shared CPU cores and the load changes between the jobs of one run: over 10 back-to-back runs of
+``aalund2015-fig8 --scale ci`` on a 2-core machine shared with other work, the median of one
+configuration varied by up to 2.1× (6× with two runs at once), far beyond any row's IQR, and the IQR
+rule let "HBAO gets slower as d_max grows" come out "holds" in 5 runs and "does not hold" in one.
+
+The rule on cpu-software: the verdict is ``not measurable here`` unless the medians differ by more
+than the run-to-run spread, the sum of the two rows' spreads. A row's spread is the full range
+(max − min) of its raw per-frame totals (``raw_ms``); for a row stored without them, twice its IQR
+(the range of three frames); with fewer than three frames it is unknown and the claim is not
+measurable here. For a verdict to flip, both medians would have to move by more than the largest
+variation seen within their own jobs, in opposite directions; over 16 such runs (6 of them two at a
+time) no verdict flipped under this rule: each claim gave its one verdict or ``not measurable here``.
 
 Quantities
 ----------
@@ -30,14 +59,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import LdbenchError
+from .records import effect_d_max, effect_param
 
-REPO = Path(__file__).resolve().parent.parent
 
 #: quantity → (our column, unit, higher is better, label)
 QUANTITIES = {
@@ -53,6 +81,10 @@ HOLDS = "holds"
 FAILS = "does not hold on this machine"
 NOT_MEASURED = "not measured"
 INCONCLUSIVE = "inconclusive (difference within the timing noise)"
+NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software within the run-to-run spread
+
+CPU_SOFTWARE = "cpu-software"
+MIN_SPREAD_FRAMES = 3  # fewer frames than this give no spread: time claims on a CPU are not measurable
 
 
 @dataclass(frozen=True)
@@ -92,135 +124,34 @@ class Reproduction:
     notes: tuple = ()
 
 
-# --------------------------------------------------------------------------------------------------
-# aalund2015: Aalund, Frisvad, Bærentzen, EGSR 2015 (shared/papers/aalund2015.md)
-#
-# Scene scaling: Crytek Sponza (the paper's scene; 262,267 triangles) spans about 3720.9 × 1555.9 ×
-# 2288.2 model units (x ∈ [-1920.9, 1799.9], y ∈ [-126.4, 1429.4], z ∈ [-1182.8, 1105.4]). The paper's
-# "d_max = 1280m" is in these model units (the printed "m" cannot be metres: the courtyard would be
-# 3.7 km long), i.e. 1280 / 3720.9 = 0.344 of the model's length. Our stand-in `atrium` (260,000
-# triangles) is 30 m long (x ∈ [-15, 15]), so d_max = 0.344 · 30 m = 10.32 m.
+def registry() -> dict[str, Reproduction]:
+    """{key: entry} of every ``REPRODUCTIONS`` in the modules of :mod:`harness.reproductions`, in
+    module order (found with pkgutil; modules starting with ``_`` are skipped)."""
+    global _REGISTRY
+    if _REGISTRY is None:
+        import importlib
+        import pkgutil
 
-SPONZA_LENGTH_UNITS = 3720.86
-ATRIUM_LENGTH_M = 30.0
-FIG8_D_MAX = round(1280.0 * ATRIUM_LENGTH_M / SPONZA_LENGTH_UNITS, 2)  # 10.32 m
-SMALL_D_MAX = 0.25  # "as d_max → 0" (§5.1): 0.25 m ≈ 31 Sponza units
+        from . import reproductions
 
-_CI_AALUND = {
-    "size": "32x32", "spp": 16, "warmup": 1, "frames": 3,
-    "params": {"ldm-ao": {"directions": 16, "resolution": {200: 64, 50: 16}},
-               "hbao": {"max_radius_px": 64.0}},
-    "scene_params": {"atrium": {"triangles": 4000}, "hairball": {"triangles": 2000}},
-}
+        found: dict[str, Reproduction] = {}
+        for mod in sorted(pkgutil.iter_modules(reproductions.__path__), key=lambda m: m.name):
+            if mod.name.startswith("_"):
+                continue
+            m = importlib.import_module(f"{reproductions.__name__}.{mod.name}")
+            entries = getattr(m, "REPRODUCTIONS", None)
+            if not isinstance(entries, tuple) or not all(isinstance(e, Reproduction) for e in entries):
+                raise TypeError(f"{m.__name__} must define REPRODUCTIONS, a tuple of Reproduction entries")
+            for e in entries:
+                if e.key in found:
+                    raise ValueError(f"reproduction {e.key!r} is defined twice ({m.__name__})")
+                found[e.key] = e
+        _REGISTRY = found
+    return _REGISTRY
 
-AALUND2015_FIG8 = Reproduction(
-    key="aalund2015-fig8",
-    paper="aalund2015",
-    title="LDM ambient occlusion vs HBAO at large d_max (Figure 8)",
-    source="Figure 8 and its caption; §5.1",
-    hardware="NVIDIA GeForce GTX 780 Ti",
-    resolution="800x800",
-    paper_scene="Crytek Sponza (262k triangles)",
-    suite="suites/aalund2015-fig8.toml",
-    rows=(
-        {"id": "ldm", "label": "Fig. 8(a) LDMs",
-         "paper_setup": "Crytek Sponza, 512 LDMs of 200×200, d_max = 1280 m (attenuated)",
-         "match": {"scene": "atrium", "method": "ldm-ao", "effect": "ao", "d_max": FIG8_D_MAX,
-                   "falloff": "quadratic", "params": {"directions": 512, "resolution": 200}},
-         "time_ms": 512.4, "memory_mb": 805.5},
-        {"id": "hbao", "label": "Fig. 8(c) HBAO",
-         "paper_setup": "Crytek Sponza, HBAO, d_max = 1280 m (attenuated)",
-         "match": {"scene": "atrium", "method": "hbao", "effect": "ao", "d_max": FIG8_D_MAX,
-                   "falloff": "quadratic"},
-         "time_ms": 903.6},
-        {"id": "ldm-small", "label": "LDMs, small d_max (§5.1 text)",
-         "paper_setup": "as (a), d_max → 0 (no numbers published)",
-         "match": {"scene": "atrium", "method": "ldm-ao", "effect": "ao", "d_max": SMALL_D_MAX,
-                   "falloff": "quadratic", "params": {"directions": 512, "resolution": 200}}},
-        {"id": "hbao-small", "label": "HBAO, small d_max (§5.1 text)",
-         "paper_setup": "as (c), d_max → 0 (no numbers published)",
-         "match": {"scene": "atrium", "method": "hbao", "effect": "ao", "d_max": SMALL_D_MAX,
-                   "falloff": "quadratic"}},
-    ),
-    claims=(
-        Claim("LDMs are faster than HBAO at large d_max", "ldm", "hbao", ("time_ms",), "less",
-              where="Fig. 8; §5.1 'LDMs are also faster than HBAO for large d_max'"),
-        Claim("LDMs resemble the reference better than HBAO at large d_max (PSNR and SSIM)", "ldm", "hbao",
-              ("psnr", "ssim"), "better", where="Fig. 8 caption; §5.1",
-              published="shown with images only (no error numbers)"),
-        Claim("HBAO gets slower as d_max grows (larger kernel)", "hbao", "hbao-small", ("time_ms",), "greater",
-              where="§5.1 'the performance of HBAO drops due to the large kernel size'",
-              published="stated in the text (no numbers)"),
-        Claim("For small d_max the reverse: HBAO is faster than LDMs", "hbao-small", "ldm-small", ("time_ms",),
-              "less", where="§5.1 'As d_max → 0, the reverse conclusion can be made'",
-              published="stated in the text (no numbers)"),
-    ),
-    scales={"paper": {}, "ci": _CI_AALUND},
-    notes=(
-        "Scene: `atrium` (260,000 triangles) stands in for Crytek Sponza (262,267). d_max is scaled by "
-        f"length: 1280 Sponza units / 3720.9 units × 30 m = {FIG8_D_MAX} m.",
-        "'Attenuated visibility function' is read as the quadratic falloff rho(t) = 1 − (t/d_max)², HBAO's "
-        "attenuation W(r) = 1 − r²/R² (Bavoil et al. 2008); the paper does not give the formula.",
-        "The paper's HBAO parameters are not published; ours: the 2008 formula with 8 directions × 8 steps, "
-        "radius clamp raised to the image diagonal (max_radius_px) so the kernel grows with d_max.",
-        "Memory: the caption's 805.5 MB is for the LDMs; MB read as 2^20 bytes.",
-    ),
-)
 
-AALUND2015_FIG9 = Reproduction(
-    key="aalund2015-fig9",
-    paper="aalund2015",
-    title="LDM configurations: 512 low-resolution LDMs, unattenuated AO (Figure 9)",
-    source="Figure 9 and its caption (200×200 memory from the Figure 8 and 10 captions); §5.1",
-    hardware="NVIDIA GeForce GTX 780 Ti",
-    resolution="800x800",
-    paper_scene="Crytek Sponza (262k triangles) and a hairball",
-    suite="suites/aalund2015-fig9.toml",
-    rows=(
-        {"id": "sponza-50", "label": "Fig. 9(a) LDMs, Sponza",
-         "paper_setup": "Crytek Sponza, 512 LDMs of 50×50, unattenuated",
-         "match": {"scene": "atrium", "method": "ldm-ao", "effect": "ao", "d_max": math.inf,
-                   "params": {"directions": 512, "resolution": 50}},
-         "time_ms": 373.0, "memory_mb": 204.1},
-        {"id": "hairball-50", "label": "Fig. 9(c) LDMs, hairball",
-         "paper_setup": "hairball, 512 LDMs of 50×50, unattenuated",
-         "match": {"scene": "hairball", "method": "ldm-ao", "effect": "ao", "d_max": math.inf,
-                   "params": {"directions": 512, "resolution": 50}},
-         "time_ms": 1174.0, "memory_mb": 295.5},
-        {"id": "sponza-200", "label": "512 LDMs of 200×200, Sponza",
-         "paper_setup": "Crytek Sponza, 512 LDMs of 200×200 (memory from the Fig. 8/10 captions; "
-                        "the 512.4 ms of Fig. 8 is attenuated AO, not comparable)",
-         "match": {"scene": "atrium", "method": "ldm-ao", "effect": "ao", "d_max": math.inf,
-                   "params": {"directions": 512, "resolution": 200}},
-         "memory_mb": 805.5},
-    ),
-    claims=(
-        Claim("512 low-resolution LDMs (50²) are faster than 200² ones", "sponza-50", "sponza-200", ("time_ms",),
-              "less", where="§5.1 'trade quality for performance by using fewer low-resolution LDMs'",
-              published="373.0 ms (Fig. 9, unattenuated) vs 512.4 ms (Fig. 8, attenuated)"),
-        Claim("…at a cost in quality: 200² LDMs are more accurate than 50² (PSNR and SSIM)", "sponza-200",
-              "sponza-50", ("psnr", "ssim"), "better", where="§5.1",
-              published="stated in the text (no numbers)"),
-        Claim("200² LDMs use ~4× the memory of 50² LDMs (805.5 / 204.1 = 3.95)", "sponza-200", "sponza-50",
-              ("memory_mb",), "ratio", ratio=(3.95 / 1.5, 3.95 * 1.5), where="Fig. 8 and Fig. 9 captions"),
-        Claim("The hairball's LDMs take more memory than Sponza's (295.5 vs 204.1 MB)", "hairball-50",
-              "sponza-50", ("memory_mb",), "greater", where="Fig. 9 caption"),
-        Claim("The hairball is slower than Sponza (1174 vs 373.0 ms)", "hairball-50", "sponza-50",
-              ("time_ms",), "greater", where="Fig. 9"),
-    ),
-    scales={"paper": {}, "ci": _CI_AALUND},
-    notes=(
-        "Unattenuated visibility = classic AO: d_max = ∞ (step falloff).",
-        "Scenes: `atrium` (260,000 triangles) for Crytek Sponza; `hairball` for the paper's hairball, whose "
-        "size the paper does not give (the suite uses 2.88 M triangles, the size of McGuire's hairball).",
-        "The published memory ratio of 200² to 50² LDMs is 805.5 / 204.1 = 3.95×, although the maps have 16× "
-        "the texels: the paper's LDM memory is not proportional to the texel count.",
-        "The 50² vs 200² time claim compares Fig. 9 (unattenuated) with Fig. 8 (attenuated, d_max = 1280 m) in "
-        "the paper; ours compares both resolutions on the same unattenuated AO.",
-    ),
-)
+_REGISTRY: dict | None = None
 
-REGISTRY: dict[str, Reproduction] = {r.key: r for r in (AALUND2015_FIG8, AALUND2015_FIG9)}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -249,26 +180,44 @@ def _same(a, b) -> bool:
     return math.isclose(fa, fb, rel_tol=1e-6, abs_tol=1e-9)
 
 
+def _method(name) -> str:
+    """The registered name of a method named by its name or an alias (as given when unknown), so that
+    data written with an older name still finds its rows and overrides."""
+    try:
+        from methods.base import get_method
+
+        return get_method(str(name)).name
+    except Exception:  # noqa: BLE001 - unknown method (an old run): compare names as they are
+        return str(name)
+
+
+def _method_overrides(scale: dict, method) -> dict:
+    """A scale's parameter overrides for one method (keys of ``scale["params"]`` may be aliases)."""
+    return next((ov for k, ov in scale.get("params", {}).items() if _method(k) == _method(method)), {})
+
+
 def scale_suite(suite, scale: dict, size: str | None = None):
     """Apply a scale's overrides (size, spp, warmup, frames, method params, scene params) to a suite's
     jobs; duplicates created by the overrides are dropped."""
-    from methods.base import registry
+    from methods.base import get_method
     from .suite import parse_size
 
     jobs, seen = [], set()
     w_h = parse_size(size) if size else (parse_size(scale["size"]) if scale.get("size") else None)
     for j in suite.jobs:
         params = dict(j.params)
-        for k, ov in scale.get("params", {}).get(j.method, {}).items():
+        for k, ov in _method_overrides(scale, j.method).items():
             if k in params or not isinstance(ov, dict):
                 params[k] = _map(params.get(k), ov)
         sparams = dict(j.scene_params)
         for k, ov in scale.get("scene_params", {}).get(j.scene, {}).items():
             sparams[k] = _map(sparams.get(k), ov)
         try:
-            registry()[j.method].Params.from_dict(params, method=j.method)
-        except KeyError:
-            pass  # unknown methods are rejected by the suite loader already
+            cls = get_method(j.method)
+        except LdbenchError:
+            cls = None  # unknown methods are rejected by the suite loader already
+        if cls is not None:
+            cls.Params.from_dict(params, method=j.method)  # an override the method rejects is an error
         nj = dataclasses.replace(
             j, params=tuple(sorted(params.items())), scene_params=tuple(sorted(sparams.items())),
             width=w_h[0] if w_h else j.width, height=w_h[1] if w_h else j.height,
@@ -283,9 +232,8 @@ def scale_suite(suite, scale: dict, size: str | None = None):
 
 def scale_match(match: dict, scale: dict) -> dict:
     m = dict(match)
-    meth = m.get("method")
     if "params" in m:
-        ov = scale.get("params", {}).get(meth, {})
+        ov = _method_overrides(scale, m.get("method"))
         m["params"] = {k: (_map(v, ov[k]) if k in ov else v) for k, v in m["params"].items()}
     if "scene_params" in m:
         ov = scale.get("scene_params", {}).get(m.get("scene"), {})
@@ -297,25 +245,23 @@ def scale_match(match: dict, scale: dict) -> dict:
 # matching our rows
 
 
-def _row_dmax(r):
-    from .figures import d_max_of
-
-    return d_max_of(r["effect_params"]) if isinstance(r["effect_params"], dict) else None
+#: Keys of a row's ``match`` that are not effect parameters.
+_MATCH_ROW_KEYS = ("scene", "method", "effect", "size", "params", "scene_params")
 
 
 def _matches(r, m: dict) -> bool:
     if r.get("status") != "ok":
         return False
-    for k in ("scene", "method", "effect"):
+    for k in ("scene", "effect"):
         if k in m and str(r.get(k)) != str(m[k]):
             return False
-    ep = r["effect_params"] if isinstance(r["effect_params"], dict) else {}
-    if "d_max" in m:
-        d = _row_dmax(r)
-        if d is None or not _same(d, m["d_max"]):
-            return False
-    if "falloff" in m and ep.get("falloff", "step") != m["falloff"]:
+    if "method" in m and _method(r.get("method")) != _method(m["method"]):
         return False
+    for k, want in m.items():  # every other key is an effect parameter (d_max, falloff, ...)
+        if k not in _MATCH_ROW_KEYS:
+            have = effect_d_max(r) if k == "d_max" else effect_param(r, k)
+            if have is None or not _same(have, want):
+                return False
     if "size" in m and f"{r.get('width')}x{r.get('height')}" != m["size"]:
         return False
     for col, key in (("params", "params"), ("scene_params", "scene_params")):
@@ -338,9 +284,9 @@ def find_row(rows: list, match: dict):
 def _shown_params(r, match) -> dict:
     """The parameters worth printing: those the row was matched on and those off their defaults."""
     try:
-        from methods.base import registry
+        from methods.base import get_method
 
-        defaults = registry()[r["method"]].Params().to_dict()
+        defaults = get_method(r["method"]).Params().to_dict()
     except Exception:  # noqa: BLE001 - unknown method in an old run: show what we have
         defaults = {}
     want = match.get("params") or {}
@@ -348,13 +294,44 @@ def _shown_params(r, match) -> dict:
             if k in want or (k in defaults and not _same(defaults[k], v))}
 
 
+def _float(v):
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return None
+    return None if math.isnan(f) else f
+
+
 def _noise(r):
     """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown."""
-    try:
-        v = float(r.get("total_ms_iqr"))
-    except (TypeError, ValueError):
-        return 0.0
-    return 0.0 if math.isnan(v) else v
+    return _float(r.get("total_ms_iqr")) or 0.0
+
+
+def _spread(r):
+    """A row's timing spread on a software rasterizer (ms; see "Timing verdicts"): the range of its raw
+    per-frame totals (wall clock when it has no totals), twice its IQR when it keeps no raw samples,
+    None when unknown (fewer than three frames)."""
+    raw = r.get("raw_ms") if isinstance(r.get("raw_ms"), dict) else {}
+    samples = [x for x in map(_float, raw.get("total") or raw.get("wall") or []) if x is not None]
+    if samples:
+        return max(samples) - min(samples) if len(samples) >= MIN_SPREAD_FRAMES else None
+    frames, iqr = _float(r.get("frames")), _float(r.get("total_ms_iqr"))
+    return 2.0 * iqr if iqr is not None and frames is not None and frames >= MIN_SPREAD_FRAMES else None
+
+
+def time_verdict(ra, rb, va: float, vb: float, kind: str = "less"):
+    """The verdict two rows' times force on a claim, or None when the comparison stands.
+
+    cpu-software (either row): :data:`NOT_MEASURABLE` unless ``|va − vb|`` exceeds the sum of the rows'
+    :func:`_spread`; otherwise (GPU timer queries): :data:`INCONCLUSIVE` when ``|va − vb|`` is within the
+    larger interquartile range (not for ratio claims).
+    """
+    if CPU_SOFTWARE in (ra.get("device"), rb.get("device")):
+        sa, sb = _spread(ra), _spread(rb)
+        return NOT_MEASURABLE if sa is None or sb is None or abs(va - vb) <= sa + sb else None
+    if kind != "ratio" and abs(va - vb) <= max(_noise(ra), _noise(rb)):
+        return INCONCLUSIVE
+    return None
 
 
 def our_value(r, q: str):
@@ -429,7 +406,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     recs = []
     for _, r in df.iterrows():
         d = r.to_dict()
-        for c in ("params", "effect_params", "scene_params"):
+        for c in ("params", "effect_params", "scene_params", "raw_ms"):
             d[c] = _as_dict(d.get(c))
         recs.append(d)
     found = {}
@@ -442,12 +419,12 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
         if ours is not None:
             from .figures import fmt_value
 
-            d = _row_dmax(ours)
+            d = effect_d_max(ours)
             shown = _shown_params(ours, m)
             cfg = (f"{ours.get('scene')}"
                    + (f" ({', '.join(f'{k}={v}' for k, v in ours['scene_params'].items())})" if ours['scene_params'] else "")
                    + f", {ours.get('method')}" + (f" ({', '.join(f'{k}={fmt_value(v)}' for k, v in shown.items())})" if shown else "")
-                   + (f", d_max = {fmt_value(d)}{'' if math.isinf(d) else ' m'} ({ours['effect_params'].get('falloff', 'step')})"
+                   + (f", d_max = {fmt_value(d)}{'' if math.isinf(d) else ' m'} ({effect_param(ours, 'falloff', 'step')})"
                       if d is not None else "")
                    + f", {ours.get('width')}×{ours.get('height')}" + (f" [{n} matches]" if n > 1 else ""))
         qs = [q for q in QUANTITIES if q in pr] or ["time_ms"]
@@ -463,20 +440,20 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     pub_rows = {pr["id"]: pr for pr in entry.rows}
     for c in entry.claims:
         ra, rb = found.get(c.a), found.get(c.b)
-        parts, verdicts, pub_parts, noisy = [], [], [], False
+        parts, verdicts, pub_parts, timing = [], [], [], set()
         for q in c.quantities:
             va, vb = our_value(ra, q), our_value(rb, q)
             parts.append(_side(c.kind, q, va, vb, c.ratio))
             verdicts.append(None if va is None or vb is None else _compare(c.kind, q, va, vb, c.ratio))
-            if q == "time_ms" and c.kind != "ratio" and va is not None and vb is not None:
-                noisy |= abs(va - vb) <= max(_noise(ra), _noise(rb))
+            if q == "time_ms" and va is not None and vb is not None:
+                timing.add(time_verdict(ra, rb, va, vb, c.kind))
             pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(q)
             if pa is not None and pb is not None:
                 pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
         if any(v is None for v in verdicts):
             verdict = NOT_MEASURED
-        elif noisy:
-            verdict = INCONCLUSIVE
+        elif NOT_MEASURABLE in timing or INCONCLUSIVE in timing:
+            verdict = NOT_MEASURABLE if NOT_MEASURABLE in timing else INCONCLUSIVE
         else:
             verdict = HOLDS if all(verdicts) else FAILS
         published = c.published or "; ".join(pub_parts) or "stated in the paper"
@@ -516,7 +493,8 @@ def format_text(res: dict) -> str:
     out = [f"{res['key']}: {res['title']}", f"  source:    {res['paper']}, {res['source']}",
            f"  published: {res['published_setup']}", f"  ours:      {res['our_setup']}"]
     if res.get("device") == "cpu-software":
-        out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer")
+        out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer; a time "
+                   "claim is 'not measurable here' unless the difference exceeds the run-to-run spread")
     out.append("")
     out += _table(["row", "quantity", "published", "ours", "ours/published", "our configuration"],
                   [[r["label"], r["quantity"], r["published"], r["ours"], r["ratio"], r["ours_config"]]
@@ -539,7 +517,8 @@ def format_markdown(res: dict) -> str:
            f"- source: {_md(res['paper'])}, {_md(res['source'])}",
            f"- published: {_md(res['published_setup'])}", f"- ours: {_md(res['our_setup'])}"]
     if res.get("device") == "cpu-software":
-        out.append("- **device = cpu-software: our times are wall clock on a software rasterizer**")
+        out.append("- **device = cpu-software: our times are wall clock on a software rasterizer**; a time "
+                   "claim is *not measurable here* unless the difference exceeds the run-to-run spread")
     out += ["", "| row | paper setup | our configuration | quantity | published | ours | ours / published |",
             "|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
@@ -559,10 +538,19 @@ def format_markdown(res: dict) -> str:
 # running
 
 
+def suite_file(entry: Reproduction) -> Path:
+    """The entry's suite among the bundled suites (``suites/`` of a checkout, ``harness/suites`` of an
+    installed package)."""
+    from .resources import SUITES_DIR
+
+    return SUITES_DIR / Path(entry.suite).name
+
+
 def get_entry(key: str) -> Reproduction:
-    if key not in REGISTRY:
-        raise LdbenchError(f"unknown table {key!r} (known: {', '.join(REGISTRY)}; see ldbench reproduce --list)")
-    return REGISTRY[key]
+    reg = registry()
+    if key not in reg:
+        raise LdbenchError(f"unknown table {key!r} (known: {', '.join(reg)}; see ldbench reproduce --list)")
+    return reg[key]
 
 
 def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=None, from_run=None,
@@ -583,11 +571,11 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         from .runner import run_jobs
         from .suite import load_suite
 
-        path = REPO / entry.suite
+        path = suite_file(entry)
         if not path.is_file():
             raise LdbenchError(f"the suite of {key} is missing: {entry.suite}")
         suite = scale_suite(load_suite(path), entry.scales[scale], size)
-        run_dir = Path(out) if out else REPO / "reports" / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
+        run_dir = Path(out) if out else Path("reports") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
     res = evaluate(entry, df, scale)
@@ -602,7 +590,7 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
 
 def list_text() -> str:
     lines = []
-    for e in REGISTRY.values():
+    for e in registry().values():
         lines.append(f"{e.key:<18} {e.title}")
         lines.append(f"{'':<18} {e.paper} {e.source}; {e.hardware}, {e.resolution}; suite {e.suite}; "
                      f"scales: {', '.join(e.scales)}")

@@ -259,3 +259,28 @@ def test_software_rasterizer_times_are_not_gated_unless_asked(tmp_path, capsys):
     worse = _run(tmp_path, "worse", {("cornell", "ldm-ao", "ao"): {"psnr": 26.0}}, machine=cpu)
     rc, out, _ = _cli(capsys, base, worse)
     assert rc == 1 and "[psnr]" in out
+
+
+def test_cpu_time_on_another_cpu_is_not_compared(tmp_path, capsys):
+    """On cpu-software the CPU is the device: --cpu-time compares times only on the same CPU model
+    (llvmpipe's renderer string names LLVM, not the CPU); on a GPU the CPU does not matter."""
+    cpu = {"device": "cpu-software", "gl_renderer": "llvmpipe (LLVM 15.0.6, 256 bits)",
+           "gl_version": "4.5 (Core Profile) Mesa 22.3.6", "driver": "Mesa 22.3.6", "cpu": "EPYC", "gpu_name": None}
+    base = _run(tmp_path, "base", machine=cpu)
+    slow = _run(tmp_path, "slow", {("cornell", "ldm-ao", "ao"): {"ms": 20.0}}, machine={**cpu, "cpu": "Core i3"})
+    rc, out, err = _cli(capsys, base, slow, "--cpu-time")
+    assert rc == 0 and "machine differs (cpu: 'EPYC' → 'Core i3')" in err
+    gbase = _run(tmp_path, "gbase")
+    gslow = _run(tmp_path, "gslow", {("cornell", "ldm-ao", "ao"): {"ms": 20.0}}, machine={**GPU, "cpu": "Core i3"})
+    rc, out, _ = _cli(capsys, gbase, gslow)
+    assert rc == 1 and "[time]" in out
+
+
+def test_benchmark_label_reads_effect_params(tmp_path):
+    """The label's d_max comes from the one effect-parameter reader: inf stored as text, numbers as %g."""
+    rows = [_row("cornell", "hbao", "ao"),
+            R.make_row(**{**_row("cornell", "ldm-ao", "ao"),
+                          "effect_params": {"effect": "ao", "d_max": 10.32, "falloff": "quadratic"}})]
+    R.write_results(rows, tmp_path)
+    labels = {r["method"]: C._effect_label(r) for _, r in R.read_results(tmp_path).iterrows()}
+    assert labels == {"hbao": "ao(step, d_max=inf)", "ldm-ao": "ao(quadratic, d_max=10.32)"}
