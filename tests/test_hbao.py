@@ -1,5 +1,6 @@
 """hbao (Bavoil et al. 2008) on llvmpipe: the cosine integral against the Mitsuba reference and a closed
-form, the 2008 integral's behaviour, falloff semantics, and a check that a broken horizon search fails.
+form, the 2008 integral's behaviour, the shader's quadratic falloff and d_max cut-off against closed
+forms, and checks that a broken horizon search, falloff or cut-off fails.
 
 Closed form used below (a floor point at distance a from a perpendicular wall, step falloff d_max,
 wall and floor extending at least d_max around the point): the directions that hit the wall within
@@ -7,6 +8,10 @@ d_max are those with ω_x > c = a/d_max (x = towards the wall), and under cosine
 projected directions are uniform on the unit disk (Nusselt), so the occluded fraction is the circular
 segment's area over π:  A(a) = 1 − (acos c − c √(1 − c²)) / π  for c < 1, and 1 beyond. For d_max = ∞
 and a wall of height H this becomes the familiar form factor A = 1 − ½(1 − a/√(a² + H²)).
+
+With quadratic falloff the wall hit along a direction with projected coordinate x = ω_x lies at
+t = a/x, weighted ρ = 1 − (t/d_max)² = 1 − c²/x²; integrating over the segment (chord 2√(1 − x²)):
+A(a) = 1 − ((1 + 2c²) acos c − 3c √(1 − c²)) / π  (½ at the foot of the wall, 1 from c = 1 on).
 """
 import math
 from pathlib import Path
@@ -47,6 +52,11 @@ def wall_ao(a, d_max):
     return 1.0 - (np.arccos(c) - c * np.sqrt(1.0 - c * c)) / np.pi
 
 
+def wall_ao_quadratic(a, d_max):
+    c = np.clip(np.asarray(a, float) / d_max, 0.0, 1.0)
+    return 1.0 - ((1.0 + 2.0 * c * c) * np.arccos(c) - 3.0 * c * np.sqrt(1.0 - c * c)) / np.pi
+
+
 def render(gpu, scene, effect, size, method_cls=HBAO, **params):
     m = method_cls(HBAOParams(**params))
     m.setup(gpu, scene)
@@ -61,20 +71,22 @@ def render(gpu, scene, effect, size, method_cls=HBAO, **params):
 FLOOR_BINS = (0.0, 0.1, 0.2, 0.4, 0.6, 0.8, 1.2)  # distance a from the wall (bin width 0.05)
 
 
-def floor_profile(img, pos):
-    """Mean AO of floor pixels (|z| < 1) per distance bin from the wall."""
+def floor_profile(img, pos, exact=lambda a: wall_ao(a, 1.0)):
+    """Mean AO of floor pixels (|z| < 1) per distance bin from the wall, beside ``exact`` (the closed
+    form; default: step falloff, d_max = 1)."""
     on_floor = (pos[..., 3] > 0.5) & (np.abs(pos[..., 1]) < 1e-4) & (np.abs(pos[..., 2]) < 1.0)
     a = 1.0 - pos[..., 0]
     out = []
     for lo in FLOOR_BINS:
         sel = on_floor & (a >= lo) & (a < lo + 0.05)
         assert sel.sum() > 50
-        out.append((float(img[..., 0][sel].mean()), float(wall_ao(a[sel], 1.0).mean())))
+        out.append((float(img[..., 0][sel].mean()), float(exact(a[sel]).mean())))
     return np.array(out)  # (bins, [ours, closed form])
 
 
-def check_floor_wall(profile, tol=0.03):
-    """What a working horizon search must give: darker towards the wall, and the closed form."""
+def check_floor_wall(profile, tol=0.017):
+    """What a working horizon search must give: darker towards the wall, and the closed form (default
+    settings: measured max error 0.0148 on llvmpipe)."""
     ours, exact = profile[:, 0], profile[:, 1]
     assert ours[0] < ours[3] - 0.15 < ours[-1] - 0.3, f"no darkening towards the wall: {ours}"
     assert np.all(np.diff(ours) > -0.01), f"AO not increasing away from the wall: {ours}"
@@ -121,9 +133,9 @@ def test_slice_integral_is_cosine_weighted_ao():
 
 
 def test_cornell_small_dmax_cosine_matches_reference(gpu):
-    """cornell, d_max = 5 % of the scene diagonal, 256²: the cosine integral reaches PSNR ≥ 24 dB
-    against Mitsuba (measured 29.3 dB, of which ~3 dB are lost on reference pixels exactly on
-    the box's creases); the 2008 integral is reported and must stay a sane AO image."""
+    """cornell, d_max = 5 % of the scene diagonal, 256², against Mitsuba (data range 1). Thresholds just
+    below what llvmpipe measures: cosine integral 32.35 dB / SSIM 0.9733, 2008 integral 28.28 dB /
+    SSIM 0.9577 (part of the error sits on reference pixels exactly on the box's creases)."""
     from harness.scenes import load_scene
     from references import render_reference
 
@@ -145,9 +157,10 @@ def test_cornell_small_dmax_cosine_matches_reference(gpu):
                             M.ssim(img, ref.mean, mask=ref.mask, data_range=1.0))
     print(f"\ncornell {eff.label()} {size}² ref spp {REF_SPP}: "
           + ", ".join(f"{k}: PSNR {p:.2f} dB SSIM {s:.4f}" for k, (p, s) in scores.items()))
-    assert scores["cosine"][0] >= 24.0, scores
-    assert scores["cosine"][1] >= 0.9, scores
-    assert scores["hbao"][0] >= 20.0, scores
+    assert scores["cosine"][0] >= 32.0, scores
+    assert scores["cosine"][1] >= 0.97, scores
+    assert scores["hbao"][0] >= 28.0, scores
+    assert scores["hbao"][1] >= 0.95, scores
 
 
 def test_floor_near_wall_cosine_matches_closed_form_and_reference(gpu):
@@ -162,8 +175,8 @@ def test_floor_near_wall_cosine_matches_closed_form_and_reference(gpu):
     # the closed form is the reference's value too (checks the closed form, not only us)
     ref = render_reference(sc, eff, width=size, height=size, spp=REF_SPP, progress=False)
     ref_prof = floor_profile(ref.mean, pos)
-    assert np.abs(ref_prof[:, 0] - ref_prof[:, 1]).max() < 0.02
-    assert M.psnr(r.image, ref.mean, mask=ref.mask, data_range=1.0) > 26.0
+    assert np.abs(ref_prof[:, 0] - ref_prof[:, 1]).max() < 0.006  # measured 0.0041
+    assert M.psnr(r.image, ref.mean, mask=ref.mask, data_range=1.0) > 31.5  # measured 31.79 dB
 
 
 def test_floor_near_wall_which_integral_matches(gpu):
@@ -181,19 +194,22 @@ def test_floor_near_wall_which_integral_matches(gpu):
     r, _, pos = render(gpu, sc, eff, 192, integral="hbao", **fine)
     hb_prof = floor_profile(r.image, pos)
     exact = cos_prof[:, 1]
-    assert np.abs(cos_prof[:, 0] - exact).max() < 0.015, cos_prof
-    assert abs(hb_prof[0, 0] - exact[0]) < 0.03, hb_prof
+    # measured on llvmpipe: cosine within 0.0046 of the closed form, 2008 formula 0.0017 at the foot and
+    # 0.029 or more below it at a = 0.4 .. 0.85
+    assert np.abs(cos_prof[:, 0] - exact).max() < 0.006, cos_prof
+    assert abs(hb_prof[0, 0] - exact[0]) < 0.005, hb_prof
     mid = slice(3, 6)  # a = 0.4 .. 0.85
-    assert np.all(hb_prof[mid, 0] < exact[mid] - 0.02), (hb_prof, exact)
+    assert np.all(hb_prof[mid, 0] < exact[mid] - 0.025), (hb_prof, exact)
     assert hb_prof[0, 0] < hb_prof[3, 0] - 0.1 < hb_prof[-1, 0] - 0.2  # still darkens towards the wall
 
 
-def test_broken_horizon_search_fails(gpu, tmp_path):
-    """The floor/wall check has teeth: with the horizon never updated it fails."""
+def broken_hbao(tmp_path, *edits):
+    """An unregistered HBAO whose hbao.glsl has each (old, new) text replaced (each must occur)."""
     src = (HBAO_DIR / "hbao.glsl").read_text()
-    broken = src.replace("theta_h = theta;", "").replace("f_h = f;", "")
-    assert broken != src
-    (tmp_path / "hbao.glsl").write_text(broken)
+    for old, new in edits:
+        assert old in src, old
+        src = src.replace(old, new)
+    (tmp_path / "hbao.glsl").write_text(src)
 
     class Broken(HBAO):
         name = ""  # not registered
@@ -201,10 +217,71 @@ def test_broken_horizon_search_fails(gpu, tmp_path):
         def shader(self, name):
             return tmp_path / name if name == "hbao.glsl" else HBAO_DIR / name
 
+    return Broken
+
+
+def test_broken_horizon_search_fails(gpu, tmp_path):
+    """The floor/wall check has teeth: with the horizon never updated it fails."""
+    Broken = broken_hbao(tmp_path, ("theta_h = theta;", ""), ("f_h = f;", ""))
     sc = floor_wall_scene()
     r, _, pos = render(gpu, sc, Effect("ao", 1.0, "step"), 192, method_cls=Broken, integral="cosine")
     with pytest.raises(AssertionError):
         check_floor_wall(floor_profile(r.image, pos))
+
+
+# The shader's falloff, checked on the floor/wall closed forms (module docstring): fine sampling and
+# no blur or bias, so that what remains is the integral with its weights ρ(r) and its cut-off r < d_max.
+FINE = dict(integral="cosine", steps=32, angle_bias=0.0, blur=False)
+RHO_IS_ONE = ("if (falloff_mode == 1) return 1.0 - (r * r) / (d_max * d_max);", "return 1.0;")
+NO_CUT_OFF = ("if (r2 >= d2max || r2 <= 0.0) continue;", "if (r2 <= 0.0) continue;")
+
+
+def check_quadratic_falloff(gpu, method_cls=HBAO):
+    """Quadratic falloff, d_max = 1: the floor profile matches the closed form to 0.006 (measured
+    0.0038 on llvmpipe; ρ forced to 1 gives 0.11, the step profile)."""
+    r, _, pos = render(gpu, floor_wall_scene(), Effect("ao", 1.0, "quadratic"), 192, method_cls=method_cls, **FINE)
+    prof = floor_profile(r.image, pos, exact=lambda a: wall_ao_quadratic(a, 1.0))
+    err = np.abs(prof[:, 0] - prof[:, 1])
+    assert err.max() < 0.006, f"floor AO {np.round(prof[:, 0], 3)} vs closed form {np.round(prof[:, 1], 3)}"
+
+
+# Seen from low over the floor the wall is foreshortened: floor points up to a few d_max from it still
+# reach it within the screen radius (d_max projected at their depth), so only the shader's 3D test
+# r < d_max keeps it out.
+LOW_OVER_FLOOR = Camera((-2.5, 0.8, 0.0), (1.0, 0.6, 0.0), (0, 1, 0), 50.0)
+
+
+def check_cut_off(gpu, method_cls=HBAO):
+    """Step falloff, d_max = 0.3: every floor point farther than d_max from the wall is unoccluded,
+    exactly (measured: all 4864 such pixels at 1.0; without the cut-off 28 % of them drop to 0.95)."""
+    sc = floor_wall_scene()
+    sc = Scene(sc.name, sc.meshes, LOW_OVER_FLOOR)
+    d_max = 0.3
+    r, _, pos = render(gpu, sc, Effect("ao", d_max, "step"), 128, method_cls=method_cls, **FINE)
+    floor = (pos[..., 3] > 0.5) & (np.abs(pos[..., 1]) < 1e-4) & (np.abs(pos[..., 2]) < 1.5)
+    a = 1.0 - pos[..., 0]
+    beyond, near = floor & (a > d_max + 0.005), floor & (a < 0.8 * d_max)
+    assert beyond.sum() > 3000 and near.sum() > 200
+    ao = r.image[..., 0]
+    assert ao[beyond].min() >= 1.0 - 1e-5, f"{(ao[beyond] < 1 - 1e-5).mean():.1%} occluded beyond d_max"
+    assert ao[near].mean() < 0.85  # the wall does occlude within d_max (measured 0.78)
+
+
+def test_quadratic_falloff_in_the_shader(gpu):
+    check_quadratic_falloff(gpu)
+
+
+def test_nothing_beyond_d_max_occludes(gpu):
+    check_cut_off(gpu)
+
+
+@pytest.mark.parametrize("edit, check", [(RHO_IS_ONE, check_quadratic_falloff), (NO_CUT_OFF, check_cut_off)],
+                         ids=["rho-forced-to-1", "no-d_max-cut-off"])
+def test_broken_falloff_fails(gpu, tmp_path, edit, check):
+    """The two falloff checks have teeth: ρ forced to 1, or samples beyond d_max accepted, fail them."""
+    broken = broken_hbao(tmp_path, edit)
+    with pytest.raises(AssertionError, match="closed form|beyond d_max"):
+        check(gpu, broken)
 
 
 def test_falloff_semantics(gpu):

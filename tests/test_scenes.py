@@ -136,7 +136,9 @@ def test_triangle_targets(name, target):
     t0 = time.perf_counter()
     sc = load_scene(name, triangles=target)
     dt = time.perf_counter() - t0
-    assert abs(sc.triangle_count - target) <= 0.15 * target, sc.triangle_count
+    # atrium: within 2 % by construction (measured ≤ 1.93 %); hairball: whole tubes of 120 triangles,
+    # so within 60 (measured 2.1 % at 2000)
+    assert abs(sc.triangle_count - target) <= (0.02 * target if name == "atrium" else 60), sc.triangle_count
     assert dt < 2.0
     assert sc.params["triangles"] == target
 
