@@ -23,9 +23,14 @@ def gpu():
 
 @pytest.fixture(scope="session", autouse=True)
 def _isolated_cache(tmp_path_factory):
-    """Reference cache in a per-session temp folder unless LDBENCH_CACHE is set."""
+    """Reference cache in a per-session temp folder unless LDBENCH_CACHE is set. Registered real scenes
+    are read from the shared mirror (loading only reads and verifies), else from an empty folder: tests
+    never touch the user's scene cache."""
     if "LDBENCH_CACHE" not in os.environ:
         os.environ["LDBENCH_CACHE"] = str(tmp_path_factory.mktemp("ref-cache"))
+    if "LDBENCH_SCENES" not in os.environ:
+        os.environ["LDBENCH_SCENES"] = str(SHARED_SCENES if SHARED_SCENES.is_dir()
+                                           else tmp_path_factory.mktemp("scene-cache"))
     yield
 
 
