@@ -117,7 +117,7 @@ class Reproduction:
     hardware: str  # the paper's GPU
     resolution: str  # the paper's image size
     paper_scene: str
-    suite: str  # path relative to the repository root
+    suite: str  # a bundled suite, "suites/<name>.toml"
     rows: tuple  # dicts, see the module docstring
     claims: tuple = ()
     scales: dict = field(default_factory=dict)
@@ -151,7 +151,6 @@ def registry() -> dict[str, Reproduction]:
 
 
 _REGISTRY: dict | None = None
-
 
 
 # --------------------------------------------------------------------------------------------------
