@@ -228,7 +228,8 @@ def _run(args):
     from .runner import run_jobs
 
     suite = suite_from_args(args)
-    out = Path(args.out) if args.out else Path("reports") / f"{suite.name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    from .naming import slug  # a suite named "../../x" stays inside reports/
+    out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report)
     cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
                         "ssim", "status") if c in df.columns]

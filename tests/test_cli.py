@@ -168,6 +168,8 @@ def test_out_on_a_file_or_read_only_parent_fails_before_rendering(tmp_path):
     assert f.read_text() == "x"
     if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses even root
         parent = Path("/sys/ldbench-no-such-dir")
+        if not Path("/sys").is_dir():
+            pytest.skip("running as root without /sys: no read-only folder to try")
     else:
         parent = tmp_path / "ro"
         parent.mkdir()
@@ -185,6 +187,21 @@ def test_rerun_replaces_the_run(tmp_path):
     assert rc == 0, se
     assert (out / "results.csv").read_text() != first
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_suite_name_cannot_escape_reports(tmp_path):
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    s = work / "s.toml"
+    s.write_text('[suite]\nname = "../../escape"\nsize = "16x16"\nspp = 4\nframes = 1\nwarmup = 0\n'
+                 '[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["hbao"]\n')
+    p = subprocess.run([sys.executable, "-m", "harness.cli", "run", str(s), "--no-progress", "--no-report"],
+                       cwd=work, capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    runs = list((work / "reports").iterdir())
+    assert len(runs) == 1 and runs[0].name.startswith("escape-")
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["a"] and sorted(x.name for x in (tmp_path / "a").iterdir()) == ["b"]
 
 
 def xml_scene(path: Path, *, target="0, 0, 0", shape_extra="", film=(24, 18), box=1.0):
