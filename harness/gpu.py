@@ -125,6 +125,9 @@ class Resources:
         self.bytes.clear()
 
 
+_LIVE: list = []  # Gpu instances not yet released, in creation order (one thread uses them)
+
+
 class Gpu:
     """A headless OpenGL >= 4.3 context with timing helpers.
 
@@ -152,6 +155,7 @@ class Gpu:
         self._pending: list = []  # (stage, query or ms) for the current frame
         self._frame_t0 = None
         self._programs: dict = {}
+        _LIVE.append(self)
 
     # ---- shaders -------------------------------------------------------------------------
     def program(self, path, defines: dict | None = None, varyings=()):
@@ -269,6 +273,10 @@ class Gpu:
             p.release()
         self._programs.clear()
         self.ctx.release()
+        if self in _LIVE:
+            _LIVE.remove(self)
+        if _LIVE:  # releasing an EGL context leaves none current: hand the thread back to the last live one
+            _LIVE[-1].ctx.__enter__()
 
 
 def _host_available_bytes() -> int | None:

@@ -94,3 +94,21 @@ def test_registry_discovers_adapters():
     assert get_method("direct-raster").effects == frozenset({"direct"})
     with pytest.raises(LdbenchError, match="unknown method"):
         get_method("nope")
+
+
+def test_a_second_context_released_leaves_the_first_usable(gpu):
+    """A run started from inside a process that holds a context (a test session, a notebook) creates and
+    releases its own; the first context must still compute afterwards (EGL leaves none current)."""
+    from harness.gpu import GLSL_DIR, Gpu
+
+    buf = gpu.ctx.buffer(reserve=64)
+    cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
+    other = Gpu()
+    other.compute(GLSL_DIR / "fill_uint.glsl")
+    other.release()
+    cs["n"].value, cs["value"].value = 16, 7
+    buf.bind_to_storage_buffer(0)
+    cs.run(1)
+    gpu.ctx.finish()
+    assert (np.frombuffer(buf.read(), np.uint32) == 7).all()
+    buf.release()
