@@ -65,28 +65,53 @@ def _methods(args):
     from methods.base import registry
 
     for name, cls in registry().items():
-        print(f"{name}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
+        also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
+        print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
         print(cls.Params.table())
     return 0
 
 
 # ---- reference -------------------------------------------------------------------------------------
-def _effect_args(p):
-    p.add_argument("--effect", required=True, help="ao | direct | indirect")
-    p.add_argument("--d-max", default=None, help="ao: maximum distance (world units, or 'inf')")
-    p.add_argument("--falloff", default=None, help="ao: step | quadratic")
+# Effect parameters with flags of their own; any other one: --effect-set NAME=VALUE.
+EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf')"),
+                ("falloff", "--falloff", "ao: step | quadratic"),
+                ("ray_kind", "--ray-kind", "rays: diffuse | glossy | shadow | ao"),
+                ("rays_per_pixel", "--rays-per-pixel", "rays: rays per hit pixel"))
+
+
+def _effect_args(p, required=True):
+    from .effects import EFFECTS
+
+    p.add_argument("--effect", required=required, help=" | ".join(EFFECTS))
+    for _, flag, helptext in EFFECT_FLAGS:
+        p.add_argument(flag, default=None, help=helptext)
+    p.add_argument("--effect-set", action="append", metavar="PARAM=VALUE",
+                   help="effect parameter (e.g. exponent=64, light_radius=0.2)")
+
+
+def _effect_opts(args) -> dict:
+    """Effect parameters given on the command line (flags and --effect-set)."""
+    from .suite import _float_or_inf
+
+    opts = {}
+    for name, flag, _ in EFFECT_FLAGS:
+        v = getattr(args, name)
+        if v is not None:
+            opts[name] = _float_or_inf(_literal(v))
+    for kv in args.effect_set or []:
+        if "=" not in kv:
+            raise LdbenchError(f"--effect-set expects PARAM=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        if k in opts:
+            raise LdbenchError(f"effect parameter {k!r} given twice")
+        opts[k] = _float_or_inf(_literal(v))
+    return opts
 
 
 def _effect_from(args):
     from .effects import Effect
-    from .suite import _float_or_inf
 
-    opts = {}
-    if args.d_max is not None:
-        opts["d_max"] = _float_or_inf(args.d_max)
-    if args.falloff is not None:
-        opts["falloff"] = args.falloff
-    return Effect.parse(args.effect, opts)
+    return Effect.parse(args.effect, _effect_opts(args))
 
 
 def _scene_params(pairs):
@@ -140,7 +165,7 @@ def _reference(args):
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
           f"key={m.get('key')}")
     if args.out:
-        from .runner import save_image
+        from .imageio import save_image
         out = Path(args.out)
         save_image(out.with_suffix(""), ref.mean)
         print(f"wrote {out.with_suffix('.exr')}")
@@ -152,9 +177,8 @@ def _run_args(p):
     p.add_argument("suite", nargs="?", help="suite TOML file")
     p.add_argument("--scene")
     p.add_argument("--method", action="append")
-    p.add_argument("--effect")
-    p.add_argument("--d-max", default=None)
-    p.add_argument("--falloff", default=None)
+    _effect_args(p, required=False)
+    p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
     p.add_argument("--size", default=None, help="WxH")
     p.add_argument("--spp", type=int, default=None, help="reference samples per pixel")
     p.add_argument("--warmup", type=int, default=None)
@@ -174,7 +198,8 @@ def _method_sets(pairs) -> dict:
             raise LdbenchError(f"--set expects METHOD.PARAM=VALUE, got {kv!r}")
         k, v = kv.split("=", 1)
         m, p = k.split(".", 1)
-        params.setdefault(m, {})[p] = _literal(v)
+        from methods.base import canonical_name
+        params.setdefault(canonical_name(m), {})[p] = _literal(v)
     return params
 
 
@@ -184,6 +209,9 @@ def suite_from_args(args):
 
     if args.suite and (args.scene or args.method or args.effect):
         raise LdbenchError("give either a suite file or --scene/--method/--effect, not both")
+    if args.suite and (_effect_opts(args) or args.seed is not None):
+        raise LdbenchError("effect parameters and --seed go with --scene/--method/--effect; a suite file sets "
+                           "them in its [[run]] tables")
     # --set with a suite overrides parameters (e.g. a deliberately degraded nightly run)
     params = _method_sets(args.set)
     if args.suite:
@@ -206,16 +234,14 @@ def suite_from_args(args):
         return override(suite, size=args.size, spp=args.spp, warmup=args.warmup, frames=args.frames)
     if not (args.scene and args.method and args.effect):
         raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
+    from methods.base import canonical_name
     for m in params:
-        if m not in args.method:
+        if m not in {canonical_name(x) for x in args.method}:
             raise LdbenchError(f"--set names method {m!r}, which is not in --method")
     run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
-           "scene_params": _scene_params(args.scene_set)}
-    if args.d_max is not None:
-        from .suite import _float_or_inf
-        run["d_max"] = _float_or_inf(args.d_max)
-    if args.falloff is not None:
-        run["falloff"] = args.falloff
+           "scene_params": _scene_params(args.scene_set), "effect_params": _effect_opts(args)}
+    if args.seed is not None:
+        run["seed"] = args.seed
     head = {"name": "adhoc"}
     for k in ("size", "spp", "warmup", "frames"):
         if getattr(args, k) is not None:

@@ -288,7 +288,7 @@ def relmse(test, ref, *, mask=None, eps=1e-2) -> float:
     return float(np.mean((tv - rv) ** 2 / (rv ** 2 + eps)))
 
 
-def all_metrics(test, ref, *, mask=None) -> dict:
+def all_metrics(test, ref, *, mask=None, data_range=None) -> dict:
     """PSNR, SSIM, FLIP and relMSE with their default settings, and those settings.
 
     Parameters
@@ -297,6 +297,8 @@ def all_metrics(test, ref, *, mask=None) -> dict:
         Linear images, ``H x W x C`` (C = 1 or 3) or ``H x W``, same shape.
     mask : ndarray of bool, optional
         ``H x W``, True for valid pixels.
+    data_range : float, optional
+        PSNR/SSIM peak; default :func:`default_data_range` (the effect declares it: 1 for AO).
 
     Returns
     -------
@@ -306,7 +308,8 @@ def all_metrics(test, ref, *, mask=None) -> dict:
         number of valid pixels.
     """
     t, r, m = _check(test, ref, mask)
-    dr = default_data_range(r, mask=m)
+    rule = "given by the effect" if data_range is not None else "max of reference over valid pixels"
+    dr = float(data_range) if data_range is not None else default_data_range(r, mask=m)
     win = ssim_win_size(r.shape[0], r.shape[1], 7)
     eps = 1e-2
     ppd = FLIP_SETTINGS["ppd"]
@@ -317,7 +320,7 @@ def all_metrics(test, ref, *, mask=None) -> dict:
         "flip": flip_mean,
         "relmse": relmse(t, r, mask=m, eps=eps),
         "metric_settings": {
-            "psnr": {"data_range": dr, "data_range_rule": "max of reference over valid pixels"},
+            "psnr": {"data_range": dr, "data_range_rule": rule},
             "ssim": {"win_size": win, "data_range": dr, **SSIM_SETTINGS,
                      "mean": "SSIM map averaged over channels and valid pixels, no border crop"},
             "flip": dict(FLIP_SETTINGS),

@@ -13,8 +13,10 @@ A suite file::
     scene = "cornell"               # built-in name, XML path or mesh path (relative to the suite file)
     scene_params = { }              # builder parameters
     effect = "ao"                   # one effect, or a list
-    d_max = [0.5, inf]              # ao parameters; a list is a sweep
+    d_max = [0.5, inf]              # effect parameters at top level (ao: d_max, falloff); a list is a sweep
     falloff = "step"
+    effect_params = { }             # any effect's parameters, e.g. { ray_kind = "glossy", exponent = [8, 64] }
+    seed = 0                        # seed of the effect's inputs and of the reference
     methods = "all"                 # "all" = every registered method supporting the effect, or a list
     size = "64x64"                  # optional overrides of [suite] values
     [run.params.ldm-ao]             # method parameters; a list is a sweep (grid over all lists)
@@ -35,7 +37,8 @@ from .effects import Effect
 from .errors import LdbenchError
 
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description"}
-RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "methods", "params", "size", "spp",
+RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
+            "size", "spp",
             "warmup", "frames"}
 
 
@@ -51,6 +54,7 @@ class Job:
     spp: int
     warmup: int
     frames: int
+    seed: int = 0  # seed of the effect's inputs and of the reference
 
     @property
     def scene_key(self):
@@ -218,13 +222,19 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
 
     reg = registry()
     effects = []
+    effect_params = run.get("effect_params", {}) or {}
+    if not isinstance(effect_params, dict):
+        raise LdbenchError("effect_params must be a table")
+    top = {k: run[k] for k in ("d_max", "falloff") if k in run}
+    both = set(top) & set(effect_params)
+    if both:
+        raise LdbenchError(f"effect parameter {sorted(both)[0]!r} given twice (top level and effect_params)")
+    opts = {**top, **effect_params}
     for name in _names(run["effect"], "effect"):
-        opts = {k: run[k] for k in ("d_max", "falloff") if k in run}
-        if name != "ao" and opts:
-            raise LdbenchError(f"effect {name!r} takes no d_max/falloff")
         for combo in _grid(opts) if opts else [{}]:
             combo = {k: _float_or_inf(v) for k, v in combo.items()}
             effects.append(Effect.parse(name, combo))
+    seed = _int(run.get("seed", 0), "seed", 0)
 
     methods = run.get("methods", "all")
     if methods != "all":
@@ -232,6 +242,11 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     params = run.get("params", {}) or {}
     if not isinstance(params, dict) or not all(isinstance(v, dict) for v in params.values()):
         raise LdbenchError("params must be a table of tables ([run.params.METHOD])")
+    from methods.base import canonical_name  # earlier names (aliases) select the same adapter
+
+    if methods != "all":
+        methods = [canonical_name(m) for m in _listify(methods)]
+    params = {canonical_name(m): v for m, v in params.items()}
     for m in params:
         if m not in reg:
             raise LdbenchError(f"unknown method {m!r} in params (known: {', '.join(reg)})")
@@ -255,7 +270,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
             for p in _grid(params.get(m, {})):
                 cls.Params.from_dict(p, method=m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
-                                eff, w, h, spp, warmup, frames))
+                                eff, w, h, spp, warmup, frames, seed))
     for m in params:
         if m not in used:  # as on the command line (--set): parameters nothing uses are a mistake
             raise LdbenchError(f"params for method {m!r}, which this [[run]] does not run "

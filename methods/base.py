@@ -59,6 +59,10 @@ class ParamsBase:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
     @classmethod
+    def field_names(cls) -> tuple:
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
     def table(cls) -> str:
         """A text table of the parameters: name, default, paper value, range, description."""
         rows = []
@@ -132,29 +136,38 @@ class View:
 class Result:
     """One frame's output.
 
-    image : H×W×C float32, row 0 at the top (C = 1 for ``ao``, 3 for radiance), or a callable
-        returning it (read back after timing; see :meth:`resolve`)
+    image : H×W×C float32, row 0 at the top (C = 1 for ``ao``, 3 for radiance), for image effects
+    arrays : {name: array} for effects whose output is not an image (``rays``: ``t`` per ray)
+    mask : H×W bool, the pixels the method gave a value (None = all); a missing pixel counts as error
     stages_ms : filled by the runner from the GPU timer (a method does not time itself)
     memory_bytes : {buffer name: bytes} of every allocation the method holds for this frame
-    counters : fragments stored, overflow, list lengths, ... (a dict, or a callable returning it,
-        evaluated by :meth:`resolve` after the timed frame)
+    counters : fragments stored, overflow, list lengths, ...
+    invariants : violated invariants, each one line (e.g. "linked_nodes 10 != fragments_stored 12"); the
+        runner marks the row ``degraded`` when any is listed
+
+    ``image``, ``mask`` and every value of ``arrays`` may be zero-argument callables, ``counters`` too, and
+    ``invariants`` a callable of the resolved counters: :meth:`resolve` evaluates them after timing, so a
+    frame's timing never includes a read-back; the runner resolves only the frames it keeps.
     """
 
-    image: np.ndarray
+    image: np.ndarray | None = None
     memory_bytes: dict = field(default_factory=dict)
     counters: dict = field(default_factory=dict)
     stages_ms: dict = field(default_factory=dict)
     mask: np.ndarray | None = None
+    arrays: dict = field(default_factory=dict)
+    invariants: list = field(default_factory=list)
 
     def resolve(self) -> "Result":
-        """Read back lazily: ``image``/``mask`` may be zero-argument callables, so that a frame's
-        timing does not include the read-back; the runner resolves only the frames it keeps."""
         if callable(self.image):
             self.image = self.image()
         if callable(self.mask):
             self.mask = self.mask()
-        if callable(self.counters):  # counters may also be lazy (e.g. a statistics pass + read-back)
+        self.arrays = {k: (v() if callable(v) else v) for k, v in self.arrays.items()}
+        if callable(self.counters):
             self.counters = self.counters()
+        if callable(self.invariants):
+            self.invariants = list(self.invariants(self.counters))
         return self
 
 
@@ -162,6 +175,7 @@ class Method:
     """Base class of a method adapter. Subclasses set the class attributes and implement the hooks."""
 
     name: str = ""
+    aliases: tuple = ()  # earlier names that still select this adapter
     paper: str = ""
     effects: frozenset = frozenset()
     Params: type = ParamsBase
@@ -174,8 +188,10 @@ class Method:
         """Upload the scene and compile shaders; not timed."""
         raise NotImplementedError
 
-    def frame(self, view: View, effect) -> Result:
-        """Render one frame; wrap each stage in ``with gpu.stage(name):``."""
+    def frame(self, view: View, effect, inputs=None) -> Result:
+        """Render one frame; wrap each stage in ``with gpu.stage(name):``. ``inputs`` are the effect's
+        harness-built inputs (e.g. a :class:`~harness.effects.rays.RayBatch`, already uploaded), the
+        same the reference receives; None for image effects."""
         raise NotImplementedError
 
     def release(self) -> None:
@@ -212,8 +228,19 @@ def registry() -> dict:
     return dict(sorted(found.items()))
 
 
+def aliases() -> dict:
+    """{alias: canonical name} of every adapter that declares ``aliases`` (earlier names)."""
+    return {a: name for name, cls in registry().items() for a in getattr(cls, "aliases", ())}
+
+
+def canonical_name(name: str) -> str:
+    """The registered name of a method given by name or alias (unknown names are returned as given)."""
+    return aliases().get(name, name)
+
+
 def get_method(name: str) -> type:
     reg = registry()
+    name = canonical_name(name)
     if name not in reg:
         raise LdbenchError(f"unknown method {name!r} (known: {', '.join(reg) or 'none'})")
     return reg[name]

@@ -65,8 +65,7 @@ def _check_args(scene, effect, width, height, spp, seed):
         raise LdbenchError(f"reference size {width}x{height} is too large")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise LdbenchError(f"reference seed must be an integer, got {seed!r}")
-    if effect.name in ("direct", "indirect") and not scene.lights:
-        raise LdbenchError(f"scene {scene.name!r} has no light; effect {effect.name} needs one")
+    effect.check_scene(scene)
     return effect
 
 
@@ -102,12 +101,12 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
     mscene = _int.build_scene(scene, with_lights=effect.name != "ao")
     o, d = _int.primary_rays(scene, width, height)
     npix = width * height
-    C = 1 if effect.name == "ao" else 3
-    background = 1.0 if effect.name == "ao" else 0.0
+    C = effect.spec.channels
+    background = effect.spec.background
     mean = np.full((npix, C), background, np.float64)
     var = np.zeros((npix, C), np.float64)
     mask = np.zeros(npix, bool)
-    stochastic = effect.name != "direct"
+    stochastic = effect.spec.stochastic(effect.params)
     seed_key = dr.opaque(mi.UInt32, _seed_key(seed))
     chunk = max(1, min(npix, batch_rays))
     bar = _progress(npix * (spp if stochastic else 1), f"reference {scene.name} {effect.label()}", progress)
@@ -221,7 +220,7 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
     if batch_rays is not None and (isinstance(batch_rays, bool) or not isinstance(batch_rays, (int, np.integer))
                                    or batch_rays < 1):
         raise LdbenchError(f"batch_rays must be a positive integer, got {batch_rays!r}")
-    spp_eff = spp if effect.name != "direct" else 1
+    spp_eff = spp if effect.spec.stochastic(effect.params) else 1
 
     variant = choose_variant()
     if batch_rays is None:

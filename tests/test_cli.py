@@ -37,7 +37,7 @@ def test_listings(capsys):
     assert "cornell" in out and "atrium" in out and "hairball" in out
     assert main(["methods"]) == 0
     out = capsys.readouterr().out
-    for m in ("direct-raster", "ldm-ao", "hbao"):
+    for m in ("direct-raster", "ldm (also: ldm-ao)", "hbao"):
         assert m in out
 
 

@@ -5,78 +5,9 @@ import numpy as np
 import pytest
 
 from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
 from methods.gbuffer import SceneGeometry
 from methods.linked_list import EOL, LayeredLinkedLists
-
-W = H = 16
-
-
-def quad(corners, name):
-    return Mesh(name, np.array(corners, np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32))
-
-
-def flat(z, x0, x1, y0, y1, name):
-    return quad([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], name)
-
-
-# Overlapping quads in [-1, 1]² (edges off the texel centres of a 16² map): three parallel to the
-# map, one tilted (depth varies across it), one quad listed twice at the same depth (a tie).
-MESHES = [
-    flat(0.30, -0.97, 0.97, -0.97, 0.97, "big"),
-    flat(-0.50, -0.53, 0.91, -0.21, 0.81, "a"),
-    flat(0.70, -0.91, 0.13, -0.89, 0.33, "b"),
-    quad([[-0.33, -0.71, -0.40], [0.61, -0.71, 0.20], [0.61, 0.23, 0.20], [-0.33, 0.23, -0.40]], "tilted"),
-    flat(-0.10, -0.27, 0.58, -0.66, 0.19, "c"),
-    flat(-0.10, 0.05, 0.44, 0.02, 0.52, "tie"),
-]
-
-
-def scene():
-    return Scene("quads", MESHES, Camera((0, 0, 5), (0, 0, 0)))
-
-
-def layer_transforms():
-    """Layer 0: orthographic along z, depth = z. Layer 1: the same raster mirrored in x, depth = -2z + 1."""
-    c0 = np.eye(4)
-    c0[2, 2] = 0.5
-    c1 = c0.copy()
-    c1[0, 0] = -1.0
-    rows = np.array([[0, 0, 1, 0], [0, 0, -2, 1]], float)
-    return np.stack([c0, c1]), rows
-
-
-def _inside(p, tri):
-    a, b, c = tri
-    def s(p, q, r):
-        return (p[0] - r[0]) * (q[1] - r[1]) - (q[0] - r[0]) * (p[1] - r[1])
-    d1, d2, d3 = s(p, a, b), s(p, b, c), s(p, c, a)
-    return not ((min(d1, d2, d3) < 0) and (max(d1, d2, d3) > 0))
-
-
-def expected_lists():
-    """Per layer and texel, the sorted depths of every triangle covering the texel centre (CPU)."""
-    clip, rows = layer_transforms()
-    out = np.empty((2, H, W), object)
-    for k in range(2):
-        for y in range(H):
-            for x in range(W):
-                px = ((x + 0.5) / W * 2 - 1, (y + 0.5) / H * 2 - 1)
-                ds = []
-                for m in MESHES:  # each quad is planar: covered = inside either triangle, counted once
-                    for f in m.faces:
-                        v = m.vertices[f].astype(np.float64)
-                        ndc = (clip[k][:2, :3] @ v.T).T
-                        if _inside(px, ndc):
-                            # depth at the texel centre: barycentric interpolation in the raster plane
-                            T = np.array([[ndc[0, 0] - ndc[2, 0], ndc[1, 0] - ndc[2, 0]],
-                                          [ndc[0, 1] - ndc[2, 1], ndc[1, 1] - ndc[2, 1]]])
-                            l0, l1 = np.linalg.solve(T, np.array(px) - ndc[2])
-                            p = l0 * v[0] + l1 * v[1] + (1 - l0 - l1) * v[2]
-                            ds.append(rows[k][:3] @ p + rows[k][3])
-                            break
-                out[k, y, x] = sorted(ds)
-    return out
+from testkit import LAYER_H as H, LAYER_W as W, expected_lists, layer_transforms, quads_scene as scene
 
 
 @pytest.fixture(scope="module")
@@ -211,7 +142,7 @@ def test_heads_and_memory(setup, expected):
     mem = ll.memory()
     assert mem["ll.heads"] == 4 * 2 * W * H
     assert mem["ll.nodes0"] == 8 * _total(expected)
-    assert mem["ll.counters"] == 32
+    assert mem["ll.counters"] == 64
 
 
 def test_bad_arguments(setup):

@@ -93,3 +93,76 @@ def disk_ao_formula(a, h=1.0, r=1.0):
     """Classic AO (d_max = ∞) under a coaxial parallel disk: 1 − ½[1 − (h²+a²−r²)/√((h²+a²+r²)² − 4a²r²)]."""
     a = np.asarray(a, np.float64)
     return 1 - 0.5 * (1 - (h * h + a * a - r * r) / np.sqrt((h * h + a * a + r * r) ** 2 - 4 * a * a * r * r))
+
+
+# ---- layered structures: overlapping quads rasterized into two 16² layers (test_linked_list, test_layered)
+LAYER_W = LAYER_H = 16
+
+
+def _quad4(corners, name):
+    return Mesh(name, np.array(corners, np.float32), np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+
+
+def _flat(z, x0, x1, y0, y1, name):
+    return _quad4([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]], name)
+
+
+# Overlapping quads in [-1, 1]² (edges off the texel centres of a 16² map): three parallel to the
+# map, one tilted (depth varies across it), one quad listed twice at the same depth (a tie).
+LAYER_MESHES = [
+    _flat(0.30, -0.97, 0.97, -0.97, 0.97, "big"),
+    _flat(-0.50, -0.53, 0.91, -0.21, 0.81, "a"),
+    _flat(0.70, -0.91, 0.13, -0.89, 0.33, "b"),
+    _quad4([[-0.33, -0.71, -0.40], [0.61, -0.71, 0.20], [0.61, 0.23, 0.20], [-0.33, 0.23, -0.40]], "tilted"),
+    _flat(-0.10, -0.27, 0.58, -0.66, 0.19, "c"),
+    _flat(-0.10, 0.05, 0.44, 0.02, 0.52, "tie"),
+]
+
+
+def quads_scene():
+    return Scene("quads", LAYER_MESHES, Camera((0, 0, 5), (0, 0, 0)))
+
+
+def layer_transforms():
+    """Layer 0: orthographic along z, depth = z. Layer 1: the same raster mirrored in x, depth = -2z + 1."""
+    c0 = np.eye(4)
+    c0[2, 2] = 0.5
+    c1 = c0.copy()
+    c1[0, 0] = -1.0
+    rows = np.array([[0, 0, 1, 0], [0, 0, -2, 1]], float)
+    return np.stack([c0, c1]), rows
+
+
+def _inside(p, tri):
+    a, b, c = tri
+    def s(p, q, r):
+        return (p[0] - r[0]) * (q[1] - r[1]) - (q[0] - r[0]) * (p[1] - r[1])
+    d1, d2, d3 = s(p, a, b), s(p, b, c), s(p, c, a)
+    return not ((min(d1, d2, d3) < 0) and (max(d1, d2, d3) > 0))
+
+
+def expected_lists(with_material: bool = False):
+    """Per layer and texel, the sorted depths of every triangle covering the texel centre (CPU);
+    ``with_material``: sorted (depth, material id) pairs (the id is the mesh index, as Scene.merged)."""
+    clip, rows = layer_transforms()
+    out = np.empty((2, LAYER_H, LAYER_W), object)
+    for k in range(2):
+        for y in range(LAYER_H):
+            for x in range(LAYER_W):
+                px = ((x + 0.5) / LAYER_W * 2 - 1, (y + 0.5) / LAYER_H * 2 - 1)
+                ds = []
+                for mid, m in enumerate(LAYER_MESHES):  # planar quads: covered = inside either triangle, once
+                    for f in m.faces:
+                        v = m.vertices[f].astype(np.float64)
+                        ndc = (clip[k][:2, :3] @ v.T).T
+                        if _inside(px, ndc):
+                            # depth at the texel centre: barycentric interpolation in the raster plane
+                            T = np.array([[ndc[0, 0] - ndc[2, 0], ndc[1, 0] - ndc[2, 0]],
+                                          [ndc[0, 1] - ndc[2, 1], ndc[1, 1] - ndc[2, 1]]])
+                            l0, l1 = np.linalg.solve(T, np.array(px) - ndc[2])
+                            p = l0 * v[0] + l1 * v[1] + (1 - l0 - l1) * v[2]
+                            z = rows[k][:3] @ p + rows[k][3]
+                            ds.append((z, mid) if with_material else z)
+                            break
+                out[k, y, x] = sorted(ds)
+    return out

@@ -65,9 +65,9 @@ class DirectRaster(Method):
     Params = DirectRasterParams
 
     def setup(self, gpu, scene):
-        if not scene.lights:
-            from harness.errors import LdbenchError
-            raise LdbenchError(f"scene {scene.name!r} has no spot or point light; effect 'direct' needs one")
+        from harness.effects import Effect
+
+        Effect("direct").check_scene(scene)  # the one rule for "needs a light"
         self.light = scene.lights[0]
         self.setup_scene(gpu, scene)
         s = self.params.shadow_size
@@ -87,7 +87,7 @@ class DirectRaster(Method):
         self.shade["normal_offset"].value = self.params.normal_offset * 2.0 / s
         self.shade["depth_bias"].value = self.params.depth_bias * scene.diagonal()
 
-    def frame(self, view, effect):
+    def frame(self, view, effect, inputs=None):
         ctx, s = self.gpu.ctx, self.params.shadow_size
         with self.gpu.stage("gbuffer"):
             self.gbuf.render(view)

@@ -1,4 +1,5 @@
-// Tracing rays through orthographic layered depth maps (aalund2015 §3.1), on top of linked_list.glsl.
+// Tracing rays through orthographic layered depth maps (aalund2015 §3.1), over the layered-structure
+// interface (layered.glsl): the same code reads linked lists and linearised arrays.
 //
 // Map k looks along its axis v_k; (u_k, w_k, v_k) is a right-handed orthonormal basis; the map covers the
 // scene's bounding sphere (centre ldm_centre, radius ldm_radius): texel coordinates are
@@ -9,11 +10,15 @@
 // Self-intersection ("receiver-plane" test): x's own surface is in the list, at the texel centre q,
 // not at x. For a locally planar surface with normal n through x, the column through q crosses that
 // plane at ray distance s = -dot(n, q - x) / dot(n, d) (d = the ray direction, dot(n, d) > 0); entries
-// closer than s along the ray lie below x's tangent plane, where no ray leaving x can hit. Entries with
-// t <= max(s, 0) + bias are skipped; bias (world units) absorbs curvature and float error.
+// with t <= s lie on or below x's tangent plane, where no ray leaving x can hit. Entries with
+// t <= s + bias are skipped; bias (world units) absorbs curvature and float error.
+// Concave creases: when s < 0 (the column passes x's tangent plane behind x), an entry with
+// s + bias < t <= 0 is geometry *above* the tangent plane within half a texel of x — the other wall of a
+// crease that the texel-centre column meets behind x. It is a hit at distance 0, not skipped: skipping
+// it let rays escape through the adjacent wall (bright lines along creases; docs/ldm.md).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
-#include "linked_list.glsl"
+#include "layered.glsl"
 
 struct LdmAxis { vec4 u; vec4 w; vec4 v; };
 layout(std430, binding = 11) readonly buffer LdmAxes { LdmAxis ldm_axes[]; };
@@ -22,7 +27,7 @@ uniform float ldm_radius;
 uniform ivec2 ldm_size;
 
 // Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
-// when the ray leaves the scene (nothing stored beyond x on that side).
+// when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
 float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
     vec3 u = ldm_axes[k].u.xyz, w = ldm_axes[k].w.xyz, v = ldm_axes[k].v.xyz;
     vec3 r = x - ldm_centre;
@@ -33,24 +38,21 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
     vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ldm_radius / vec2(ldm_size));  // x -> texel centre, (u, w)
     float cos_t = sigma * dot(n, v);
     float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
-    float thr = max(s_self, 0.0) + bias;
-    uint i = ll_head[ll_list_index(k, px, ldm_size)];
+    float thr = s_self + bias;
+    uint list = ls_list(k, px, ldm_size);
+    uint bound = ls_bound(), steps = 0u;
     if (sigma > 0.0) {
-        while (i != LL_EOL) {
-            LLNode nd = ll_node(i);
-            float t = nd.depth - zx;
-            if (t > thr) return t;
-            i = nd.next;
+        for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
+            float t = ls_depth(i) - zx;
+            if (t > thr) return max(t, 0.0);
         }
         return -1.0;
     }
     float best = -1.0;
-    while (i != LL_EOL) {
-        LLNode nd = ll_node(i);
-        float t = zx - nd.depth;
+    for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
+        float t = zx - ls_depth(i);
         if (t <= thr) break;
-        best = t;
-        i = nd.next;
+        best = max(t, 0.0);
     }
     return best;
 }
@@ -59,6 +61,7 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     uint best = 0u;
     float bc = -1.0;
+    sigma = 1.0;
     for (uint k = 0u; k < n_maps; ++k) {
         float c = dot(d, ldm_axes[k].v.xyz);
         if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }

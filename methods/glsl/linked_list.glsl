@@ -1,14 +1,16 @@
-// Per-pixel linked lists (yang2010 §3), N layers of W×H lists sharing one head buffer and one node pool.
-// Shared declarations and accessors; see methods/linked_list.py for the algorithms and the bindings.
+// Per-pixel linked lists (yang2010 §3), N layers of W×H lists sharing one head buffer and one node pool:
+// the "linked" layout of the layered-structure module (methods/layered.py, methods/linked_list.py).
 //
-// Defines (set by methods/linked_list.py: LayeredLinkedLists.defines()):
+// Defines (methods/linked_list.py: LayeredLinkedLists.defines()):
 //   LL_PAGES       1..4   number of SSBO pages the node pool is split into (SSBO size limits)
 //   LL_PAGE_SHIFT         log2(nodes per page); node i lives in page i >> LL_PAGE_SHIFT
-//   LL_AGGREGATE          warp-aggregated node allocation (needs ARB_shader_ballot + ARB_gpu_shader_int64,
+//   LS_PAYLOAD     0..8   payload words per node (a parallel buffer, read only on a hit)
+//   LL_AGGREGATE          warp-aggregated node allocation (ARB_shader_ballot + ARB_gpu_shader_int64,
 //                         enabled by the including shader)
-//   LL_WRITABLE           define in passes that write lists (build, sort): buffers are then
-//                         "coherent" and the writer functions exist; otherwise they are "readonly"
+//   LL_WRITABLE           passes that write lists (build, sort): buffers "coherent", writers defined
 // Node layout: LLNode {float depth; uint next;} (8 bytes, one load per step of a walk); LL_EOL ends a list.
+// Every walk is bounded by the pool capacity (ll_counters[LL_C_CAPACITY]): a corrupt link can never hang
+// the GPU, it shows as a violated invariant (linked nodes != stored nodes).
 #ifndef LDBENCH_LINKED_LIST_GLSL
 #define LDBENCH_LINKED_LIST_GLSL
 
@@ -17,6 +19,9 @@
 #endif
 #ifndef LL_PAGE_SHIFT
 #define LL_PAGE_SHIFT 30
+#endif
+#ifndef LS_PAYLOAD
+#define LS_PAYLOAD 0
 #endif
 #ifdef LL_WRITABLE
 #define LL_QUAL coherent
@@ -31,17 +36,18 @@
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
 
-// binding 0: counters. [0] fragments attempted (= nodes requested; stored = min(count, capacity)),
-// [1] lists longer than LL_MAX_LIST met by the sort pass, [2..5] statistics (see linked_list_stats.glsl),
-// [6] sorted inserts abandoned after LL_MAX_RETRIES failed CAS (a livelock guard; expected 0)
-layout(std430, binding = 0) coherent buffer LLCounters { uint ll_counters[8]; };
+// binding 0: counters (indices shared with methods/linked_list.py)
+#define LL_C_NODES 0u       // nodes handed out; saturates at the capacity (an overflowing alloc undoes its add)
+#define LL_C_SORT_LONG 1u   // lists longer than LL_MAX_LIST met by the sort pass
+#define LL_C_NONEMPTY 2u    // statistics pass: non-empty lists
+#define LL_C_MAXLEN 3u      //   longest list
+#define LL_C_UNSORTED 4u    //   lists out of order
+#define LL_C_LINKED 5u      //   nodes reached from the heads (must equal the nodes stored)
+#define LL_C_FAILED 6u      // sorted inserts abandoned (LL_MAX_RETRIES lost races, or a walk past the bound)
+#define LL_C_OVERFLOW 7u    // fragments refused because the pool was full
+#define LL_C_CAPACITY 8u    // pool capacity, written by the host: the bound of every list walk
+layout(std430, binding = 0) coherent buffer LLCounters { uint ll_counters[16]; };
 layout(std430, binding = 1) LL_QUAL buffer LLHeads { uint ll_head[]; };
-
-struct LLLayer {
-    mat4 clip;        // world -> clip space of the layer's raster
-    vec4 depth_row;   // stored depth = dot(depth_row, vec4(p, 1))
-};
-layout(std430, binding = 2) readonly buffer LLLayers { LLLayer ll_layers[]; };
 
 struct LLNode {
     float depth;
@@ -57,6 +63,11 @@ layout(std430, binding = 5) LL_QUAL buffer LLNodes2 { LLNode ll_nodes2[]; };
 #if LL_PAGES > 3
 layout(std430, binding = 6) LL_QUAL buffer LLNodes3 { LLNode ll_nodes3[]; };
 #endif
+#if LS_PAYLOAD > 0
+layout(std430, binding = 7) LL_QUAL buffer LLPayload { uint ll_payload[]; };
+#endif
+
+uint ll_capacity_bound() { return ll_counters[LL_C_CAPACITY]; }
 
 // Node accessors: node i lives in page i >> LL_PAGE_SHIFT at index i & LL_PAGE_MASK.
 LLNode ll_node(uint i) {
@@ -132,21 +143,6 @@ void ll_set_depth(uint i, float z) {
     else { ll_nodes1[o].depth = z; }
 #endif
 }
-void ll_set_next(uint i, uint n) {
-#if LL_PAGES == 1
-    ll_nodes0[i].next = n;
-#else
-    uint p = i >> LL_PAGE_SHIFT, o = i & LL_PAGE_MASK;
-    if (p == 0u) { ll_nodes0[o].next = n; }
-#if LL_PAGES > 2
-    else if (p == 2u) { ll_nodes2[o].next = n; }
-#endif
-#if LL_PAGES > 3
-    else if (p == 3u) { ll_nodes3[o].next = n; }
-#endif
-    else { ll_nodes1[o].next = n; }
-#endif
-}
 // atomicCompSwap on node i's next pointer; returns the value found there.
 uint ll_cas_next(uint i, uint expected, uint value) {
     uint r;
@@ -165,13 +161,16 @@ uint ll_cas_next(uint i, uint expected, uint value) {
 #endif
     return r;
 }
+#if LS_PAYLOAD > 0
+void ll_set_payload(uint i, uint w[LS_PAYLOAD]) {
+    for (uint k = 0u; k < uint(LS_PAYLOAD); ++k) ll_payload[i * uint(LS_PAYLOAD) + k] = w[k];
+}
+#endif
 
-// Allocate a node; LL_EOL when the pool is full (the counter still counts the attempt: overflow is
-// reported as attempted - capacity, never silently lost).
-uint ll_alloc(uint capacity) {
+// Take the next node index (one atomicAdd; with LL_AGGREGATE one per subgroup: the subgroup's leader
+// adds the number of active invocations, each takes base + its rank; ARB_shader_ballot).
+uint ll_reserve() {
 #if defined(LL_AGGREGATE)
-    // Warp-aggregated allocation (ARB_shader_ballot): one atomicAdd per subgroup instead of one per
-    // fragment; each active invocation takes base + (number of active invocations below it).
     uint64_t live = ballotARB(true);
     uvec2 m = unpackUint2x32(live);
     uvec2 below = unpackUint2x32(live & gl_SubGroupLtMaskARB);
@@ -179,20 +178,31 @@ uint ll_alloc(uint capacity) {
     uint rank = uint(bitCount(below.x) + bitCount(below.y));
     uint leader = m.x != 0u ? uint(findLSB(m.x)) : 32u + uint(findLSB(m.y));
     uint base = 0u;
-    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[0], total);
-    uint n = readInvocationARB(base, leader) + rank;
+    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[LL_C_NODES], total);
+    return readInvocationARB(base, leader) + rank;
 #else
-    uint n = atomicAdd(ll_counters[0], 1u);
+    return atomicAdd(ll_counters[LL_C_NODES], 1u);
 #endif
-    return n < capacity ? n : LL_EOL;
+}
+
+// Allocate a node; LL_EOL when the pool is full. An allocation past the capacity undoes its add and
+// counts itself in LL_C_OVERFLOW, so the node counter never runs past capacity + the fragments in
+// flight: it cannot wrap around 2^32 and hand out live nodes again, however many fragments arrive.
+uint ll_alloc(uint capacity) {
+    uint n = ll_reserve();
+    if (n < capacity) return n;
+    atomicAdd(ll_counters[LL_C_NODES], 0xFFFFFFFFu);   // undo: saturate at the capacity
+    atomicAdd(ll_counters[LL_C_OVERFLOW], 1u);
+    return LL_EOL;
 }
 
 // yang2010 insert: push at the head with atomicExchange (lists come out in arbitrary order).
-void ll_insert_unsorted(uint list, float z, uint capacity) {
+uint ll_insert_unsorted(uint list, float z, uint capacity) {
     uint n = ll_alloc(capacity);
-    if (n == LL_EOL) return;
+    if (n == LL_EOL) return n;
     uint old = atomicExchange(ll_head[list], n);
     ll_set_node(n, z, old);       // read only after the pass (memory barrier between passes)
+    return n;
 }
 
 // Lock-free sorted insert (ascending depth): walk to the first node with depth >= z, link the new
@@ -200,25 +210,30 @@ void ll_insert_unsorted(uint list, float z, uint capacity) {
 // If the CAS fails, another fragment was linked in right there: continue the walk from the same
 // predecessor, starting at the node the CAS found. Correct because nodes are only ever inserted (a
 // predecessor stays valid and stays before z), and lock-free: a failed CAS means another insert won.
-void ll_insert_sorted(uint list, float z, uint capacity) {
+// Returns the node (LL_EOL when the pool is full or the insert was abandoned).
+uint ll_insert_sorted(uint list, float z, uint capacity) {
     uint n = ll_alloc(capacity);
-    if (n == LL_EOL) return;
+    if (n == LL_EOL) return n;
     uint prev = LL_EOL;            // LL_EOL = the head pointer is the predecessor's slot
     uint cur = atomicOr(ll_head[list], 0u);
+    uint steps = 0u;
     for (uint attempt = 0u; attempt < uint(LL_MAX_RETRIES); ++attempt) {
-        while (cur != LL_EOL) {
+        while (cur != LL_EOL && steps < capacity) {
             LLNode c = ll_node(cur);
             if (c.depth >= z) break;
             prev = cur;
             cur = c.next;
+            ++steps;
         }
+        if (steps >= capacity) break;  // longer than the pool: a corrupt list; never spin on it
         ll_set_node(n, z, cur);
         memoryBarrierBuffer();     // the node is visible before it is published
         uint seen = (prev == LL_EOL) ? atomicCompSwap(ll_head[list], cur, n) : ll_cas_next(prev, cur, n);
-        if (seen == cur) return;
+        if (seen == cur) return n;
         cur = seen;
     }
-    atomicAdd(ll_counters[6], 1u); // not linked after LL_MAX_RETRIES lost races: reported, not silent
+    atomicAdd(ll_counters[LL_C_FAILED], 1u); // not linked: reported (degraded row), never silent
+    return LL_EOL;
 }
 #endif  // LL_WRITABLE
 

@@ -157,7 +157,7 @@ class HBAO(Method):
             t.filter = (self.gpu.ctx.NEAREST, self.gpu.ctx.NEAREST)
         self._size = (w, h)
 
-    def frame(self, view, effect):
+    def frame(self, view, effect, inputs=None):
         if effect.name != "ao":
             raise LdbenchError(f"method 'hbao' does not support effect {effect.name!r}")
         p, w, h = self.params, view.width, view.height

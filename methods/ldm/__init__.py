@@ -1,14 +1,21 @@
-"""``ldm-ao``: ambient occlusion / obscurance traced through N orthographic layered depth maps (aalund2015).
+"""``ldm``: rays traced through N orthographic layered depth maps (aalund2015); effects ``ao`` and ``rays``.
+
+Also registered as ``ldm-ao`` (its earlier name): suites and command lines using it keep working.
 
 Per frame (stages):
 
-``gbuffer``  camera G-buffer (position, camera-facing geometric normal).
-``count``    (only ``pool = "count"``) counting pass over all maps: the exact node count, pool (re)allocated.
-``build``    one instanced draw rasterizes the scene into all N maps (both faces, no depth test), every
-             fragment inserted into its texel's linked list (:mod:`methods.linked_list`), pre-sorted by a
-             lock-free CAS insert (``sorted_insert = True``, the paper's PSPPSLL).
-``sort``     (``sorted_insert = False``) yang2010 unsorted lists sorted in place by a compute pass.
+``gbuffer``  (``ao``) camera G-buffer (position, camera-facing geometric normal).
+build        the N maps as a layered structure (:mod:`methods.layered`), ``layout = "linked"``: one
+             instanced draw rasterizes the scene into all maps (both faces, no depth test), every fragment
+             inserted into its texel's linked list (:mod:`methods.linked_list`), pre-sorted by a lock-free
+             CAS insert (``sorted_insert = True``, the paper's PSPPSLL) — stages ``count`` (only
+             ``pool = "count"``), ``build``, ``sort`` (only ``sorted_insert = False``);
+             ``layout = "linear"``: linearised arrays (:mod:`methods.linear_arrays`) — stages ``count``,
+             ``scan``, ``fill``, ``sort``. Both give the same sorted lists, hence the same images.
 ``ao``       compute pass over the G-buffer pixels, looping over the N maps.
+``trace``    (``rays``) one invocation per ray of the harness's batch: the map whose axis is nearest to the
+             ray answers it with the same two-way query, along ±v_k (the method's approximation of the
+             direction). A ray into the surface it starts on (n·d < 0) hits it at t = 0.
 
 Maps. The N axes are :func:`methods.directions.ldm_axes` (the recursive zonal equal-area partition of the
 upper hemisphere; {±v_i} is an antipodally symmetric equal-area set of 2N directions). Map i is an
@@ -28,13 +35,14 @@ point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos
 ======================  ========  =======  ========================================================
 Parameter               Default   Paper    Meaning
 ======================  ========  =======  ========================================================
+``layout``              linked    linked   layered structure: linked (lists) | linear (arrays)
 ``directions``          128       512      number of LDMs (axes; each answers ±v)
 ``resolution``          128       200, 50  texels per side of each LDM
 ``bias``                0.25               self-intersection bias along the ray, in LDM texels
-``pool``                grow               node-pool sizing: grow | count | fixed (methods/linked_list.py)
+``pool``                grow               pool sizing: grow | count | fixed (count: linked only)
 ``pool_capacity``       0                  nodes for ``fixed`` (and first size for ``grow``)
 ``sorted_insert``       True      True     lock-free sorted insert; False = yang2010 + sort pass
-``max_list``            64                 local-array length of the sort pass (longer: slow path)
+``max_list``            64                 register-array length of the sort passes (longer: slow path)
 ``instanced``           True               one instanced draw for all maps (False: a draw per map)
 ``aggregate_atomics``   False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
 ``indexed``             True               build from indexed position-only geometry (vertex reuse)
@@ -48,12 +56,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, orthonormal_basis
-from methods.linked_list import POLICIES, LayeredLinkedLists
+from methods.layered import make_structure
+from methods.linked_list import POLICIES
 
-B_AXES = 11
+B_AXES, B_ANGLE, B_RAYS, B_HITS = 11, 12, 20, 21
 FAR = 3.0e38
 
 
@@ -82,15 +92,17 @@ def ldm_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
 
 
 @dataclass(frozen=True)
-class LdmAOParams(ParamsBase):
+class LdmParams(ParamsBase):
+    layout: str = param("linked", "layered structure: linked lists or linearised arrays", choices=("linked", "linear"),
+                        paper="linked")
     directions: int = param(128, "number of LDMs (axes; each answers +v and -v)", lo=1, hi=4096, paper=512)
     resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
     bias: float = param(0.25, "self-intersection bias along the ray, in LDM texels", lo=0.0, hi=64.0)
-    pool: str = param("grow", "node-pool sizing: grow and redo / counting pass / fixed", choices=POLICIES)
+    pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed", choices=POLICIES)
     pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per texel)", lo=0)
     sorted_insert: bool = param(True, "lock-free sorted insert (PSPPSLL); False = yang2010 insert + sort pass",
                                 paper=True)
-    max_list: int = param(64, "local-array length of the sort pass (longer lists take a slow exact path)",
+    max_list: int = param(64, "register-array length of the sort passes (longer lists take a slow exact path)",
                           lo=1, hi=1024)
     instanced: bool = param(True, "one instanced draw for all maps (False: one draw per map)")
     aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
@@ -98,14 +110,20 @@ class LdmAOParams(ParamsBase):
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2)",
                            choices=("ratio", "paper"), paper="paper")
 
+    def __post_init__(self):
+        super().__post_init__()
+        if self.layout == "linear" and self.pool == "count":
+            raise LdbenchError("parameter pool='count' needs layout='linked' (linear arrays always count)")
 
-class LdmAO(Method):
-    """Ambient occlusion / obscurance through N layered depth maps (aalund2015 §3.3, §4.1)."""
 
-    name = "ldm-ao"
+class Ldm(Method):
+    """Rays through N layered depth maps (aalund2015 §3): AO / obscurance (§3.3, §4.1) and ray queries."""
+
+    name = "ldm"
+    aliases = ("ldm-ao",)
     paper = "aalund2015"
-    effects = frozenset({"ao"})
-    Params = LdmAOParams
+    effects = frozenset({"ao", "rays"})
+    Params = LdmParams
 
     def setup(self, gpu, scene):
         p = self.params
@@ -113,55 +131,101 @@ class LdmAO(Method):
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
-        self.ll = LayeredLinkedLists(gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
-                                     sorted_insert=p.sorted_insert, pool=p.pool,
-                                     pool_capacity=p.pool_capacity, max_list=p.max_list,
-                                     instanced=p.instanced, aggregate=p.aggregate_atomics, indexed=p.indexed,
-                                     prefix="ldm.")
-        self.ll.set_layers(clip, rows)
+        common = dict(layers=p.directions, width=p.resolution, pool=p.pool, pool_capacity=p.pool_capacity,
+                      max_list=p.max_list, instanced=p.instanced, indexed=p.indexed, prefix="ldm.")
+        if p.layout == "linked":
+            common.update(sorted_insert=p.sorted_insert, aggregate=p.aggregate_atomics)
+        self.ls = make_structure(p.layout, gpu, self.geo, self.res, **common)
+        self.ls.set_layers(clip, rows)
         basis = np.zeros((p.directions, 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
         self.axes_buf = self.res.buffer("ldm.axes", basis)
         self.texel = 2.0 * self.radius / p.resolution
         self.out = None
         self._out_size = None
+        self._batch = None
 
-    def _ao_program(self):
-        return self.gpu.compute(self.shader("ao.glsl"), self.ll.defines())
+    def _bind_maps(self, cs):
+        p = self.params
+        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel),
+                        ("ldm_centre", tuple(float(x) for x in self.centre)), ("ldm_radius", float(self.radius)),
+                        ("ldm_size", (p.resolution, p.resolution))):
+            if name in cs:  # a statistics variant may not use all of them
+                cs[name].value = v
+        self.ls.bind()
+        self.axes_buf.bind_to_storage_buffer(B_AXES)
 
-    def frame(self, view, effect):
+    def frame(self, view, effect, inputs=None):
+        if effect.name == "rays":
+            return self._rays(inputs)
         p, gpu = self.params, self.gpu
         with gpu.stage("gbuffer"):
             self.gbuf.render(view)
-        self.ll.build()
+        self.ls.build()
         w, h = view.width, view.height
         if self._out_size != (w, h):
             self.out = self.res.texture("output", (w, h), 1, "f4")
             self._out_size = (w, h)
-        cs = self._ao_program()
+        cs = self.gpu.compute(self.shader("ao.glsl"), self.ls.defines())
         cs["g_position"].value = 0
         cs["g_normal"].value = 1
-        cs["n_maps"].value = p.directions
-        cs["bias"].value = p.bias * self.texel
         cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
         cs["falloff"].value = 0 if effect.falloff == "step" else 1
         cs["estimator"].value = 0 if p.estimator == "ratio" else 1
-        cs["ldm_centre"].value = tuple(float(x) for x in self.centre)
-        cs["ldm_radius"].value = float(self.radius)
-        cs["ldm_size"].value = (p.resolution, p.resolution)
         with gpu.stage("ao"):
             self.gbuf.bind(0)
-            self.ll.bind()
-            self.axes_buf.bind_to_storage_buffer(B_AXES)
+            self._bind_maps(cs)
             self.out.bind_to_image(0, read=False, write=True)
             cs.run((w + 7) // 8, (h + 7) // 8)
+            gpu.ctx.memory_barrier()  # imageStore results visible to the read-back
         out = self.out
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask,
-                      memory_bytes=self.res.by_buffer(), counters=self._counters)
+                      memory_bytes=self.res.by_buffer(), counters=self._counters,
+                      invariants=self.ls.invariants)
+
+    def _rays(self, batch):
+        if batch is None:
+            raise LdbenchError("method 'ldm': the rays effect needs its ray batch")
+        gpu, n = self.gpu, len(batch)
+        self.ls.build()
+        if getattr(self, "_hits_n", None) != n:
+            self.hits = self.res.buffer("ldm.ray_hits", reserve=4 * n)
+            self._hits_n = n
+        cs = gpu.compute(self.shader("trace_rays.glsl"), self.ls.defines())
+        cs["n_rays"].value = n
+        with gpu.stage("trace"):
+            self._bind_maps(cs)
+            batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
+            self.hits.bind_to_storage_buffer(B_HITS)
+            cs.run(-(-n // 64))
+            gpu.ctx.memory_barrier()
+        self._batch = batch
+        hits = self.hits
+        return Result(arrays={"t": lambda: np.frombuffer(hits.read(), np.float32).copy()},
+                      memory_bytes=self.res.by_buffer(), counters=self._counters,
+                      invariants=self.ls.invariants)
+
+    def _mean_ray_angle(self) -> float:
+        """Mean angle (degrees) between the batch's rays and their maps' axes: an untimed dispatch."""
+        batch, n = self._batch, len(self._batch)
+        angle = self.gpu.ctx.buffer(reserve=4 * n)
+        try:
+            cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self.ls.defines(), "LDM_ANGLE_STATS": 1})
+            cs["n_rays"].value = n
+            self._bind_maps(cs)
+            batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
+            self.hits.bind_to_storage_buffer(B_HITS)
+            angle.bind_to_storage_buffer(B_ANGLE)
+            cs.run(-(-n // 64))
+            self.gpu.ctx.memory_barrier()
+            return float(np.frombuffer(angle.read(), np.float32).mean())
+        finally:
+            angle.release()
 
     def _counters(self) -> dict:
-        c = self.ll.stats()
+        c = self.ls.stats()
         c.update(directions=self.params.directions, resolution=self.params.resolution,
                  texel_world=self.texel, bounding_radius=self.radius)
+        if self._batch is not None:
+            c["mean_ray_map_angle_deg"] = self._mean_ray_angle()
         return c
-

@@ -1,5 +1,6 @@
-"""``ldm-ao`` (methods/ldm_ao): analytic AO under a disk, sorted vs unsorted lists, convergence in the
-number of directions against Mitsuba, overflow reporting, the CI-sized configuration."""
+"""``ldm`` (methods/ldm, formerly ``ldm-ao``): analytic AO under a disk, every layout and insert variant
+giving identical images, convergence in the number of directions against Mitsuba, overflow reporting, the
+CI-sized configuration, crease pixels, and ray queries (the ``rays`` effect) against the exact oracle."""
 from __future__ import annotations
 
 import math
@@ -14,7 +15,7 @@ from harness.effects import Effect
 from harness.errors import LdbenchError
 from harness.scene import Camera, Scene
 from methods.base import View, get_method, registry
-from methods.ldm_ao import LdmAO, LdmAOParams
+from methods.ldm import Ldm as LdmAO, LdmParams as LdmAOParams
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -65,8 +66,8 @@ def plane_errors(img, pos, expected_fn, a_max=3.0):
 
 
 def test_registered_and_params():
-    assert get_method("ldm-ao") is LdmAO and "ldm-ao" in registry()
-    assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao"})
+    assert get_method("ldm-ao") is LdmAO and get_method("ldm") is LdmAO and "ldm" in registry()
+    assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao", "rays"})
     p = LdmAOParams()
     assert (p.directions, p.resolution, p.sorted_insert) == (128, 128, True)
     with pytest.raises(LdbenchError, match="directions"):
@@ -80,31 +81,33 @@ def test_registered_and_params():
 
 @pytest.mark.parametrize("camera", [OVERHEAD, LOW], ids=["overhead", "low"])
 def test_disk_ci_size(gpu, camera):
-    """128 LDMs of 128²: MAE ≤ 0.015 (a trace returning the wrong neighbour gives ≈ 0.09, one that
-    ignores the cosine ≈ 0.03 on this set-up; both tried once)."""
+    """128 LDMs of 128²: MAE ≤ 0.013 (measured 0.0097 overhead, 0.0119 low; a trace returning the wrong
+    neighbour gives ≈ 0.09, one that ignores the cosine ≈ 0.03 on this set-up; both tried once)."""
     r, pos = render(gpu, plane_disk_scene(camera), size=96, directions=128, resolution=128)
     err, n = plane_errors(r.image, pos, disk_ao)
     assert n > 2000
-    assert np.abs(err).mean() <= 0.015, np.abs(err).mean()
-    assert abs(err.mean()) <= 0.01
+    assert np.abs(err).mean() <= 0.013, np.abs(err).mean()
+    assert abs(err.mean()) <= 0.0075  # measured 0.0067 / 0.0055
 
 
 def test_disk_paper_configuration(gpu):
-    """The paper's 512 directions with 256² maps: MAE ≤ 0.02 (measured ≈ 0.004 on llvmpipe)."""
+    """The paper's 512 directions with 256² maps: MAE ≤ 0.004 (measured 0.0035 on llvmpipe)."""
     r, pos = render(gpu, plane_disk_scene(), size=128, directions=512, resolution=256)
     err, n = plane_errors(r.image, pos, disk_ao)
     assert n > 5000
-    assert np.abs(err).mean() <= 0.02
+    assert np.abs(err).mean() <= 0.004, np.abs(err).mean()
     assert r.counters["fragments"] > 0 and not r.counters["overflowed"]
 
 
-@pytest.mark.parametrize("d_max,falloff", [(1.3, "step"), (1.3, "quadratic"), (2.5, "quadratic")])
-def test_disk_obscurance(gpu, d_max, falloff):
+# MAE thresholds just above llvmpipe's measurements: 0.0079, 0.0019, 0.0082
+@pytest.mark.parametrize("d_max,falloff,mae", [(1.3, "step", 0.009), (1.3, "quadratic", 0.0025),
+                                               (2.5, "quadratic", 0.009)])
+def test_disk_obscurance(gpu, d_max, falloff, mae):
     eff = Effect("ao", d_max=d_max, falloff=falloff)
     r, pos = render(gpu, plane_disk_scene(LOW), eff, size=64, directions=128, resolution=128)
     err, n = plane_errors(r.image, pos, lambda a: 1 - disk_occlusion(a, d_max=d_max, falloff=falloff))
     assert n > 500
-    assert np.abs(err).mean() <= 0.02, np.abs(err).mean()
+    assert np.abs(err).mean() <= mae, np.abs(err).mean()
 
 
 def test_sorted_and_unsorted_lists_give_identical_ao(gpu):
@@ -114,7 +117,8 @@ def test_sorted_and_unsorted_lists_give_identical_ao(gpu):
     assert base.counters["max_list_length"] >= 4
     for kw in ({"sorted_insert": False}, {"sorted_insert": False, "max_list": 2},
                {"instanced": False}, {"indexed": False}, {"pool": "count"},
-               {"sorted_insert": False, "pool": "count"}):
+               {"sorted_insert": False, "pool": "count"}, {"layout": "linear"},
+               {"layout": "linear", "max_list": 2}):
         other, _ = render(gpu, scene, eff, size=48, directions=32, resolution=64, **kw)
         assert np.array_equal(other.image, base.image), kw
         assert other.counters["fragments"] == base.counters["fragments"]
@@ -142,7 +146,8 @@ def test_ci_sized_run(gpu):
     assert r.mask.shape == (64, 64) and r.mask.any() and (~r.mask).any()
     assert np.all(img[~r.mask] == 1.0)
     assert np.all((img >= 0) & (img <= 1))
-    assert 0.05 < img[r.mask].mean() < 0.95  # classic AO in a closed box: mostly occluded
+    # classic AO in the box: measured mean 0.2756 (Mitsuba, 1024 spp: 0.267; coarse maps read a bit light)
+    assert 0.26 < img[r.mask].mean() < 0.29
     c = r.counters
     for k in ("fragments", "fragments_stored", "pool_capacity", "overflow", "overflowed",
               "mean_list_length", "max_list_length"):
@@ -166,7 +171,7 @@ def test_paper_estimator_close_to_ratio(gpu):
     a, _ = render(gpu, scene, size=32, directions=256, resolution=64)
     b, _ = render(gpu, scene, size=32, directions=256, resolution=64, estimator="paper")
     m = a.mask
-    assert np.abs(a.image[m] - b.image[m]).max() < 0.02
+    assert np.abs(a.image[m] - b.image[m]).max() < 0.0025  # measured 0.0018
     assert not np.array_equal(a.image, b.image)
 
 
@@ -193,15 +198,15 @@ def test_error_falls_with_directions(gpu, references, effect):
         r, _ = render(gpu, scene, effect, size=48, directions=n, resolution=128)
         assert (r.mask == mask).all()
         maes.append(float(np.abs(r.image[mask] - ref.mean[mask]).mean()))
-    # measured: inf 0.084 0.033 0.018 0.013; quadratic 0.032 0.014 0.0098 0.0093 (the last steps reach
-    # the reference's noise: ≈ 0.009 resp. 0.0035 mean standard error at 2048 spp)
+    # measured: inf 0.0866 0.0353 0.0198 0.0143; quadratic 0.0342 0.0136 0.0090 0.0076 (the last steps
+    # reach the reference's noise: ≈ 0.009 resp. 0.0035 mean standard error at 2048 spp)
     assert maes[0] > maes[1] > maes[2] and maes[3] <= maes[2] + 0.001, maes
-    assert maes[-1] < 0.025 and maes[0] > 2.5 * maes[-1], maes
+    assert maes[-1] < 0.016 and maes[0] > 2.5 * maes[-1], maes
 
 
 def test_cornell_against_mitsuba(gpu):
     """Issue 3 on the built-in `cornell` against a 1024-spp reference (classic AO): PSNR rises with the
-    number of directions, and 512 directions with 256² LDMs reach ≥ 28 dB at 256² (31.8 dB measured)."""
+    number of directions, and 512 directions with 256² LDMs reach ≥ 31.5 dB at 256² (31.78 dB measured)."""
     from harness import metrics
     from harness.scenes import load_scene
     from references import render_reference
@@ -215,4 +220,75 @@ def test_cornell_against_mitsuba(gpu):
     assert ps[0] + 1.0 < ps[1] < ps[2], ps
     ref = render_reference(scene, eff, width=256, height=256, spp=1024, progress=False)
     r, _ = render(gpu, scene, eff, size=256, directions=512, resolution=256)
-    assert metrics.psnr(r.image, ref.mean, mask=ref.mask) >= 28.0
+    assert metrics.psnr(r.image, ref.mean, mask=ref.mask) >= 31.5
+
+
+def test_creases_are_not_bright(gpu):
+    """AO pixels along the box's creases: the texel-centre column of a point within half a texel of the
+    other wall can meet that wall just *behind* the point; ldm_trace counts such geometry above the
+    tangent plane as a hit at distance 0 instead of skipping it (docs/ldm.md). Classic AO at 128² with
+    128 LDMs of 128² against a 256-spp reference: 47 pixels with |error| > 0.3 (measured on llvmpipe),
+    against 150 when those entries are skipped (the rule before; 512 LDMs of 256²: 7 against 62)."""
+    from harness.scenes import load_scene
+    from references import render_reference
+
+    scene, eff = load_scene("cornell"), Effect("ao")
+    ref = render_reference(scene, eff, width=128, height=128, spp=256, progress=False)
+    r, _ = render(gpu, scene, eff, size=128, directions=128, resolution=128)
+    err = (r.image[..., 0] - ref.mean[..., 0])[ref.mask]
+    assert int((np.abs(err) > 0.3).sum()) <= 50, int((np.abs(err) > 0.3).sum())
+
+
+# ---------------------------------------------------------------------------------------------------
+# rays
+
+def ldm_rays(gpu, scene, batch, size, **params):
+    m = LdmAO(LdmAOParams(**params))
+    m.setup(gpu, scene)
+    try:
+        gpu.begin_frame()
+        r = m.frame(View(scene.camera, size, size), Effect("rays"), batch)
+        stages, _ = gpu.end_frame()
+        r.resolve()
+    finally:
+        m.release()
+    return r, stages
+
+
+def test_rays_identical_over_layouts_and_inserts(gpu):
+    from harness.effects.rays import RaysParams
+    from references.rays import make_batch, trace_oracle
+
+    scene = cornell_like()
+    batch = make_batch(scene, 24, 24, RaysParams(rays_per_pixel=2), 0)
+    base, stages = ldm_rays(gpu, scene, batch, 24, directions=32, resolution=64)
+    assert "trace" in stages and base.arrays["t"].shape == (len(batch),)
+    agree = (np.isfinite(base.arrays["t"]) == np.isfinite(trace_oracle(scene, batch).t)).mean()
+    assert agree > 0.895, agree  # coarse maps: 0.902 measured; the accuracy test is test_rays_accuracy_cli
+    for kw in ({"layout": "linear"}, {"sorted_insert": False}, {"pool": "count"}):
+        other, _ = ldm_rays(gpu, scene, batch, 24, directions=32, resolution=64, **kw)
+        assert np.array_equal(other.arrays["t"], base.arrays["t"]), kw
+    assert 0 < base.counters["mean_ray_map_angle_deg"] < 20
+
+
+def test_rays_accuracy_cli(tmp_path):
+    """Issue 9's acceptance run, from the command line: cornell, 128², 4 diffuse rays per pixel, 512 LDMs
+    of 256². Measured on llvmpipe: hit agreement 0.9766, p95 distance error 5.44 % of the diagonal,
+    self-hit rate 0.34 %. The direction snap alone costs most of it: Mitsuba tracing the same rays along
+    their maps' axes instead gets 0.9824 and 5.04 % against the exact answers (docs/ldm.md)."""
+    from harness.cli import main
+    from harness.records import read_results
+
+    out = tmp_path / "run"
+    rc = main(["run", "--scene", "cornell", "--method", "ldm", "--effect", "rays", "--ray-kind", "diffuse",
+               "--rays-per-pixel", "4", "--size", "128x128", "--set", "ldm.directions=512",
+               "--set", "ldm.resolution=256", "--warmup", "0", "--frames", "1", "--out", str(out),
+               "--no-report", "--no-progress"])
+    r = read_results(out).iloc[0]
+    assert rc == 0 and r["status"] == "ok" and r["rays"] == 61504
+    assert r["hit_agreement"] >= 0.976, r["hit_agreement"]
+    assert r["dist_err_p95"] <= 0.0550, r["dist_err_p95"]
+    assert r["self_hit_rate"] <= 0.0036, r["self_hit_rate"]
+    assert r["coverage"] == 1.0 and r["rays_per_s"] > 0 and r["oracle_rays_per_s"] > 0
+    assert r["oracle_timing"] in ("wall", "kernel")
+    assert (out / r["images"]["error"]).exists()

@@ -1,0 +1,204 @@
+"""Layered depth structures: one Python API and one GLSL access interface for every layout.
+
+The seed methods are ray tracers over rasterized layered depth structures: ``layers`` images of
+``width × height`` texels, each texel holding the depths (and payload words) of *every* surface its
+centre sees along the layer's projection. This module is their common base; the layouts are
+
+============  ================================================================  =========================
+layout        memory                                                            module
+============  ================================================================  =========================
+``linked``    per-texel linked lists: head image + node pool + atomic counter;  :mod:`methods.linked_list`
+              lock-free sorted insert (aalund2015) or yang2010 insert + sort
+``linear``    linearised arrays: count → GPU prefix sum → fill → per-list sort  :mod:`methods.linear_arrays`
+              (archer2019); a texel's fragments are contiguous
+============  ================================================================  =========================
+
+Compacted depth-peeled layers (niessner2010) have the ``linear`` memory layout (a prefix sum over
+per-texel layer counts) and are read through the same interface.
+
+**GLSL** (``methods/glsl/layered.glsl``, compiled with :meth:`LayeredStructure.defines`):
+``ls_list(layer, px, size)``, ``ls_first(list)``, ``ls_next(list, node)``, ``ls_depth(node)``,
+``ls_payload(node, k)``, ``ls_bound()``, ``ls_count(list)``. A tracer written against it reads every layout.
+
+**Payload** words per node, chosen per structure (``payload=("normal", "albedo")``): ``normal``
+(octahedral snorm16×2 of the face normal, ``ls_unpack_normal``), ``albedo`` (RGBA8 of the material),
+``material`` (the material id). With a payload the build rasterizes the full vertex buffer (normals and
+material ids); without, the indexed position-only copy.
+
+**Builds**: one instanced draw (``gl_InstanceID`` = layer; ``instanced=False``: one draw per layer) of the
+scene into every layer, both faces, no depth test (``methods/glsl/layered_build.glsl``). Each layer ``k``
+has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the stored depth is
+``dot(depth_row, (p, 1))`` of the fragment's world position (interpolated perspective-correctly, so any
+depth linear in world space is exact).
+
+**Invariants** (:meth:`LayeredStructure.invariants`, checked on every run; a violation makes the row
+``degraded``): every fragment stored (no overflow unless the pool policy is ``fixed``), every stored
+fragment reachable exactly once, every list sorted, no abandoned insert.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from harness.errors import LdbenchError
+from harness.gpu import GLSL_DIR
+
+PAYLOAD_WORDS = ("normal", "albedo", "material")
+LAYOUT_CODES = {"linked": 1, "linear": 2}
+B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, B_ALBEDO = 0, 1, 2, 3, 7, 9
+N_COUNTERS = 16
+C_CAPACITY = 8
+
+
+class LayeredStructure:
+    """Base of the layouts (see the module docstring). Subclasses implement the build and statistics.
+
+    Parameters
+    ----------
+    gpu, geometry, res : :class:`~harness.gpu.Gpu`, :class:`~methods.gbuffer.SceneGeometry` to rasterize,
+        :class:`~harness.gpu.Resources` accounting for the buffers.
+    layers, width, height : number of layers and their size in texels.
+    payload : names from :data:`PAYLOAD_WORDS`, one 32-bit word each, in this order.
+    instanced : one instanced draw for all layers (True) or one draw per layer.
+    indexed : without payload, rasterize the indexed position-only geometry (same fragments).
+    """
+
+    layout = ""
+
+    def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
+                 payload: tuple = (), instanced: bool = True, indexed: bool = True, prefix: str = "ls."):
+        self.gpu, self.geo, self.res, self.prefix = gpu, geometry, res, prefix
+        self.layers, self.width = int(layers), int(width)
+        self.height = int(height if height is not None else width)
+        payload = tuple(payload)
+        bad = [p for p in payload if p not in PAYLOAD_WORDS]
+        if bad or len(set(payload)) != len(payload):
+            raise LdbenchError(f"payload {payload!r}: words must be distinct names from {list(PAYLOAD_WORDS)}")
+        self.payload = payload
+        self.instanced, self.indexed = bool(instanced), bool(indexed)
+        self.n_lists = self.layers * self.width * self.height
+        self.ssbo_limit = int(gpu.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
+        per_texel = self.n_lists + (1 if self.layout == "linear" else 0)  # heads, or offsets + the total
+        if per_texel * 4 > self.ssbo_limit:
+            raise LdbenchError(
+                f"{self.layers} layers of {self.width}x{self.height} texels need a {per_texel * 4 / 2**20:.1f} "
+                f"MiB head/offset buffer, above this GPU's SSBO limit of {self.ssbo_limit / 2**20:.0f} MiB")
+        self.counters_buf = res.buffer(prefix + "counters", reserve=4 * N_COUNTERS)
+        self.layers_buf = res.buffer(prefix + "layers", reserve=80 * self.layers)
+        self.fbo = gpu.ctx.empty_framebuffer((self.width, self.height))
+        self._vaos: dict = {}
+        self._have_layers = False
+
+    # ---- configuration ---------------------------------------------------------------------------
+    def defines(self) -> dict:
+        """``#define``s of every shader that includes ``layered.glsl`` for this structure."""
+        d = {"LS_LAYOUT": LAYOUT_CODES[self.layout], "LS_PAYLOAD": len(self.payload)}
+        for i, name in enumerate(self.payload):
+            d[f"LS_PL_{name.upper()}"] = i
+        return d
+
+    def set_layers(self, clip: np.ndarray, depth_rows: np.ndarray):
+        """Per-layer world→clip matrices (L, 4, 4), column-vector convention, and depth rows (L, 4)."""
+        clip = np.asarray(clip, np.float64).reshape(self.layers, 4, 4)
+        rows = np.asarray(depth_rows, np.float64).reshape(self.layers, 4)
+        data = np.empty((self.layers, 20), np.float32)
+        data[:, :16] = clip.transpose(0, 2, 1).reshape(self.layers, 16)  # GLSL column-major
+        data[:, 16:] = rows
+        self.layers_buf.write(data.tobytes())
+        self._have_layers = True
+
+    # ---- shared passes ---------------------------------------------------------------------------
+    def _raster_program(self, extra: dict):
+        d = {**self.defines(), **extra}
+        prog = self.gpu.program(GLSL_DIR / "layered_build.glsl", d)
+        key = id(prog)
+        if key not in self._vaos:
+            self._vaos[key] = (self.geo.vao(prog) if self.payload or not self.indexed
+                               else self.geo.vao_positions(prog))
+        return prog, self._vaos[key]
+
+    def _raster(self, extra: dict, capacity: int):
+        """One geometry pass into every layer with the build shader compiled with ``extra`` defines."""
+        if not self._have_layers:
+            raise LdbenchError(f"{type(self).__name__}.build: set_layers() was not called")
+        ctx = self.gpu.ctx
+        prog, vao = self._raster_program(extra)
+        if "ls_size" in prog:
+            prog["ls_size"].value = (self.width, self.height)
+        if "ls_capacity" in prog:
+            prog["ls_capacity"].value = int(capacity)
+        self.bind()
+        if "albedo" in self.payload:
+            self.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, self.width, self.height)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
+        if self.instanced:
+            if "layer_base" in prog:
+                prog["layer_base"].value = 0
+            vao.render(instances=self.layers)
+        else:
+            for k in range(self.layers):
+                prog["layer_base"].value = k
+                vao.render()
+        ctx.memory_barrier()
+
+    def _counters(self) -> np.ndarray:
+        return np.frombuffer(self.counters_buf.read(), np.uint32).copy()
+
+    def _reset_counters(self, capacity: int):
+        c = np.zeros(N_COUNTERS, np.uint32)
+        c[C_CAPACITY] = min(int(capacity), 0xFFFFFFFF)
+        self.counters_buf.write(c.tobytes())
+
+    # ---- the interface subclasses implement ------------------------------------------------------
+    def build(self, stage=None):
+        raise NotImplementedError
+
+    def bind(self):
+        raise NotImplementedError
+
+    def stats(self) -> dict:
+        raise NotImplementedError
+
+    def lists(self, payload: bool = False) -> list:
+        """Every list in storage order: ``out[layer][y][x]`` = depths (OpenGL rows, y = 0 at the
+        bottom); with ``payload``, (depth, (words...)) pairs. For tests and debugging."""
+        raise NotImplementedError
+
+    def invariants(self, stats: dict) -> list[str]:
+        """Violated invariants of the last build (one line each); empty when the structure is complete."""
+        out = []
+        if stats.get("overflow", 0) and not getattr(self, "overflow_allowed", False):
+            out.append(f"{stats['overflow']} of {stats['fragments']} fragments not stored (pool overflow)")
+        if stats.get("linked_nodes", stats.get("fragments_stored")) != stats.get("fragments_stored"):
+            out.append(f"{stats['linked_nodes']} nodes reachable != {stats['fragments_stored']} stored")
+        if stats.get("unsorted_lists", 0):
+            out.append(f"{stats['unsorted_lists']} lists out of depth order")
+        if stats.get("insert_failures", 0):
+            out.append(f"{stats['insert_failures']} inserts abandoned")
+        return out
+
+    def memory(self) -> dict:
+        """{buffer name: bytes} of this structure's buffers."""
+        return {self.res.prefix + k: v for k, v in self.res.bytes.items() if k.startswith(self.prefix)}
+
+
+def fill_uint(gpu, buffer, n: int, value: int):
+    """``buffer[0 .. n) = value`` on the GPU (``methods/glsl/fill_uint.glsl``)."""
+    cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
+    cs["n"].value = int(n)
+    cs["value"].value = int(value)
+    buffer.bind_to_storage_buffer(0)
+    cs.run(max(1, min(-(-int(n) // 256), 4096)))
+    gpu.ctx.memory_barrier()
+
+
+def make_structure(layout: str, gpu, geometry, res, **kw) -> LayeredStructure:
+    """A structure of ``layout`` (``linked`` | ``linear``); ``kw`` are the layout's parameters."""
+    from methods.linear_arrays import LinearisedArrays
+    from methods.linked_list import LayeredLinkedLists
+
+    classes = {"linked": LayeredLinkedLists, "linear": LinearisedArrays}
+    if layout not in classes:
+        raise LdbenchError(f"unknown layered layout {layout!r} (known: {', '.join(classes)})")
+    return classes[layout](gpu, geometry, res, **kw)

@@ -1,0 +1,159 @@
+"""Linearised per-texel arrays (archer2019 §3): the ``linear`` layout of :mod:`methods.layered`.
+
+A texel's fragments are contiguous in one depth array (and a parallel payload array), so a list is
+read with unit stride and its length is known without a walk. Build, per frame (stages):
+
+``count``  clear the per-list counts, rasterize, ``atomicAdd(count[list], 1)`` per fragment.
+``scan``   GPU exclusive prefix sum over all ``layers × W × H`` counts + 1 (:class:`methods.scan.Scan`):
+           offsets, and the total in the last entry, which is read back to size the arrays
+           (policy ``grow``: re-allocate when too small, shrink when more than twice too large;
+           ``fixed``: ``pool_capacity`` fragments, overflow reported).
+``fill``   rasterize again; each fragment takes ``slot = atomicAdd(offset[list], 1)`` and writes its depth
+           and payload there. Afterwards ``offset[list]`` is the end of the list, i.e. the beginning of
+           the next one, so no second offset array is kept.
+``sort``   one thread per list: insertion sort in registers up to ``max_list`` fragments, an exact
+           in-place insertion sort in global memory for longer lists (counted).
+
+Invariants: fragments filled = fragments counted (the end of the last list equals the total), no
+overflow unless the pool is ``fixed``, every list sorted.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from harness.errors import LdbenchError
+from harness.gpu import GLSL_DIR
+
+from .layered import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
+from .scan import Scan
+
+POLICIES = ("grow", "fixed")
+C_COUNTED, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_FILLED, _, C_OVERFLOW = range(8)
+
+
+class LinearisedArrays(LayeredStructure):
+    """``layers`` images of ``width × height`` contiguous depth lists (see the module docstring).
+
+    Parameters (besides those of :class:`~methods.layered.LayeredStructure`)
+    ------------------------------------------------------------------------
+    pool : ``"grow"`` (sized from the scanned total every frame) or ``"fixed"`` (``pool_capacity``).
+    pool_capacity : fragments for ``fixed``; first size for ``grow`` (0 = 1 per texel).
+    max_list : register-array length of the sort pass (longer lists: exact global-memory sort).
+    """
+
+    layout = "linear"
+
+    def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
+                 pool: str = "grow", pool_capacity: int = 0, max_list: int = 32, instanced: bool = True,
+                 indexed: bool = True, payload: tuple = (), prefix: str = "la."):
+        if pool not in POLICIES:
+            raise LdbenchError(f"linearised-array pool policy {pool!r} not one of {list(POLICIES)}")
+        if pool == "fixed" and pool_capacity < 1:
+            raise LdbenchError("linearised-array pool 'fixed' needs pool_capacity >= 1")
+        super().__init__(gpu, geometry, res, layers=layers, width=width, height=height, payload=payload,
+                         instanced=instanced, indexed=indexed, prefix=prefix)
+        self.pool, self.max_list = pool, int(max_list)
+        self.overflow_allowed = pool == "fixed"
+        self.max_capacity = self.ssbo_limit // 4 // max(1, len(self.payload))
+        self.offsets = res.buffer(prefix + "offsets", reserve=4 * (self.n_lists + 1))
+        self.scan = Scan(gpu, res, prefix + "scan.")
+        self.depth_buf = self.payload_buf = None
+        self.capacity = 0
+        self.total = 0
+        self._allocate(pool_capacity if pool_capacity > 0 else self.n_lists)
+
+    def _allocate(self, capacity: int):
+        cap = max(1, min(int(capacity), self.max_capacity))
+        self.depth_buf = self.res.buffer(self.prefix + "depth", reserve=4 * cap)
+        if self.payload:
+            self.payload_buf = self.res.buffer(self.prefix + "payload", reserve=4 * len(self.payload) * cap)
+        self.capacity = cap
+
+    def bind(self):
+        self.counters_buf.bind_to_storage_buffer(B_COUNTERS)
+        self.offsets.bind_to_storage_buffer(B_HEADS)
+        self.layers_buf.bind_to_storage_buffer(B_LAYERS)
+        self.depth_buf.bind_to_storage_buffer(B_NODES0)
+        if self.payload_buf is not None:
+            self.payload_buf.bind_to_storage_buffer(B_PAYLOAD)
+
+    def build(self, stage=None):
+        """Build all layers; stages ``count``, ``scan``, ``fill``, ``sort`` (``stage(name)`` times each)."""
+        stage = stage or self.gpu.stage
+        n = self.n_lists
+        with stage("count"):
+            fill_uint(self.gpu, self.offsets, n + 1, 0)
+            self._reset_counters(self.capacity)
+            self._raster({"LS_PASS_COUNT": 1}, self.capacity)
+        with stage("scan"):
+            self.scan.run(self.offsets, n + 1)
+            self.total = int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0])
+            if self.pool == "grow" and (self.total > self.capacity or self.total < self.capacity // 2):
+                self._allocate(max(self.total, 1))
+        with stage("fill"):
+            self._reset_counters(self.capacity)
+            self._raster({}, self.capacity)
+        with stage("sort"):
+            cs = self.gpu.compute(GLSL_DIR / "linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
+            cs["n_lists"].value = n
+            self.bind()
+            cs.run(min(-(-n // 64), 8192))
+            self.gpu.ctx.memory_barrier()
+
+    def stats(self) -> dict:
+        """Counters of the last build (a statistics pass and a read-back; not for timed regions).
+
+        fragments (counted), fragments_stored, pool_capacity, overflow, lists, lists_nonempty,
+        mean_list_length, max_list_length, unsorted_lists, linked_nodes (fragments reachable through the
+        offsets: the end of the last list, must equal fragments_stored), sort_overflow_lists.
+        """
+        c = self._counters()
+        c[C_NONEMPTY:C_UNSORTED + 1] = 0
+        self.counters_buf.write(c.tobytes())
+        cs = self.gpu.compute(GLSL_DIR / "linear_stats.glsl", self.defines())
+        cs["n_lists"].value = self.n_lists
+        self.bind()
+        cs.run(min(-(-self.n_lists // 64), 8192))
+        self.gpu.ctx.memory_barrier()
+        c = self._counters()
+        ends = np.frombuffer(self.offsets.read(size=8, offset=4 * (self.n_lists - 1)), np.uint32)
+        filled, total = int(ends[0]), int(ends[1])
+        overflow = int(c[C_OVERFLOW])
+        stored = min(total, self.capacity)
+        nonempty = int(c[C_NONEMPTY])
+        return {
+            "layout": self.layout,
+            "fragments": total,
+            "fragments_stored": stored,
+            "pool_capacity": self.capacity,
+            "overflow": overflow,
+            "overflowed": overflow > 0,
+            "lists": self.n_lists,
+            "lists_nonempty": nonempty,
+            "mean_list_length": stored / nonempty if nonempty else 0.0,
+            "max_list_length": int(c[C_MAXLEN]),
+            "unsorted_lists": int(c[C_UNSORTED]),
+            "linked_nodes": min(filled, self.capacity),
+            "sort_overflow_lists": int(c[C_SORT_LONG]),
+        }
+
+    def lists(self, payload: bool = False) -> list:
+        off = np.frombuffer(self.offsets.read(), np.uint32).astype(np.int64)
+        depth = np.frombuffer(self.depth_buf.read(), np.float32)
+        words = (np.frombuffer(self.payload_buf.read(), np.uint32).reshape(-1, len(self.payload))
+                 if payload and self.payload_buf is not None else None)
+        begin = np.concatenate([[0], off[:-2]])
+        end = off[:-1]
+        out, i = [], 0
+        for k in range(self.layers):
+            rows = []
+            for y in range(self.height):
+                row = []
+                for x in range(self.width):
+                    b, e = min(begin[i], self.capacity), min(end[i], self.capacity)
+                    row.append([float(depth[j]) if words is None else (float(depth[j]), tuple(words[j]))
+                                for j in range(b, e)])
+                    i += 1
+                rows.append(row)
+            out.append(rows)
+        return out
