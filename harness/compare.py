@@ -31,8 +31,15 @@ quality (``psnr``, ``ssim``)
     SSIM tolerance ``--ssim-tol`` (0.01). A NaN in the run where the baseline was finite (a broken
     shader) is a regression.
 
+metrics of non-image effects (``rays``, ...)
+    The effect spec's ``gate`` (:class:`harness.effects.base.EffectSpec`): each listed column may
+    get worse by at most ``max(absolute, relative × |baseline|)``; both sides are exact (an oracle, no
+    sampling noise), so the tolerances are fixed. A NaN where the baseline was finite is a regression.
+
 status
-    A row whose ``status`` is not ``"ok"`` in RUN is a regression (``failed``). A row of BASELINE that
+    A row whose ``status`` is ``degraded: …`` in RUN (an invariant of its data structure failed: nodes
+    lost, lists unsorted, overflow) is a regression (``degraded``), as is any other status but
+    ``"ok"`` (``failed``). A row of BASELINE that
     RUN lacks is ``missing`` and fails unless ``--allow-missing``; a row only in RUN is ``new`` (never
     fails). A baseline row that had failed is not compared (``fixed`` if RUN's is ok).
 
@@ -57,7 +64,7 @@ DEFAULT_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "
 #: Every column ``--match`` accepts.
 MATCH_KEYS = DEFAULT_MATCH + ("suite", "scene_hash", "ref_spp")
 
-REGRESSING_VERDICTS = ("regression", "failed", "missing")
+REGRESSING_VERDICTS = ("regression", "failed", "missing", "degraded")
 
 
 @dataclass
@@ -218,6 +225,9 @@ def _key(row, keys) -> tuple:
     for k in keys:
         if k == "scene_params":
             out.append(_canon(_get(row, k) or {}))
+        elif k == "method":  # an adapter's earlier name (e.g. ldm-ao) matches its current one
+            from methods.base import canonical_name
+            out.append(_canon(canonical_name(str(_get(row, k)))))
         else:
             out.append(_canon(_get(row, k)))
     return tuple(out)
@@ -254,7 +264,8 @@ def _effect_label(row) -> str:
     if eff == "ao":
         d = effect_d_max(row)
         return f"ao({effect_param(row, 'falloff', 'step')}, d_max={'inf' if d is None or math.isinf(d) else f'{d:g}'})"
-    return str(eff)
+    ep = {k: v for k, v in (_get(row, "effect_params") or {}).items() if k != "effect"}
+    return f"{eff}({', '.join(f'{k}={_fmt_value(v)}' for k, v in ep.items())})" if ep else str(eff)
 
 
 def _labels(rows_by_key: dict) -> dict:
@@ -583,7 +594,8 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
             comp.notes.append(f"{name}: {diff}")
         bstat, rstat = str(_get(brow, "status") or "?"), str(_get(rrow, "status") or "?")
         if rstat != "ok":
-            comp.checks.append(Check(name, "status", bstat, rstat, "", "failed"))
+            comp.checks.append(Check(name, "status", bstat, rstat, "",
+                                     "degraded" if rstat.startswith("degraded") else "failed"))
             continue
         if bstat != "ok":
             comp.checks.append(Check(name, "status", bstat, rstat, "baseline had failed", "fixed"))
@@ -621,6 +633,10 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
             comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), change, t["verdict"], t["note"]))
 
         # quality
+        gate = _gate(rrow)
+        if gate:
+            comp.checks += [metric_check(name, brow, rrow, *g) for g in gate]
+            continue
         q = quality_thresholds(brow, rrow, th)
         pb, pr = _f(_get(brow, "psnr")), _f(_get(rrow, "psnr"))
         v, change, _ = _psnr_check(pb, pr, q, th)
@@ -637,6 +653,28 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
         if v != "n/a":
             comp.checks.append(Check(name, "ssim", _fmt_num(sb), _fmt_num(sr), change, v))
     return comp
+
+
+def _gate(row) -> tuple:
+    """The effect's gated metrics (non-image effects), () for image effects and unknown effects."""
+    from .effects import registry
+
+    spec = registry().get(str(_get(row, "effect")))
+    return tuple(spec.gate) if spec is not None else ()
+
+
+def metric_check(name, brow, rrow, col, better, abs_tol, rel_tol) -> Check:
+    """One gated metric of a non-image effect: worse by more than max(abs_tol, rel_tol·|base|) fails."""
+    b, r = _f(_get(brow, col)), _f(_get(rrow, col))
+    fmt = lambda v: "NaN" if v is None or math.isnan(v) else f"{v:.4g}"  # noqa: E731
+    if b is None or math.isnan(b):
+        return Check(name, col, fmt(b), fmt(r), "", "n/a")
+    if r is None or math.isnan(r):
+        return Check(name, col, fmt(b), fmt(r), "NaN", "regression")
+    allowed = max(abs_tol, rel_tol * abs(b))
+    worse = (b - r) if better == "higher" else (r - b)
+    verdict = "regression" if worse > allowed else ("improved" if -worse > allowed else "ok")
+    return Check(name, col, fmt(b), fmt(r), f"{r - b:+.3g} (limit {allowed:.3g})", verdict)
 
 
 def _fmt_db(v):
@@ -662,6 +700,7 @@ def _run_label(df, path) -> str:
 
 
 _ICON = {"regression": "❌ regression", "failed": "❌ failed", "missing": "❌ missing", "ok": "✅ ok",
+         "degraded": "❌ degraded",
          "improved": "🟢 improved", "new": "🆕 new", "fixed": "🟢 fixed", "skipped": "⏭ skipped",
          "inconclusive": "❔ inconclusive", "n/a": "n/a"}
 

@@ -39,6 +39,9 @@ from .records import effect_d_max, effect_param
 
 MB = float(2**20)
 
+RAY_COLUMNS = ("hit_agreement", "false_hit_rate", "false_miss_rate", "dist_err_p50", "dist_err_p95",
+               "dist_err_p99", "self_hit_rate", "coverage", "rays", "rays_per_s", "oracle_rays_per_s")
+
 QUALITY = (  # column, axis label, higher is better
     ("psnr", "PSNR (dB)", True),
     ("ssim", "SSIM", True),
@@ -96,19 +99,29 @@ def fmt_value(v) -> str:
 
 
 def effect_text(r) -> str:
-    """``ao (quadratic, d_max = 10.3)`` or the effect name."""
+    """``ao (quadratic, d_max = 10.3)``, ``rays (diffuse, rays_per_pixel = 4)`` or the effect name."""
     ep = r["effect_params"]
     if r["effect"] == "ao":
         return f"ao ({ep.get('falloff', 'step')}, d_max = {fmt_value(r['d_max'])})"
-    return str(r["effect"])
+    rest = [(k, v) for k, v in ep.items() if k != "effect"]
+    if not rest:
+        return str(r["effect"])
+    return f"{r['effect']} (" + ", ".join(f"{v}" if isinstance(v, str) else f"{k} = {fmt_value(v)}"
+                                          for k, v in rest) + ")"
 
 
 def effect_slug(r) -> str:
-    """Short file-name form of the effect: ``ao-quadratic-d10.32``, ``ao-step-dinf``, ``direct``."""
+    """Short file-name form of the effect: ``ao-quadratic-d10.32``, ``ao-step-dinf``, ``direct``,
+    ``rays-diffuse-4`` (the effect's own label when the effect is registered)."""
     if r["effect"] == "ao":
         d = r["d_max"]
         return f"ao-{r['effect_params'].get('falloff', 'step')}-d{'inf' if d is not None and math.isinf(d) else fmt_value(d)}"
-    return str(r["effect"])
+    try:
+        from .effects import effect_from_key
+
+        return effect_from_key({**r["effect_params"], "effect": r["effect"]}).label()
+    except Exception:  # noqa: BLE001 - an unknown effect in an old table: its name
+        return str(r["effect"])
 
 
 def prepare(df):
@@ -133,7 +146,7 @@ def prepare(df):
     df["pixels"] = [a * b for a, b in zip(w, h)]
     mem = df["memory_bytes"] if "memory_bytes" in df else [None] * len(df)
     df["memory_mb"] = [(_num(m) / MB) if _num(m) is not None else math.nan for m in mem]
-    for c in ("total_ms", "total_ms_iqr", "wall_ms", "psnr", "ssim", "flip", "relmse"):
+    for c in ("total_ms", "total_ms_iqr", "wall_ms", "psnr", "ssim", "flip", "relmse", *RAY_COLUMNS):
         df[c] = [(_num(v) if _num(v) is not None else math.nan) for v in (df[c] if c in df else [None] * len(df))]
     q1, q3 = [], []
     for raw, med in zip(df["raw_ms"] if "raw_ms" in df else [None] * len(df), df["total_ms"]):
@@ -587,16 +600,24 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid
         if img and not (run_dir / img).is_file():
             problems.append(f"missing {img}")
             img = None
-        cap = [f"PSNR {_f(r['psnr'], 2)} dB · SSIM {_f(r['ssim'], 3)}",
-               f"FLIP {_f(r['flip'], 3)} · relMSE {_f(r['relmse'], 4)}",
-               f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
+        if r["effect"] == "rays":
+            cap = [f"hit agreement {_f(r['hit_agreement'], 4)} · p95 {_f(r['dist_err_p95'], 4)}",
+                   f"self hits {_f(r['self_hit_rate'], 4)} · {_f(r['rays_per_s'] / 1e6, 3)} Mrays/s",
+                   f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
+        else:
+            cap = [f"PSNR {_f(r['psnr'], 2)} dB · SSIM {_f(r['ssim'], 3)}",
+                   f"FLIP {_f(r['flip'], 3)} · relMSE {_f(r['relmse'], 4)}",
+                   f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
         cells.append(GridCell(_cell_label(r, diff), img, epath, cap))
     ref = rows[0]["images"].get("reference")
     if ref and not (run_dir / ref).is_file():
         problems.append(f"missing {ref}")
         ref = None
-    units = "AO units" if rows[0]["effect"] == "ao" else "linear radiance"
-    err_label = f"|test − reference| ({units}, mean over channels)"
+    if rows[0]["effect"] == "rays":
+        err_label = "fraction of the pixel's rays where hit / miss disagree with the oracle"
+    else:
+        units = "AO units" if rows[0]["effect"] == "ao" else "linear radiance"
+        err_label = f"|test − reference| ({units}, mean over channels)"
     # colour bar
     fig = plt.figure(figsize=(4.2, 0.85))
     cax = fig.add_axes([0.05, 0.55, 0.9, 0.3])
@@ -611,7 +632,8 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid
     cbar = gdir / "colorbar.png"
     fig.savefig(cbar, dpi=110)
     plt.close(fig)
-    ref_cap = f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})"
+    ref_cap = (f"oracle ({rows[0].get('ref_variant')}): fraction of rays that hit" if rows[0]["effect"] == "rays"
+               else f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})")
     g = Grid(title=f"{scene} — {eff} — {size.replace('x', '×')}", anchor=f"grid-{tag}", reference=ref,
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)
@@ -694,4 +716,50 @@ def write_figures(run_dir: Path, df, problems: list) -> list[Figure]:
         groups.setdefault((str(r["scene"]), r["effect_text"], r["size"], r["effect_slug"]), []).append(r)
     for key, rows in groups.items():
         attempt(f"quality figure {key}", figure_quality, df, run_dir, key, rows)
+    rays: dict = {}
+    for _, r in ok[ok["effect"] == "rays"].iterrows():
+        rays.setdefault((str(r["scene"]), r["effect_text"], r["size"], r["effect_slug"]), []).append(r)
+    for key, rows in rays.items():
+        attempt(f"ray accuracy figure {key}", figure_rays, df, run_dir, key, rows)
     return figs
+
+
+def figure_rays(df, run_dir: Path, key, rows) -> Figure | None:
+    """Ray queries: hit agreement and p95 distance error against rays/s, every method configuration and
+    the exact oracle (agreement 1, error 0, at its own measured speed on the same batch)."""
+    plt = _plt()
+    rows = [r for r in rows if math.isfinite(r["rays_per_s"])]
+    if not rows:
+        return None
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    pal = _palette(methods + ["oracle (Mitsuba)"])
+    diff = [k for k in differing_keys(rows) if k not in ("scene", "effect", "size", "method")]
+    panels = [("hit_agreement", "hit agreement (fraction of rays)"),
+              ("dist_err_p95", "p95 |t − t_ref| / scene diagonal — lower is better")]
+    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.4), squeeze=False)
+    oracle = [r["oracle_rays_per_s"] for r in rows if math.isfinite(r["oracle_rays_per_s"])]
+    for ax, (c, lab) in zip(axes[0], panels):
+        for m in methods:
+            pts = [r for r in rows if r["method"] == m and math.isfinite(r[c])]
+            ax.scatter([r["rays_per_s"] for r in pts], [r[c] for r in pts], color=pal[m], label=m, s=32, zorder=3)
+            for r in pts:
+                if diff:
+                    ax.annotate(config_label(r, diff), (r["rays_per_s"], r[c]), fontsize=6,
+                                xytext=(3, 3), textcoords="offset points")
+        if oracle:
+            ax.scatter([float(np.median(oracle))], [1.0 if c == "hit_agreement" else 0.0], marker="*", s=160,
+                       color=pal["oracle (Mitsuba)"], label="oracle (Mitsuba)", zorder=4)
+        ax.set_xscale("log")
+        ax.set_xlabel("rays per second (trace stage; oracle: its own time on the same batch)")
+        ax.set_ylabel(lab)
+        ax.grid(True, alpha=0.3, which="both")
+    axes[0][0].legend(loc="best", fontsize=8)
+    timing = {str(r.get("oracle_timing")) for r in rows}
+    scene, eff, size, eslug = key
+    fig.suptitle(f"Ray queries: accuracy vs speed — {scene} — {eff} — {size}")
+    device_footer(fig, df)
+    fig.tight_layout(rect=(0, 0.03, 1, 0.94))
+    files = save(fig, run_dir, f"rays-{slug(scene, 30)}-{slug(eslug, 40)}-{size}-{short_hash(key)}")
+    return Figure("rays", f"Ray queries: accuracy vs speed — {scene} — {eff} — {size}",
+                  "Each point is a method configuration on the same ray batch; the star is the exact oracle "
+                  f"(oracle timing: {', '.join(sorted(timing))}; 'wall' = wall clock on the CPU).", **files)

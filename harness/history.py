@@ -11,8 +11,9 @@ Storage
 
 Plots
     One PNG per machine and benchmark (benchmarks as in :data:`harness.compare.DEFAULT_MATCH`):
-    the median frame time ``total_ms`` with its interquartile band (from the raw samples) and PSNR,
-    one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
+    the median frame time ``total_ms`` with its interquartile band (from the raw samples) and the
+    quality (PSNR; for a non-image effect the first metric it gates, e.g. ``rays``: hit agreement, with
+    an absolute change floor of 0.002), one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
     checkout) and date. Detected change points are drawn as vertical lines and listed in
     ``changes.md``.
 
@@ -317,7 +318,8 @@ def _series(df):
                 iqr = _get(row, "total_ms_iqr")
                 half = float(iqr) / 2 if iqr is not None else 0.0
                 q1, q3 = med - half, med + half
-            psnr = _get(row, "psnr")
+            qcol = _quality_column(row)
+            psnr = _get(row, qcol)
             commit = str(_get(row, "commit") or "")[:7] or "?"
             if _get(row, "dirty"):
                 commit += "*"
@@ -328,8 +330,18 @@ def _series(df):
                         "status": _get(row, "status"), "params": _canon(_get(row, "params"))})
         p = pd.DataFrame(pts).drop_duplicates("run_id", keep="last").reset_index(drop=True)
         p["psnr"] = p["psnr"].replace([np.inf], np.nan)  # a perfect match has no place on a dB axis
+        p.attrs["quality"] = _quality_column(rows[-1])
         out[k] = (labels[k], p)
     return out
+
+
+def _quality_column(row) -> str:
+    """The quality series of a benchmark: PSNR for image effects, else the first metric its effect
+    gates (``rays``: hit agreement). Stored under the key "psnr" of the series."""
+    from .compare import _gate
+
+    gate = _gate(row)
+    return gate[0][0] if gate else "psnr"
 
 
 def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str | None = None,
@@ -360,15 +372,16 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
             x = list(range(n))
             tcp = detect_change_points(p["total_ms"], alpha=alpha, min_size=min_size,
                                        min_effect=min_effect, relative=True)
+            qname = p.attrs.get("quality", "psnr")
             qcp = detect_change_points(p["psnr"], alpha=alpha, min_size=min_size,
-                                       min_effect=min_db, relative=False)
+                                       min_effect=min_db if qname == "psnr" else 0.002, relative=False)
             fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(max(6.0, 0.35 * n + 3), 6), sharex=True)
             ax1.fill_between(x, p["q1"], p["q3"], alpha=0.25, color="tab:blue", label="IQR")
             ax1.plot(x, p["total_ms"], "o-", color="tab:blue", ms=3, label="median total_ms")
             ax1.set_ylabel("frame time (ms)")
             ax1.set_title(f"{label}\n{mkey}", fontsize=9)
-            ax2.plot(x, p["psnr"], "o-", color="tab:green", ms=3, label="PSNR")
-            ax2.set_ylabel("PSNR (dB)")
+            ax2.plot(x, p["psnr"], "o-", color="tab:green", ms=3, label=qname)
+            ax2.set_ylabel("PSNR (dB)" if qname == "psnr" else qname)
             for i in range(1, n):
                 if p["params"].iloc[i] != p["params"].iloc[i - 1]:
                     for ax in (ax1, ax2):
@@ -385,7 +398,8 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
                              ha="left", va="top", fontsize=8, color="tab:red")
             for c in qcp:
                 ax2.axvline(c.index - 0.5, color="tab:purple", ls="--", lw=1.2)
-                ax2.annotate(f"{c.change:+.2f} dB", (c.index - 0.5, 1.0), xycoords=("data", "axes fraction"),
+                ax2.annotate(f"{c.change:+.2f} dB" if qname == "psnr" else f"{c.change:+.3g}",
+                             (c.index - 0.5, 1.0), xycoords=("data", "axes fraction"),
                              ha="left", va="top", fontsize=8, color="tab:purple")
             ticks = [f"{c}\n{t[5:10]}" for c, t in zip(p["commit"], p["time"])]
             step = max(1, n // 25)
@@ -400,7 +414,7 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
             fig.savefig(path, dpi=100)
             plt.close(fig)
             pngs.append(path)
-            for metric, lst in (("total_ms", tcp), ("psnr", qcp)):
+            for metric, lst in (("total_ms", tcp), (qname, qcp)):
                 for c in lst:
                     r = p.iloc[c.index]
                     cps.append({"machine": mkey, "benchmark": label, "metric": metric, "index": c.index,

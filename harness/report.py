@@ -99,14 +99,24 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     lines.append("")
     if (df["device"] == "cpu-software").any():
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
-    lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for _, r in df.iterrows():
+    img = df[image_rows(df)]
+    if len(img):
+        lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for _, r in img.iterrows():
         lines.append(
             f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | {r['width']}×{r['height']} | "
             f"{_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
             f"{_fmt(r['memory_mb'], 1)} | {_fmt(r['psnr'])} | {_fmt(r['ssim'], 3)} | {_fmt(r['flip'], 3)} | "
             f"{_fmt(r['relmse'], 4)} | {_md(r['status'])} |")
+    for name, cols, rows in metric_tables(df):
+        lines += ["", f"## Effect `{name}`", "",
+                  "| scene | method | effect | size | params | total ms | " + " | ".join(cols) + " | status |",
+                  "|" + "---|" * (len(cols) + 7)]
+        for _, r in rows.iterrows():
+            lines.append(f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | "
+                         f"{r['width']}×{r['height']} | {_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} | "
+                         + " | ".join(_metric(r, c) for c in cols) + f" | {_md(r['status'])} |")
     if figs:
         lines += ["", "## Figures", ""] + [f"- [{_md(f.title)}]({f.png}) ([PDF]({f.pdf}))" for f in figs]
     if grids:
@@ -173,10 +183,60 @@ def _img(run_dir: Path, rel: str | None, alt: str, cls: str = "") -> str:
     return f'<span class="muted">[{esc(alt)}: no image]</span>'
 
 
+def image_rows(df):
+    """Rows of image effects (and of effects this version does not know)."""
+    from .effects import registry
+
+    reg = registry()
+    return [reg[e].output == "image" if e in reg else True for e in df["effect"]]
+
+
+def metric_tables(df) -> list:
+    """[(effect, metric columns, rows)] for every non-image effect in the table: its spec's metrics."""
+    from .effects import registry
+
+    out = []
+    for name, spec in registry().items():
+        rows = df[df["effect"] == name]
+        if spec.output != "image" and len(rows):
+            out.append((name, [c for c in spec.metrics if c in df.columns], rows))
+    return out
+
+
+def _metric(r, c) -> str:
+    v = F._num(r.get(c))
+    if v is None:
+        return "–"
+    if c.endswith("per_s"):
+        return f"{v / 1e6:.4g} M"
+    return f"{v:.4g}"
+
+
+def _metric_tables_html(h: _Html, df):
+    for name, cols, rows in metric_tables(df):
+        h.raw(f'<h3 id="effect-{esc(name)}">Effect <code>{esc(name)}</code></h3>')
+        heads = ["scene", "method", "effect", "size", "params", "total ms", "memory MB", *cols, "status"]
+        h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in heads)
+              + "</tr></thead><tbody>")
+        for _, r in rows.iterrows():
+            cells = [(r["scene"], False), (r["method"], False), (r["effect_text"], False),
+                     (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+                     (_fmt(r["total_ms"]), True), (_fmt(r["memory_mb"], 1), True),
+                     *[(_metric(r, c), True) for c in cols], (r["status"], False)]
+            tr = "<tr>" if r["status"] == "ok" else '<tr class="bad">'
+            h.raw(tr + "".join((f'<td class="num">{esc(v)}</td>' if num else f"<td>{esc(v)}</td>")
+                               for v, num in cells) + "</tr>")
+        h.raw("</tbody></table>")
+        spec = __import__("harness.effects", fromlist=["get_spec"]).get_spec(name)
+        h.text("p", f"Reference: {spec.reference_backend}. Columns as defined in harness/effects/{name}.py "
+                    "(rates are fractions of all rays; distance errors are fractions of the scene diagonal; "
+                    "M = 10^6 per second).", cls="cap")
+
+
 def _results_table(h: _Html, df):
     h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in RESULT_COLUMNS)
           + "</tr></thead><tbody>")
-    for _, r in df.iterrows():
+    for _, r in df[image_rows(df)].iterrows():
         ok = r["status"] == "ok"
         cells = [
             (r["scene"], False), (r["method"], False), (r["effect_text"], False),
@@ -290,12 +350,15 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
         h.raw('<div class="problems"><b>Report problems</b><br>' + "<br>".join(esc(p) for p in problems) + "</div>")
     _reproduce_html(h, run_dir)
     h.raw('<h2 id="results">Results</h2>')
-    _results_table(h, df)
+    if any(image_rows(df)):
+        _results_table(h, df)
+    _metric_tables_html(h, df)
     h.raw('<h2 id="figures">Figures</h2>')
     if not figs:
         h.text("p", "No figures (no successful rows).", cls="muted")
     for kind, head in (("stages", "Stage-time breakdown"), ("time-vs-param", "Time vs swept parameters"),
-                       ("memory-vs-param", "Memory vs swept parameters"), ("quality", "Quality vs time")):
+                       ("memory-vs-param", "Memory vs swept parameters"), ("quality", "Quality vs time"),
+                       ("rays", "Ray queries: accuracy vs rays per second")):
         fs = [f for f in figs if f.kind == kind]
         if not fs:
             continue

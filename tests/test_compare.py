@@ -284,3 +284,46 @@ def test_benchmark_label_reads_effect_params(tmp_path):
     R.write_results(rows, tmp_path)
     labels = {r["method"]: C._effect_label(r) for _, r in R.read_results(tmp_path).iterrows()}
     assert labels == {"hbao": "ao(step, d_max=inf)", "ldm-ao": "ao(quadratic, d_max=10.32)"}
+
+
+def _df(tmp_path, rows):
+    """Rows as read back from a run directory (JSON columns parsed)."""
+    d = tmp_path / f"t{len(list(tmp_path.iterdir()))}"
+    R.write_results(rows, d)
+    return R.read_results(d)
+
+
+def test_degraded_rows_fail_the_gate(tmp_path):
+    base = _df(tmp_path, [_row(*b, run_id="b") for b in BENCH])
+    bad = _df(tmp_path, [_row(*b, run_id="r", status="degraded: 3 of 90 fragments not stored (pool overflow)"
+                         if b[1] == "ldm-ao" else "ok") for b in BENCH])
+    comp = C.compare_frames(base, bad)
+    assert comp.exit_code == 1
+    assert [c.verdict for c in comp.regressions] == ["degraded"] and "ldm-ao" in comp.regressions[0].benchmark
+
+
+def test_earlier_method_names_match_their_adapter(tmp_path):
+    base = _df(tmp_path, [_row("cornell", "ldm-ao", "ao", run_id="b")])
+    run = _df(tmp_path, [_row("cornell", "ldm", "ao", run_id="r")])
+    comp = C.compare_frames(base, run)
+    assert comp.matched == 1 and comp.count("missing") == 0 and comp.exit_code == 0
+
+
+def _rays_row(run_id, **metrics):
+    m = {"hit_agreement": 0.976, "dist_err_p95": 0.0544, "self_hit_rate": 0.0034, **metrics}
+    r = _row("cornell", "ldm", "rays", run_id=run_id, psnr=math.nan, ssim=math.nan)
+    r.update(effect_params={"effect": "rays", "ray_kind": "diffuse", "rays_per_pixel": 4}, **m)
+    return r
+
+
+def test_ray_metrics_gated_with_their_own_tolerances(tmp_path):
+    base = _df(tmp_path, [_rays_row("b")])
+    same = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.9755)]))
+    assert same.exit_code == 0 and {c.metric for c in same.checks} >= {"hit_agreement", "dist_err_p95"}
+    assert "rays(ray_kind=diffuse, rays_per_pixel=4)" in same.checks[0].benchmark
+    worse = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.970)]))
+    assert [c.metric for c in worse.regressions] == ["hit_agreement"]
+    far = C.compare_frames(base, _df(tmp_path, [_rays_row("r", dist_err_p95=0.0610)]))  # +12 %: beyond 10 %
+    assert [c.metric for c in far.regressions] == ["dist_err_p95"]
+    nan = C.compare_frames(base, _df(tmp_path, [_rays_row("r", self_hit_rate=math.nan)]))
+    assert [c.metric for c in nan.regressions] == ["self_hit_rate"]

@@ -115,3 +115,23 @@ def test_change_point_ignores_noise_and_small_shifts():
     assert H.detect_change_points(y) == []
     assert [c.index for c in H.detect_change_points(y, min_effect=0.01)] == [20]
     assert H.detect_change_points(np.full(30, 5.0)) == [] and H.detect_change_points([1.0, 2.0]) == []
+
+
+def test_rays_history_follows_hit_agreement(tmp_path):
+    """A non-image effect's quality series is the first metric it gates (rays: hit agreement): a drop
+    from 0.976 to 0.95 after run 8 is a change point of that series."""
+    hist = tmp_path / "hist"
+    rng = np.random.default_rng(3)
+    for day in range(1, 17):
+        total = list(10 * (1 + 0.02 * rng.standard_normal(9)))
+        row = R.make_row(
+            run_id=f"r{day}", suite="nightly", time=f"2026-01-{day:02d}T03:00:00+00:00", commit=f"{day:07x}abc",
+            dirty=False, scene="cornell", method="ldm", effect="rays",
+            effect_params={"effect": "rays", "ray_kind": "diffuse", "rays_per_pixel": 4}, params={},
+            width=64, height=64, **R.machine_columns(GPU), **R.timing_fields({"total": total}),
+            hit_agreement=(0.976 if day <= 8 else 0.95) + 0.0002 * rng.standard_normal())
+        R.write_results([row], tmp_path / f"r{day}")
+        H.add_run(tmp_path / f"r{day}", hist)
+    res = H.plot_history(hist)
+    cps = [c for c in res["change_points"] if c["metric"] == "hit_agreement"]
+    assert len(cps) == 1 and cps[0]["index"] == 8 and cps[0]["change"] < -0.02

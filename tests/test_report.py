@@ -270,3 +270,24 @@ def test_overwritten_images_are_flagged(real_run, tmp_path):
     out = build_report(d)
     assert any("shared with other rows" in p for g in out["grids"] for p in g.problems)
     assert "shared with other rows" in (d / "index.html").read_text(encoding="utf-8")
+
+
+def test_ray_rows_get_their_table_and_accuracy_figure(tmp_path):
+    """Non-image effects: a table of the effect's own metrics and the accuracy-vs-rays/s figure with the
+    oracle; no empty image table."""
+    rows = []
+    for i, (method, agree, rps) in enumerate((("ldm", 0.976, 3e8), ("ldm", 0.95, 9e8))):
+        rows.append(records.make_row(
+            run_id="r", suite="s", scene="cornell", method=method, effect="rays",
+            effect_params={"effect": "rays", "ray_kind": "diffuse", "rays_per_pixel": 4},
+            params={"directions": 512 >> i}, width=64, height=64, device="nvidia", gl_renderer="NVIDIA H200",
+            total_ms=10.0, raw_ms={"total": [10.0, 10.1, 9.9]}, stage_ms={"build": 9.0, "trace": 1.0},
+            memory={"nodes": 2 ** 20}, hit_agreement=agree, dist_err_p95=0.05, self_hit_rate=0.003,
+            rays=61504, rays_per_s=rps, oracle_rays_per_s=1.7e9, oracle_timing="kernel", images={}))
+    records.write_results(rows, tmp_path)
+    out = build_report(tmp_path)
+    page = (tmp_path / "index.html").read_text()
+    assert "Effect <code>rays</code>" in page and "0.976" in page and "1700 M" in page
+    assert [f.kind for f in out["figures"]].count("rays") == 1
+    summary = (tmp_path / "summary.md").read_text()
+    assert "## Effect `rays`" in summary and "PSNR dB" not in summary

@@ -10,6 +10,9 @@ An effect spec declares, as data and a few hooks:
                        refine it by parameter); :meth:`check_scene` is the one place that enforces it
 ``reference_backend``  the ground truth, in words (Mitsuba 3 integrator or oracle)
 ``metrics``            the result columns the effect fills
+``gate``               (non-image effects) the metrics the nightly gate checks: (column, "higher"|"lower"
+                       is better, absolute tolerance, relative tolerance); image effects are gated on
+                       PSNR/SSIM against their reference's noise (:mod:`harness.compare`)
 ``inputs()``           arrays the harness builds deterministically from (scene, view, seed) and hands
                        identically to the method and to the reference (None for pure image effects)
 ``reference()``        the ground truth for those inputs
@@ -43,6 +46,7 @@ class EffectSpec:
     needs_light: bool = False
     reference_backend: str = ""
     metrics: tuple = ()
+    gate: tuple = ()
 
     # ---- identity -----------------------------------------------------------------------------------
     def key(self, params) -> dict:

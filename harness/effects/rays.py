@@ -260,6 +260,9 @@ class Rays(EffectSpec):
     output = "rays"
     reference_backend = "Mitsuba 3 oracle: ray_intersect_preliminary / ray_test on the same rays"
     metrics = RAY_METRICS
+    # Exact answers on both sides: no reference noise, so fixed tolerances (absolute, relative).
+    gate = (("hit_agreement", "higher", 0.002, 0.0), ("dist_err_p95", "lower", 1e-4, 0.10),
+            ("self_hit_rate", "lower", 0.001, 0.0))
 
     def requires_light(self, params):
         return params.ray_kind == "shadow"
