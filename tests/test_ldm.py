@@ -225,18 +225,21 @@ def test_cornell_against_mitsuba(gpu):
 
 def test_creases_are_not_bright(gpu):
     """AO pixels along the box's creases: the texel-centre column of a point within half a texel of the
-    other wall can meet that wall just *behind* the point; ldm_trace counts such geometry above the
-    tangent plane as a hit at distance 0 instead of skipping it (docs/ldm.md). Classic AO at 128² with
-    128 LDMs of 128² against a 256-spp reference: 47 pixels with |error| > 0.3 (measured on llvmpipe),
-    against 150 when those entries are skipped (the rule before; 512 LDMs of 256²: 7 against 62)."""
+    other wall can meet that wall just *behind* the point; within the crease window ldm_trace counts such
+    geometry above the tangent plane as a hit at distance 0 instead of skipping it (docs/rays.md).
+    Classic AO at 128² with 128 LDMs of 128² against a 256-spp reference, pixels with |error| > 0.3
+    (measured on llvmpipe): 53 with the default window of 0.5 texels, 150 with crease = 0 (the plain
+    skip rule)."""
     from harness.scenes import load_scene
     from references import render_reference
 
     scene, eff = load_scene("cornell"), Effect("ao")
     ref = render_reference(scene, eff, width=128, height=128, spp=256, progress=False)
-    r, _ = render(gpu, scene, eff, size=128, directions=128, resolution=128)
-    err = (r.image[..., 0] - ref.mean[..., 0])[ref.mask]
-    assert int((np.abs(err) > 0.3).sum()) <= 50, int((np.abs(err) > 0.3).sum())
+    bright = {}
+    for crease in (0.5, 0.0):
+        r, _ = render(gpu, scene, eff, size=128, directions=128, resolution=128, crease=crease)
+        bright[crease] = int((np.abs(r.image[..., 0] - ref.mean[..., 0])[ref.mask] > 0.3).sum())
+    assert bright[0.5] <= 56 and bright[0.0] >= 140, bright
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -273,8 +276,8 @@ def test_rays_identical_over_layouts_and_inserts(gpu):
 
 def test_rays_accuracy_cli(tmp_path):
     """Issue 9's acceptance run, from the command line: cornell, 128², 4 diffuse rays per pixel, 512 LDMs
-    of 256². Measured on llvmpipe: hit agreement 0.9766, p95 distance error 5.44 % of the diagonal,
-    self-hit rate 0.34 %. The direction snap alone costs most of it: Mitsuba tracing the same rays along
+    of 256². Measured on llvmpipe: hit agreement 0.9767, p95 distance error 5.35 % of the diagonal,
+    self-hit rate 0.26 %. The direction snap alone costs most of it: Mitsuba tracing the same rays along
     their maps' axes instead gets 0.9824 and 5.04 % against the exact answers (docs/ldm.md)."""
     from harness.cli import main
     from harness.records import read_results
@@ -287,8 +290,8 @@ def test_rays_accuracy_cli(tmp_path):
     r = read_results(out).iloc[0]
     assert rc == 0 and r["status"] == "ok" and r["rays"] == 61504
     assert r["hit_agreement"] >= 0.976, r["hit_agreement"]
-    assert r["dist_err_p95"] <= 0.0550, r["dist_err_p95"]
-    assert r["self_hit_rate"] <= 0.0036, r["self_hit_rate"]
+    assert r["dist_err_p95"] <= 0.0540, r["dist_err_p95"]
+    assert r["self_hit_rate"] <= 0.0027, r["self_hit_rate"]
     assert r["coverage"] == 1.0 and r["rays_per_s"] > 0 and r["oracle_rays_per_s"] > 0
     assert r["oracle_timing"] in ("wall", "kernel")
     assert (out / r["images"]["error"]).exists()

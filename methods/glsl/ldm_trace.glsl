@@ -13,9 +13,11 @@
 // with t <= s lie on or below x's tangent plane, where no ray leaving x can hit. Entries with
 // t <= s + bias are skipped; bias (world units) absorbs curvature and float error.
 // Concave creases: when s < 0 (the column passes x's tangent plane behind x), an entry with
-// s + bias < t <= 0 is geometry *above* the tangent plane within half a texel of x — the other wall of a
-// crease that the texel-centre column meets behind x. It is a hit at distance 0, not skipped: skipping
-// it let rays escape through the adjacent wall (bright lines along creases; docs/ldm.md).
+// max(s, -ldm_crease) + bias < t <= 0 is geometry *above* the tangent plane, within half a texel of it and
+// at most ldm_crease behind x — typically the other wall of a crease that the texel-centre column meets
+// behind x. It is a hit at distance 0, not skipped: skipping it let rays escape through the adjacent
+// wall (bright lines along creases). ldm_crease = 0 is the plain rule (skip everything up to
+// max(s, 0) + bias); larger windows also catch small geometry just behind x (docs/rays.md).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
 #include "layered.glsl"
@@ -25,6 +27,7 @@ layout(std430, binding = 11) readonly buffer LdmAxes { LdmAxis ldm_axes[]; };
 uniform vec3 ldm_centre;
 uniform float ldm_radius;
 uniform ivec2 ldm_size;
+uniform float ldm_crease;  // world units (0 = no crease rule)
 
 // Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
 // when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
@@ -38,7 +41,7 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
     vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ldm_radius / vec2(ldm_size));  // x -> texel centre, (u, w)
     float cos_t = sigma * dot(n, v);
     float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
-    float thr = s_self + bias;
+    float thr = max(s_self, -ldm_crease) + bias;
     uint list = ls_list(k, px, ldm_size);
     uint bound = ls_bound(), steps = 0u;
     if (sigma > 0.0) {

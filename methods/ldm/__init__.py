@@ -39,6 +39,7 @@ Parameter               Default   Paper    Meaning
 ``directions``          128       512      number of LDMs (axes; each answers ±v)
 ``resolution``          128       200, 50  texels per side of each LDM
 ``bias``                0.25               self-intersection bias along the ray, in LDM texels
+``crease``              0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
 ``pool``                grow               pool sizing: grow | count | fixed (count: linked only)
 ``pool_capacity``       0                  nodes for ``fixed`` (and first size for ``grow``)
 ``sorted_insert``       True      True     lock-free sorted insert; False = yang2010 + sort pass
@@ -98,6 +99,8 @@ class LdmParams(ParamsBase):
     directions: int = param(128, "number of LDMs (axes; each answers +v and -v)", lo=1, hi=4096, paper=512)
     resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
     bias: float = param(0.25, "self-intersection bias along the ray, in LDM texels", lo=0.0, hi=64.0)
+    crease: float = param(0.5, "crease window behind the point, in LDM texels (0 = plain skip rule)",
+                          lo=0.0, hi=64.0, paper=0)
     pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed", choices=POLICIES)
     pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per texel)", lo=0)
     sorted_insert: bool = param(True, "lock-free sorted insert (PSPPSLL); False = yang2010 insert + sort pass",
@@ -147,7 +150,7 @@ class Ldm(Method):
 
     def _bind_maps(self, cs):
         p = self.params
-        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel),
+        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel), ("ldm_crease", p.crease * self.texel),
                         ("ldm_centre", tuple(float(x) for x in self.centre)), ("ldm_radius", float(self.radius)),
                         ("ldm_size", (p.resolution, p.resolution))):
             if name in cs:  # a statistics variant may not use all of them
