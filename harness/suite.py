@@ -279,8 +279,10 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
 
 
 def load_suite(path) -> Suite:
-    """Read and validate a suite TOML file."""
-    path = Path(path)
+    """Read and validate a suite TOML file: a path, or a bundled suite by name (``default``)."""
+    from .resources import suite_path
+
+    path = suite_path(path)
     try:
         data = tomllib.loads(path.read_text())
     except OSError as e:

@@ -9,7 +9,8 @@ the EXR first, so a JSON file always describes a complete EXR. The EXR header ca
 (``ldbench_key``); an entry is used only when the file name, the JSON and the EXR header all name the
 same key. A missing, unreadable or mismatching entry is a cache miss, never an error.
 
-``cache_dir`` defaults to ``$LDBENCH_CACHE`` or ``<repo>/.cache/references/``.
+``cache_dir`` defaults to ``$LDBENCH_CACHE``, else ``<repo>/.cache/references/`` in a checkout, else the user
+cache (:func:`default_cache_dir`).
 """
 from __future__ import annotations
 
@@ -30,10 +31,16 @@ REFERENCE_VERSION = 2  # 2: secondary rays start nudged towards the camera (edge
 
 
 def default_cache_dir() -> Path:
+    """``$LDBENCH_CACHE``; else ``.cache/references`` of a source checkout; else (an installed wheel,
+    whose package folder may not be writable) the user cache: ``$XDG_CACHE_HOME/ldbench/references``."""
     env = os.environ.get("LDBENCH_CACHE")
     if env:
         return Path(env).expanduser()
-    return Path(__file__).resolve().parent.parent / ".cache" / "references"
+    root = Path(__file__).resolve().parent.parent
+    if (root / "pyproject.toml").is_file():
+        return root / ".cache" / "references"
+    xdg = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(xdg) / "ldbench" / "references"
 
 
 def key_fields(scene, effect, width, height, spp, seed, mitsuba_version, variant) -> dict:

@@ -27,3 +27,19 @@ def test_exr_copied_over_another_entry_is_a_miss(tmp_path):
     assert np.array_equal(again.mean, b.mean) and not np.array_equal(again.mean, a.mean)
     assert read_exr_header(tmp_path / f"{kb}.exr")["ldbench_key"] == kb  # and stored again
     assert render_reference(s, Effect("ao", d_max=0.2), spp=4, **kw).meta["cached"] is True
+
+
+def test_default_cache_dir_rules(monkeypatch, tmp_path):
+    """LDBENCH_CACHE wins; a checkout caches beside its sources; an installed package (no pyproject.toml
+    beside it) uses the user cache, never its own, possibly read-only, folder."""
+    from references import cache
+
+    monkeypatch.setenv("LDBENCH_CACHE", str(tmp_path / "c"))
+    assert cache.default_cache_dir() == tmp_path / "c"
+    monkeypatch.delenv("LDBENCH_CACHE")
+    assert cache.default_cache_dir().parts[-2:] == (".cache", "references")
+    fake = tmp_path / "site" / "references" / "cache.py"
+    fake.parent.mkdir(parents=True)
+    monkeypatch.setattr(cache, "__file__", str(fake))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache.default_cache_dir() == tmp_path / "xdg" / "ldbench" / "references"

@@ -171,3 +171,13 @@ def test_camera_sees_geometry():
         camera_sees_geometry(FakeScene("s", {}), Ref(), 4, 4)
     Ref.mask[1, 2] = True
     camera_sees_geometry(FakeScene("s", {}), Ref(), 4, 4)
+
+
+def test_a_bundled_suite_by_name(tmp_path, monkeypatch):
+    """`ldbench run default` from any folder: a bundled suite is found by its name."""
+    from harness.suite import load_suite
+
+    monkeypatch.chdir(tmp_path)
+    s = load_suite("default")
+    assert s.name == "default" and s.jobs
+    assert load_suite("suites/default.toml").name == "default"

@@ -113,6 +113,7 @@ class DirectRaster(Method):
                 self.shade[name].value = unit
             out.bind_to_image(0, read=False, write=True)
             self.shade.run((w + 7) // 8, (h + 7) // 8)
+            ctx.memory_barrier()  # imageStore results visible to the read-back
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
                       counters={"shadow_texels": 6 * s * s})
 
