@@ -228,3 +228,30 @@ def orthonormal_basis(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     w = np.cross(v, u)
     return u, w
+
+
+# --------------------------------------------------------------------------------------------------
+# Stacks × slices hemisphere directions (archer2019 §3.1, Fig. 2)
+
+
+def stacks_slices_shape(n: int) -> tuple[int, int]:
+    """(stacks, slices) with stacks · slices = n and stacks the largest divisor ≤ √n (169 → 13 × 13,
+    128 → 8 × 16, a prime n → 1 × n)."""
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"number of directions must be >= 1, got {n}")
+    stacks = max(d for d in range(1, math.isqrt(n) + 1) if n % d == 0)
+    return stacks, n // stacks
+
+
+def stacks_slices(n: int) -> np.ndarray:
+    """n directions (n, 3) on the upper hemisphere (pole +y) in spherical coordinates: ``stacks`` rings of
+    polar angle θ_i = (i + ½)·(π/2)/stacks, each with ``slices`` azimuths φ_j = (j + ½)·2π/slices
+    (:func:`stacks_slices_shape`); order i-major. The bottom hemisphere is ±v (a ray along −v reads the
+    deep image of v backwards). Not equal-area: the rings near the pole are denser."""
+    stacks, slices = stacks_slices_shape(n)
+    th = (np.arange(stacks) + 0.5) * (0.5 * math.pi / stacks)
+    ph = (np.arange(slices) + 0.5) * (2.0 * math.pi / slices)
+    T, P = np.meshgrid(th, ph, indexing="ij")
+    v = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3)
+    return v

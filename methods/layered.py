@@ -25,11 +25,23 @@ per-texel layer counts) and are read through the same interface.
 ``material`` (the material id). With a payload the build rasterizes the full vertex buffer (normals and
 material ids); without, the indexed position-only copy.
 
-**Builds**: one instanced draw (``gl_InstanceID`` = layer; ``instanced=False``: one draw per layer) of the
-scene into every layer, both faces, no depth test (``methods/glsl/layered_build.glsl``). Each layer ``k``
-has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the stored depth is
-``dot(depth_row, (p, 1))`` of the fragment's world position (interpolated perspective-correctly, so any
-depth linear in world space is exact).
+**Builds** (:meth:`LayeredStructure.set_build`, or ``make_structure(..., build=...)``), every layout:
+
+* ``raster`` (default): the scene rasterized in each layer's own view, one instanced draw
+  (``gl_InstanceID`` = layer; ``instanced=False``: one draw per layer, the "brute force" of archer2019),
+  both faces, no depth test (``methods/glsl/layered_build.glsl``). Texel centres are sampled exactly.
+* ``one_pass`` (archer2019 §3.1): the scene rasterized *once*, each triangle swizzled to its dominant
+  axis over the square of a bounding sphere (``sphere`` = (centre, radius), default the geometry's;
+  ``raster_size``² samples, default the layer size), and every fragment projected into each layer in the
+  fragment shader (``methods/glsl/layered_build_one_pass.glsl``); ``pass_layers`` > 0 splits the layers
+  into passes of that many (1 = one raster per layer of the *same* fragments: identical lists up to
+  order). Not conservative: a layer sees a triangle's fragments at the raster's sample positions, not at
+  its own texel centres (holes where a triangle is more face-on to the layer than to its dominant axis,
+  extra fragments where it is edge-on).
+
+Each layer ``k`` has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the
+stored depth is ``dot(depth_row, (p, 1))`` of the fragment's world position (interpolated
+perspective-correctly, so any depth linear in world space is exact).
 
 **Invariants** (:meth:`LayeredStructure.invariants`, checked on every run; a violation makes the row
 ``degraded``): every fragment stored (no overflow unless the pool policy is ``fixed``), every stored
@@ -44,6 +56,7 @@ from harness.gpu import GLSL_DIR
 
 PAYLOAD_WORDS = ("normal", "albedo", "material")
 LAYOUT_CODES = {"linked": 1, "linear": 2}
+BUILDS = ("raster", "one_pass")
 B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, B_ALBEDO = 0, 1, 2, 3, 7, 9
 N_COUNTERS = 16
 C_CAPACITY = 8
@@ -87,6 +100,7 @@ class LayeredStructure:
         self.fbo = gpu.ctx.empty_framebuffer((self.width, self.height))
         self._vaos: dict = {}
         self._have_layers = False
+        self.build_variant, self.pass_layers, self.sphere, self.raster_size = "raster", 0, None, 0
 
     # ---- configuration ---------------------------------------------------------------------------
     def defines(self) -> dict:
@@ -106,10 +120,29 @@ class LayeredStructure:
         self.layers_buf.write(data.tobytes())
         self._have_layers = True
 
+    def set_build(self, build: str = "raster", *, pass_layers: int = 0, sphere=None, raster_size: int = 0):
+        """Choose the build variant (module docstring): ``raster`` or ``one_pass`` (with ``pass_layers``
+        layers per pass, 0 = all; ``sphere`` = (centre, radius) the swizzled raster covers, default the
+        geometry's bounding sphere; ``raster_size`` samples per side, 0 = the larger layer side)."""
+        if build not in BUILDS:
+            raise LdbenchError(f"layered build {build!r} not one of {list(BUILDS)}")
+        if int(pass_layers) < 0 or int(raster_size) < 0:
+            raise LdbenchError("pass_layers and raster_size must be >= 0")
+        self.build_variant, self.pass_layers = build, int(pass_layers)
+        self.raster_size = int(raster_size)
+        if build == "one_pass":
+            c, r = bounding_sphere(self.geo.scene) if sphere is None else sphere
+            self.sphere = (np.asarray(c, np.float64).reshape(3), float(r))
+            side = self.raster_size or max(self.width, self.height)
+            self.one_pass_fbo = self.gpu.ctx.empty_framebuffer((side, side))
+            self.one_pass_side = side
+        return self
+
     # ---- shared passes ---------------------------------------------------------------------------
     def _raster_program(self, extra: dict):
         d = {**self.defines(), **extra}
-        prog = self.gpu.program(GLSL_DIR / "layered_build.glsl", d)
+        shader = "layered_build_one_pass.glsl" if self.build_variant == "one_pass" else "layered_build.glsl"
+        prog = self.gpu.program(GLSL_DIR / shader, d)
         key = id(prog)
         if key not in self._vaos:
             self._vaos[key] = (self.geo.vao(prog) if self.payload or not self.indexed
@@ -129,9 +162,22 @@ class LayeredStructure:
         self.bind()
         if "albedo" in self.payload:
             self.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
+        if self.build_variant == "one_pass":
+            c, r = self.sphere
+            prog["op_centre"].value = tuple(float(x) for x in c)
+            prog["op_radius"].value = r
+            self.one_pass_fbo.use()
+            self.one_pass_fbo.viewport = (0, 0, self.one_pass_side, self.one_pass_side)
+            step = self.pass_layers or self.layers
+            for k in range(0, self.layers, step):
+                prog["layer_base"].value = k
+                prog["layer_count"].value = min(step, self.layers - k)
+                vao.render()
+            ctx.memory_barrier()
+            return
         self.fbo.use()
         self.fbo.viewport = (0, 0, self.width, self.height)
-        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
         if self.instanced:
             if "layer_base" in prog:
                 prog["layer_base"].value = 0
@@ -183,6 +229,15 @@ class LayeredStructure:
         return {self.res.prefix + k: v for k, v in self.res.bytes.items() if k.startswith(self.prefix)}
 
 
+def bounding_sphere(scene) -> tuple[np.ndarray, float]:
+    """(centre, radius) of a scene: the bounds' centre and the distance to the farthest vertex (float64)."""
+    v, _, _, _ = scene.merged()
+    lo, hi = scene.bounds()
+    c = 0.5 * (lo + hi)
+    r = float(np.sqrt(((v.astype(np.float64) - c) ** 2).sum(1).max()))
+    return c, max(r, 1e-6)
+
+
 def fill_uint(gpu, buffer, n: int, value: int):
     """``buffer[0 .. n) = value`` on the GPU (``methods/glsl/fill_uint.glsl``)."""
     cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
@@ -193,12 +248,15 @@ def fill_uint(gpu, buffer, n: int, value: int):
     gpu.ctx.memory_barrier()
 
 
-def make_structure(layout: str, gpu, geometry, res, **kw) -> LayeredStructure:
-    """A structure of ``layout`` (``linked`` | ``linear``); ``kw`` are the layout's parameters."""
+def make_structure(layout: str, gpu, geometry, res, *, build: str = "raster", pass_layers: int = 0,
+                   sphere=None, raster_size: int = 0, **kw) -> LayeredStructure:
+    """A structure of ``layout`` (``linked`` | ``linear``); ``kw`` are the layout's parameters; ``build``
+    (``raster`` | ``one_pass``) and its options as :meth:`LayeredStructure.set_build`."""
     from methods.linear_arrays import LinearisedArrays
     from methods.linked_list import LayeredLinkedLists
 
     classes = {"linked": LayeredLinkedLists, "linear": LinearisedArrays}
     if layout not in classes:
         raise LdbenchError(f"unknown layered layout {layout!r} (known: {', '.join(classes)})")
-    return classes[layout](gpu, geometry, res, **kw)
+    s = classes[layout](gpu, geometry, res, **kw)
+    return s.set_build(build, pass_layers=pass_layers, sphere=sphere, raster_size=raster_size)

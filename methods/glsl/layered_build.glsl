@@ -5,11 +5,8 @@
 //
 // Defines:
 //   LS_LAYOUT 1 (linked lists) | 2 (linearised arrays)
-//   LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
-//   otherwise       linked: insert (LL_SORTED: lock-free sorted insert, else yang2010's atomicExchange);
-//                   linear: fill (slot = atomicAdd(la_off[list], 1))
+//   LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD, LS_PL_*: how a fragment is stored (layered_store.glsl)
 //   LL_AGGREGATE    warp-aggregated node allocation (linked)
-//   LS_PAYLOAD > 0 with LS_PL_NORMAL / LS_PL_ALBEDO / LS_PL_MATERIAL = the word index of each payload kind
 // Helper invocations (quad neighbours outside the triangle) must not write: their atomics have no effect
 // and return undefined values, which would keep the CAS loop of the sorted insert spinning (llvmpipe runs
 // them to its loop limit). gl_HelperInvocation: GLSL 4.50 / ARB_ES3_1_compatibility.
@@ -53,56 +50,18 @@ in float v_depth;
 #if LS_PAYLOAD > 0
 flat in vec3 v_normal;
 flat in uint v_material;
-#if defined(LS_PL_ALBEDO)
-layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
 #endif
-#endif
+#include "layered_store.glsl"
 
 void main() {
 #if defined(GL_ARB_ES3_1_compatibility) || __VERSION__ >= 450
     if (gl_HelperInvocation) return;
 #endif
     uint list = ls_list(v_layer, ivec2(gl_FragCoord.xy), ls_size);
-#if defined(LS_PASS_COUNT)
-#if LS_LAYOUT == 1
-    ll_reserve();                  // the total only (pool sizing); no node is written
-#else
-    atomicAdd(la_off[list], 1u);
-#endif
-#else
 #if LS_PAYLOAD > 0
-    uint w[LS_PAYLOAD];
-    for (int k = 0; k < LS_PAYLOAD; ++k) w[k] = 0u;
-#if defined(LS_PL_NORMAL)
-    w[LS_PL_NORMAL] = ls_pack_normal(normalize(v_normal));
-#endif
-#if defined(LS_PL_ALBEDO)
-    w[LS_PL_ALBEDO] = packUnorm4x8(ls_albedo[v_material]);
-#endif
-#if defined(LS_PL_MATERIAL)
-    w[LS_PL_MATERIAL] = v_material;
-#endif
-#endif
-#if LS_LAYOUT == 1
-#if defined(LL_SORTED)
-    uint n = ll_insert_sorted(list, v_depth, ls_capacity);
+    ls_store(list, v_depth, v_normal, v_material);
 #else
-    uint n = ll_insert_unsorted(list, v_depth, ls_capacity);
-#endif
-#if LS_PAYLOAD > 0
-    if (n != LL_EOL) ll_set_payload(n, w);
-#endif
-#else
-    uint slot = atomicAdd(la_off[list], 1u);
-    if (slot < ls_capacity) {
-        la_depth[slot] = v_depth;
-#if LS_PAYLOAD > 0
-        for (int k = 0; k < LS_PAYLOAD; ++k) la_payload[slot * uint(LS_PAYLOAD) + uint(k)] = w[k];
-#endif
-    } else {
-        atomicAdd(la_counters[LA_C_OVERFLOW], 1u);
-    }
-#endif
+    ls_store(list, v_depth, vec3(0.0), 0u);
 #endif
 }
 #endif

@@ -1,0 +1,62 @@
+// Store one fragment in a layered structure: the write side of every build (methods/layered.py), shared
+// by the per-layer raster (layered_build.glsl) and the one-pass multi-direction raster
+// (layered_build_one_pass.glsl). Include after layered.glsl, with LL_WRITABLE / LA_WRITABLE defined.
+//
+//   void ls_store(uint list, float depth, vec3 normal, uint material)
+//
+// LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
+// otherwise       linked: insert (LL_SORTED: lock-free sorted insert, else yang2010's atomicExchange);
+//                 linear: fill (slot = atomicAdd(la_off[list], 1))
+// Payload words (LS_PAYLOAD > 0; LS_PL_NORMAL / LS_PL_ALBEDO / LS_PL_MATERIAL = the word index of each):
+// normal and material are ignored without payload. The caller discards helper invocations.
+#ifndef LDBENCH_LAYERED_STORE_GLSL
+#define LDBENCH_LAYERED_STORE_GLSL
+
+#if LS_PAYLOAD > 0 && defined(LS_PL_ALBEDO)
+layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
+#endif
+
+void ls_store(uint list, float depth, vec3 normal, uint material) {
+#if defined(LS_PASS_COUNT)
+#if LS_LAYOUT == 1
+    ll_reserve();                  // the total only (pool sizing); no node is written
+#else
+    atomicAdd(la_off[list], 1u);
+#endif
+#else
+#if LS_PAYLOAD > 0
+    uint w[LS_PAYLOAD];
+    for (int k = 0; k < LS_PAYLOAD; ++k) w[k] = 0u;
+#if defined(LS_PL_NORMAL)
+    w[LS_PL_NORMAL] = ls_pack_normal(normalize(normal));
+#endif
+#if defined(LS_PL_ALBEDO)
+    w[LS_PL_ALBEDO] = packUnorm4x8(ls_albedo[material]);
+#endif
+#if defined(LS_PL_MATERIAL)
+    w[LS_PL_MATERIAL] = material;
+#endif
+#endif
+#if LS_LAYOUT == 1
+#if defined(LL_SORTED)
+    uint n = ll_insert_sorted(list, depth, ls_capacity);
+#else
+    uint n = ll_insert_unsorted(list, depth, ls_capacity);
+#endif
+#if LS_PAYLOAD > 0
+    if (n != LL_EOL) ll_set_payload(n, w);
+#endif
+#else
+    uint slot = atomicAdd(la_off[list], 1u);
+    if (slot < ls_capacity) {
+        la_depth[slot] = depth;
+#if LS_PAYLOAD > 0
+        for (int k = 0; k < LS_PAYLOAD; ++k) la_payload[slot * uint(LS_PAYLOAD) + uint(k)] = w[k];
+#endif
+    } else {
+        atomicAdd(la_counters[LA_C_OVERFLOW], 1u);
+    }
+#endif
+#endif
+}
+#endif
