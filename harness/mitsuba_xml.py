@@ -8,6 +8,11 @@ represent, parsing the XML itself (ElementTree elements built by expat, so error
 * BSDFs ``diffuse`` (``reflectance`` as ``<rgb>``, a single-value ``<spectrum>`` or ``<float>``;
   Mitsuba's default 0.5) and ``twosided`` wrapping one diffuse BSDF; named BSDFs (``id``) used through
   ``<ref id=...>``; a shape without a BSDF gets Mitsuba's default diffuse 0.5;
+* opacity (the ``oit`` effect's α, :attr:`harness.scene.Mesh.opacity`): Mitsuba's own ``mask`` BSDF,
+  ``<bsdf type="mask"><float name="opacity" value="0.4"/> <bsdf type="diffuse">…</bsdf></bsdf>``, around
+  a diffuse or twosided BSDF or inside a twosided one; its opacity must be one ``<float>`` in [0, 1]
+  (Mitsuba's default 0.5 when absent). Opacity as a texture, an ``<rgb>`` or a spectrum, nested masks
+  and a different front and back opacity are errors;
 * shapes ``obj``/``ply`` (``filename`` relative to the XML's folder, read with trimesh,
   ``process=False``, all parts merged as Mitsuba does) and the analytic ``rectangle`` ([-1, 1]² in
   z = 0, 2 triangles), ``cube`` ([-1, 1]³, 12 triangles), ``sphere`` (``center``, ``radius``;
@@ -90,6 +95,7 @@ class _Loader:
         self.warnings: list[str] = []
         self.ids: dict[str, ET.Element] = {}
         self._albedo_cache: dict[int, tuple] = {}
+        self._opacity: dict[int, float] = {}  # id(bsdf element) -> α of a mask BSDF (see opacity())
 
     # -- messages ------------------------------------------------------------------------------------
     def desc(self, el) -> str:
@@ -283,7 +289,7 @@ class _Loader:
         if key in self._albedo_cache:
             return self._albedo_cache[key]
         t = el.get("type")
-        hint = "ldbench supports diffuse and twosided(diffuse)"
+        hint = "ldbench supports diffuse and twosided(diffuse), optionally in a mask (opacity)"
         if t == "diffuse":
             for c in el:
                 if c.tag == "texture" and c.get("name") != "reflectance":
@@ -305,10 +311,52 @@ class _Loader:
             for c in el:
                 if c.tag == "texture":
                     raise self.err(f"unsupported texture type {c.get('type')!r}", c)
+        elif t == "mask":
+            a = self._mask(el)
         else:
             raise self.err(f"unsupported bsdf type {t!r}", el, hint)
         self._albedo_cache[key] = a
         return a
+
+    MASK_HINT = ('ldbench reads opacity as <bsdf type="mask"><float name="opacity" value="0.5"/> around a '
+                 'diffuse or twosided bsdf, with one opacity in [0, 1]')
+
+    def _mask(self, el) -> tuple:
+        """Albedo of a ``mask`` BSDF's nested BSDF; records the mask's opacity (``self._opacity``)."""
+        inner = [c for c in el if c.tag in ("bsdf", "ref")]
+        if len(inner) != 1:
+            raise self.err(f"mask bsdf with {len(inner)} nested bsdfs", el, self.MASK_HINT)
+        tgt = self.lookup(inner[0]) if inner[0].tag == "ref" else inner[0]
+        if tgt.tag == "bsdf" and (tgt.get("type") == "mask" or any(
+                c.tag == "bsdf" and c.get("type") == "mask" for c in tgt)):
+            raise self.err("nested mask bsdfs", el, self.MASK_HINT)
+        for c in el:
+            if c.tag not in ("bsdf", "ref") and c.get("name") != "opacity":
+                raise self.err(f"unsupported <{c.tag}> in a mask bsdf", c, self.MASK_HINT)
+        c = self.props(el).get("opacity")
+        if c is None:
+            alpha = 0.5  # Mitsuba's default
+        elif c.tag != "float":
+            raise self.err(f"unsupported <{c.tag}> as mask opacity", c, self.MASK_HINT)
+        else:
+            alpha = self.floats(c, "value", 1)[0]
+            if not 0.0 <= alpha <= 1.0:
+                raise self.err(f"mask opacity {alpha} outside [0, 1]", c, self.MASK_HINT)
+        self._opacity[id(el)] = alpha
+        return self.albedo(inner[0])
+
+    def opacity(self, el) -> float:
+        """α of a shape's BSDF (already read by :meth:`albedo`): a ``mask``'s opacity, else 1."""
+        if el.tag == "ref":
+            el = self.lookup(el)
+        if el.get("type") == "mask":
+            return self._opacity[id(el)]
+        if el.get("type") == "twosided":
+            alphas = [self.opacity(c) for c in el if c.tag in ("bsdf", "ref")]
+            if len(set(alphas)) > 1:
+                raise self.err("twosided bsdf with different front and back opacity", el, self.MASK_HINT)
+            return alphas[0] if alphas else 1.0
+        return 1.0
 
     # -- shapes ----------------------------------------------------------------------------------------
     def shape(self, el, index: int):
@@ -334,6 +382,7 @@ class _Loader:
         if len(bsdfs) > 1:
             raise self.err("shape with more than one bsdf", el)
         albedo = self.albedo(bsdfs[0]) if bsdfs else (0.5, 0.5, 0.5)
+        alpha = self.opacity(bsdfs[0]) if bsdfs else 1.0
         M = self.to_world(el)
         if t in ("obj", "ply"):
             fn = self.string(el, "filename")
@@ -365,7 +414,7 @@ class _Loader:
             M = M @ S
         v = v @ M[:3, :3].T + M[:3, 3]
         name = el.get("id") or f"{t}{index}"
-        return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo)
+        return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo, alpha)
 
     # -- sensor ----------------------------------------------------------------------------------------
     def sensor(self, el):

@@ -29,12 +29,17 @@ def _vec3(v, what: str) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """One triangle mesh with a single Lambertian albedo (linear RGB in [0, 1])."""
+    """One triangle mesh with a single Lambertian albedo (linear RGB in [0, 1]).
+
+    ``opacity`` α ∈ [0, 1] is read only by the ``oit`` effect (harness/effects/oit.py: front-to-back
+    "over" of every surface along the pixel ray); every other effect treats surfaces as opaque.
+    """
 
     name: str
     vertices: np.ndarray  # (N, 3) float32, world space (transforms already applied)
     faces: np.ndarray  # (M, 3) int32 vertex indices
     albedo: tuple = (0.8, 0.8, 0.8)
+    opacity: float = 1.0
 
     def __post_init__(self):
         v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -44,9 +49,15 @@ class Mesh:
         a = tuple(float(x) for x in _vec3(self.albedo, f"mesh {self.name!r} albedo"))
         if min(a) < 0 or max(a) > 1:
             raise LdbenchError(f"mesh {self.name!r}: albedo {a} outside [0, 1]")
+        if isinstance(self.opacity, bool) or not isinstance(self.opacity, (int, float, np.floating, np.integer)):
+            raise LdbenchError(f"mesh {self.name!r}: opacity must be a number in [0, 1], got {self.opacity!r}")
+        alpha = float(self.opacity)
+        if not 0.0 <= alpha <= 1.0:
+            raise LdbenchError(f"mesh {self.name!r}: opacity {alpha} outside [0, 1]")
         object.__setattr__(self, "vertices", v)
         object.__setattr__(self, "faces", f)
         object.__setattr__(self, "albedo", a)
+        object.__setattr__(self, "opacity", alpha)
 
 
 @dataclass(frozen=True)
@@ -199,12 +210,17 @@ class Scene:
         return np.concatenate(vs), np.concatenate(fs).astype(np.int32), np.concatenate(mids), albedo
 
     def content_hash(self) -> str:
-        """SHA-256 over geometry, materials, camera and lights (keys the reference cache)."""
+        """SHA-256 over geometry, materials, camera and lights (keys the reference cache).
+
+        Opacities enter only when some mesh has opacity < 1, so scenes of opaque surfaces keep the
+        hashes (and cached references) they had before opacity existed."""
         h = hashlib.sha256()
         for m in self.meshes:
             h.update(m.vertices.tobytes())
             h.update(m.faces.tobytes())
             h.update(np.array(m.albedo, np.float64).tobytes())
+        if any(m.opacity < 1.0 for m in self.meshes):
+            h.update(np.array([m.opacity for m in self.meshes], np.float64).tobytes())
         meta = {
             "camera": [self.camera.origin, self.camera.target, self.camera.up, self.camera.fov_y],
             "lights": [[l.position, l.target, l.intensity, l.cutoff_angle, l.beam_width, l.up]

@@ -84,9 +84,21 @@ def _albedo_param(scene: str, name: str, value) -> tuple:
     return tuple(vals)
 
 
-def _mesh(name, part, albedo) -> Mesh:
+def _float_param(scene: str, name: str, value, lo: float, hi: float) -> float:
+    try:
+        if isinstance(value, bool):
+            raise ValueError
+        v = float(value.strip()) if isinstance(value, str) else float(value)
+    except (TypeError, ValueError):
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} must be a number, got {value!r}") from None
+    if not lo <= v <= hi:
+        raise LdbenchError(f"scene {scene!r}: parameter {name!r} = {v} out of range [{lo}, {hi}]")
+    return v
+
+
+def _mesh(name, part, albedo, opacity=1.0) -> Mesh:
     v, f = part
-    return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo)
+    return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo, opacity)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -258,7 +270,7 @@ def build_atrium(triangles=20000) -> Scene:
     return Scene("atrium", meshes, cam, [light], params={"triangles": target})
 
 
-def build_hairball(triangles=20000, seed=0) -> Scene:
+def build_hairball(triangles=20000, seed=0, opacity=1.0) -> Scene:
     """Dense random tubes in the box [-1, 1]³ (high depth complexity) above a floor.
 
     Each tube is a thin open cylinder (6 sides, 10 segments of 0.12 m: 120 triangles) swept with
@@ -268,11 +280,13 @@ def build_hairball(triangles=20000, seed=0) -> Scene:
     the count (0.6 / √tubes, clamped to [0.004, 0.05] m), so the depth complexity grows like √tubes
     (about 5 layers at 20k triangles, 20 at 260k).
     A 6 m floor quad at y = -1.1 receives the shadow. Deterministic for a given ``seed``.
+    ``opacity``: the tubes' α for the ``oit`` effect (the floor stays opaque).
     Camera: (0, 0.8, 4.2) looking at the origin, vertical fov 45°.
     Light: a spot at (2, 4, 3) aimed at the origin, cutoff 35°, beam 26.25°, 60 W/sr.
     """
     target = _int_param("hairball", "triangles", triangles, 200, 4_000_000)
     seed = _int_param("hairball", "seed", seed, 0, 2**63 - 1)
+    opacity = _float_param("hairball", "opacity", opacity, 0.0, 1.0)
     sides, segs = 6, 10
     per_tube = 2 * sides * segs
     ntubes = max(1, round((target - 2) / per_tube))
@@ -327,11 +341,11 @@ def build_hairball(triangles=20000, seed=0) -> Scene:
     faces = (f1[None] + (np.arange(ntubes) * nv)[:, None, None]).reshape(-1, 3)
     tubes = (v.reshape(-1, 3), faces)
     floor = quad((-3, -1.1, -3), (0, 0, 6), (6, 0, 0))
-    meshes = [_mesh("tubes", tubes, (0.72, 0.55, 0.38)), _mesh("floor", floor, (0.6, 0.6, 0.6))]
+    meshes = [_mesh("tubes", tubes, (0.72, 0.55, 0.38), opacity), _mesh("floor", floor, (0.6, 0.6, 0.6))]
     cam = Camera(origin=(0.0, 0.8, 4.2), target=(0.0, 0.0, 0.0), up=(0, 1, 0), fov_y=45.0)
     light = SpotLight(position=(2.0, 4.0, 3.0), target=(0.0, 0.0, 0.0), intensity=(60.0,) * 3,
                       cutoff_angle=35.0, up=(0.0, 1.0, 0.0))
-    return Scene("hairball", meshes, cam, [light], params={"triangles": target, "seed": seed})
+    return Scene("hairball", meshes, cam, [light], params={"triangles": target, "seed": seed, "opacity": opacity})
 
 
 def build_mesh(path=None, albedo=(0.8, 0.8, 0.8)) -> Scene:
@@ -416,11 +430,119 @@ def build_registered(name: str, root=None) -> Scene:
         from .mitsuba_xml import load_mitsuba_xml
 
         sc = load_mitsuba_xml(folder / ld["xml"])
-        meshes = [Mesh(m.name, m.vertices * s, m.faces, m.albedo) for m in sc.meshes]
+        meshes = [Mesh(m.name, m.vertices * s, m.faces, m.albedo, m.opacity) for m in sc.meshes]
         c = sc.camera
         camera = camera or Camera(np.multiply(c.origin, s), np.multiply(c.target, s), c.up, c.fov_y)
         warnings += sc.warnings
     return Scene(name, meshes, camera, [entry.light], params={}, source=f"registry:{name}", warnings=warnings)
+
+
+def _catmull_rom(points, samples_per_segment: int) -> np.ndarray:
+    """A uniform Catmull-Rom curve through ``points`` (K, D), ends repeated; (K-1)·n + 1 samples."""
+    p = np.asarray(points, np.float64)
+    p = np.concatenate([p[:1], p, p[-1:]])
+    t = np.linspace(0.0, 1.0, samples_per_segment, endpoint=False)[:, None]
+    out = []
+    for i in range(1, len(p) - 2):
+        p0, p1, p2, p3 = p[i - 1], p[i], p[i + 1], p[i + 2]
+        out.append(0.5 * (2 * p1 + (p2 - p0) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t ** 2
+                          + (3 * p1 - p0 - 3 * p2 + p3) * t ** 3))
+    out.append(p[-2][None])
+    return np.concatenate(out)
+
+
+def _outward(v, f):
+    """Faces reversed if the closed part's signed volume is negative (normals point outwards)."""
+    tri = v[f]
+    vol = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()
+    return (v, f if vol > 0 else f[:, ::-1])
+
+
+def _revolved(profile: np.ndarray, around: int):
+    """Closed surface of revolution about y of a (r, y) profile whose first and last points are on the
+    axis (r = 0): one pole vertex at each end, fans to the first and last rings."""
+    rings = profile[1:-1]
+    phi = np.arange(around) * (2 * math.pi / around)
+    ring_v = np.stack([rings[:, :1] * np.cos(phi), np.repeat(rings[:, 1:], around, 1),
+                       rings[:, :1] * np.sin(phi)], -1).reshape(-1, 3)
+    n = len(rings) * around
+    v = np.concatenate([ring_v, [[0.0, profile[0, 1], 0.0]], [[0.0, profile[-1, 1], 0.0]]])
+    j = np.arange(around)
+    bottom = np.stack([np.full(around, n), j, (j + 1) % around], -1)
+    last = (len(rings) - 1) * around
+    top = np.stack([np.full(around, n + 1), last + (j + 1) % around, last + j], -1)
+    return _outward(v, np.concatenate([grid_faces(len(rings), around, wrap=True), bottom, top]))
+
+
+def _tube(centre: np.ndarray, radius: np.ndarray, around: int):
+    """Closed tube (end caps) along a curve in the z = 0 plane; frames (−t_y, t_x, 0), (0, 0, 1)."""
+    t = np.gradient(centre, axis=0)
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    nrm = np.stack([-t[:, 1], t[:, 0], np.zeros(len(t))], -1)
+    phi = np.arange(around) * (2 * math.pi / around)
+    ring = (np.cos(phi)[None, :, None] * nrm[:, None] + np.sin(phi)[None, :, None] * np.array([0.0, 0.0, 1.0]))
+    v = (centre[:, None] + radius[:, None, None] * ring).reshape(-1, 3)
+    n, j = len(v), np.arange(around)
+    last = (len(centre) - 1) * around
+    v = np.concatenate([v, centre[:1], centre[-1:]])
+    caps = [np.stack([np.full(around, n), (j + 1) % around, j], -1),
+            np.stack([np.full(around, n + 1), last + j, last + (j + 1) % around], -1)]
+    return _outward(v, np.concatenate([grid_faces(len(centre), around, wrap=True)[:, ::-1], *caps]))
+
+
+# teapot outline in body units (body radius 1): profile (r, y) of the body and lid, spout and handle
+# centre lines (x, y) in the z = 0 plane with their radii at the control points
+_TEAPOT_BODY = ((0.0, 0.0), (0.62, 0.0), (0.80, 0.03), (0.93, 0.13), (1.0, 0.32), (0.98, 0.50), (0.90, 0.64),
+                (0.78, 0.74), (0.70, 0.78), (0.66, 0.80), (0.56, 0.87), (0.40, 0.93), (0.22, 0.96),
+                (0.10, 0.98), (0.09, 1.04), (0.16, 1.08), (0.18, 1.12), (0.13, 1.17), (0.0, 1.19))
+_TEAPOT_SPOUT = ((0.70, 0.22, 0.17), (1.05, 0.30, 0.15), (1.30, 0.48, 0.12), (1.42, 0.70, 0.10),
+                 (1.55, 0.90, 0.085), (1.72, 1.00, 0.075))
+_TEAPOT_HANDLE = ((-0.70, 0.73, 0.075), (-1.10, 0.76, 0.075), (-1.36, 0.66, 0.075), (-1.44, 0.46, 0.075),
+                  (-1.34, 0.26, 0.075), (-1.10, 0.16, 0.075), (-0.80, 0.15, 0.075))
+TEAPOT_SCALE = 0.35  # metres per body unit
+
+
+def build_teapot(segments=48, opacity=0.5) -> Scene:
+    """A teapot-like solid for order-independent transparency (yang2010 Table 1's teapot).
+
+    Three closed meshes, each watertight, that interpenetrate as a modelled teapot does: a body with
+    lid and knob (a surface of revolution about y of a Catmull-Rom profile, 0.7 m wide, 0.42 m
+    tall), a spout and a handle (closed tubes with end caps along curves in the z = 0 plane, their
+    inner ends inside the body). ``segments`` vertices around every ring (and as many rings along
+    the body, half as many along spout and handle); about 4.5 · segments² triangles (10k at 48).
+    Albedo (0.80, 0.30, 0.10), ``opacity`` α for the ``oit`` effect (0 … 1). No floor.
+    Camera: (0.35, 0.85, 2.1) looking at (0.07, 0.18, 0), vertical fov 35°.
+    Light: a spot at (1.0, 2.2, 1.6) aimed at (0.07, 0.2, 0), cutoff 40°, beam 30°, 8 W/sr.
+    """
+    seg = _int_param("teapot", "segments", segments, 8, 1024)
+    opacity = _float_param("teapot", "opacity", opacity, 0.0, 1.0)
+    body = _catmull_rom(_TEAPOT_BODY, max(2, round(seg / (len(_TEAPOT_BODY) - 1))))
+    parts = {"body": _revolved(body, seg)}
+    along = max(2, round(seg / 2 / (len(_TEAPOT_SPOUT) - 1)))
+    for name, ctl in (("spout", _TEAPOT_SPOUT), ("handle", _TEAPOT_HANDLE)):
+        c = _catmull_rom(np.asarray(ctl)[:, :2], along)
+        r = np.interp(np.linspace(0, 1, len(c)), np.linspace(0, 1, len(ctl)), np.asarray(ctl)[:, 2])
+        parts[name] = _tube(np.concatenate([c, np.zeros((len(c), 1))], 1), r, seg)
+    albedo = (0.80, 0.30, 0.10)
+    meshes = [_mesh(k, (v * TEAPOT_SCALE, f), albedo, opacity) for k, (v, f) in parts.items()]
+    cam = Camera(origin=(0.35, 0.85, 2.1), target=(0.07, 0.18, 0.0), up=(0, 1, 0), fov_y=35.0)
+    light = SpotLight(position=(1.0, 2.2, 1.6), target=(0.07, 0.2, 0.0), intensity=(8.0,) * 3,
+                      cutoff_angle=40.0, beam_width=30.0, up=(0.0, 1.0, 0.0))
+    return Scene("teapot", meshes, cam, [light], params={"segments": seg, "opacity": opacity})
+
+
+def build_transparent_dragon(opacity=0.5, albedo=(0.15, 0.45, 0.75)) -> Scene:
+    """The registered ``dragon`` scene (fetched with ``ldbench scenes fetch dragon``) with the dragon at
+    ``opacity`` α for the ``oit`` effect and the given ``albedo`` (yang2010 Table 1, Fig. 2: a transparent
+    dragon among opaque objects); the floor and walls stay opaque. Camera, light and layout are the
+    registered scene's."""
+    opacity = _float_param("transparent_dragon", "opacity", opacity, 0.0, 1.0)
+    albedo = _albedo_param("transparent_dragon", "albedo", albedo)
+    sc = build_registered("dragon")
+    m = sc.meshes[0]
+    meshes = [Mesh(m.name, m.vertices, m.faces, albedo, opacity)] + list(sc.meshes[1:])
+    return Scene("transparent_dragon", meshes, sc.camera, sc.lights,
+                 params={"opacity": opacity, "albedo": list(albedo)}, source=sc.source, warnings=sc.warnings)
 
 
 BUILDERS = {
@@ -428,6 +550,8 @@ BUILDERS = {
     "atrium": build_atrium,
     "hairball": build_hairball,
     "mesh": build_mesh,
+    "teapot": build_teapot,
+    "transparent_dragon": build_transparent_dragon,
 }
 
 

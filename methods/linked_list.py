@@ -189,9 +189,11 @@ class LayeredLinkedLists(LayeredStructure):
         self._raster(self._pass_defines(count_only=True), 0)
         return self.read_counter()
 
-    def build(self, stage=None):
+    def build(self, stage=None, sort: bool = True):
         """Build all layers. ``stage(name)`` is a context manager timing a stage (default
-        ``gpu.stage``): ``count`` (policy "count"), ``build`` and, for the unsorted variant, ``sort``."""
+        ``gpu.stage``): ``count`` (policy "count"), ``build`` and, for the unsorted variant, ``sort``.
+        ``sort=False`` leaves the unsorted variant's lists in arrival order for a consumer that sorts
+        while it reads (yang2010's OIT resolve, methods/ll_oit)."""
         stage = stage or self.gpu.stage
         self.build_passes = 0
         if self.pool == "count":
@@ -211,7 +213,7 @@ class LayeredLinkedLists(LayeredStructure):
                     self._build_once()
                 elif n < self.capacity // 2:
                     self._shrink_to = max(n, 1)  # the lists are in use this frame: shrink at the next build
-        if not self.sorted_insert:
+        if not self.sorted_insert and sort:
             with stage("sort"):
                 self.sort()
 

@@ -263,9 +263,9 @@ def test_spot_light_lights_most_of_the_view():
 
 def test_list_scenes():
     rows = {r["name"]: r for r in list_scenes()}
-    assert set(rows) == {"cornell", "atrium", "hairball", "mesh"}
+    assert set(rows) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon"}
     assert rows["atrium"]["parameters"] == {"triangles": 20000}
-    assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0}
+    assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0, "opacity": 1.0}
     assert rows["cornell"]["parameters"] == {"subdivide": 0}
     assert "path" in rows["mesh"]["parameters"]
     assert all(r["description"] and "\n" not in r["description"] for r in rows.values())
@@ -290,7 +290,7 @@ def test_hairball_tubes_face_outwards_and_stay_in_the_box():
     assert np.all(np.sum(nrm * out, 1) > 0)  # no folded or inside-out tube
     assert np.abs(v).max() < 1.0
     assert (sc.triangle_count - 2) % 120 == 0  # 120 triangles per tube + the floor
-    assert sc.params == {"triangles": 20000, "seed": 3}
+    assert sc.params == {"triangles": 20000, "seed": 3, "opacity": 1.0}
 
 
 @pytest.mark.parametrize("name,params", [("cornell", {"subdivide": 1}), ("atrium", {"triangles": 5000}),

@@ -1,0 +1,61 @@
+// Dual depth peeling (Bavoil & Myers 2008): each geometry pass peels the nearest and the farthest layer left
+// at every pixel. All targets blend with MAX, so every fragment writes a pass-through value by default:
+//   target 0 (RG32F)   (-near, far) of the fragments still to peel: the next pass's depth interval
+//   target 1 (RGBA32F) front accumulation (C, 1 - T), front to back: only the nearest fragment adds to it
+//   target 2 (RGBA32F) this pass's farthest layer (albedo, opacity + 1: alpha >= 1 marks "a layer here",
+//                      also for opacity 0), blended back to front by blend.glsl
+// Depth is the linear view depth in float32 (no depth buffer). Fragments at exactly the same depth are
+// peeled in the same pass and merge (MAX), as in the original algorithm: coincident surfaces are lost.
+// Uniform init = 1: the first pass, min-max depth only (target 0).
+#include "oit.glsl"
+
+#if defined(VERTEX_SHADER)
+uniform mat4 clip;
+uniform vec4 depth_row;
+in vec3 in_position;
+in float in_material;
+out float v_depth;
+flat out uint v_material;
+void main() {
+    vec4 p = vec4(in_position, 1.0);
+    gl_Position = clip * p;
+    v_depth = dot(depth_row, p);
+    v_material = uint(in_material + 0.5);
+}
+
+#elif defined(FRAGMENT_SHADER)
+uniform int init;                 // 1: the min-max pass
+uniform sampler2D depth_prev;     // (-near, far) from the previous pass
+uniform sampler2D front_prev;     // front accumulation of the previous pass
+in float v_depth;
+flat in uint v_material;
+layout(location = 0) out vec2 out_depth;
+layout(location = 1) out vec4 out_front;
+layout(location = 2) out vec4 out_back;
+
+void main() {
+    float z = v_depth;
+    if (init == 1) {
+        out_depth = vec2(-z, z);
+        out_front = vec4(0.0);
+        out_back = vec4(0.0);
+        return;
+    }
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec2 nf = texelFetch(depth_prev, px, 0).xy;
+    vec4 front = texelFetch(front_prev, px, 0);
+    float nearest = -nf.x, farthest = nf.y;
+    out_depth = vec2(-OIT_FAR);
+    out_front = front;
+    out_back = vec4(0.0);
+    if (z < nearest || z > farthest) return;                                 // peeled by an earlier pass
+    if (z > nearest && z < farthest) { out_depth = vec2(-z, z); return; }    // for a later pass
+    vec4 c = oit_material[v_material];
+    if (z == nearest) {
+        float T = 1.0 - front.a;
+        out_front = vec4(front.rgb + T * c.a * c.rgb, 1.0 - T * (1.0 - c.a));
+    } else {
+        out_back = vec4(c.rgb, c.a + 1.0);
+    }
+}
+#endif

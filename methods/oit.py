@@ -1,0 +1,87 @@
+"""Shared building blocks of the order-independent-transparency adapters (``ll-oit``, ``depth-peeling``,
+``dual-depth-peeling``; effect :mod:`harness.effects.oit`).
+
+- :class:`OITMethod`: the common part of the three adapters — the scene's triangles on the GPU
+  (:class:`~methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
+  opacity; SSBO binding :data:`B_MATERIALS`, ``oit_material[]`` in ``methods/glsl/oit.glsl``), the camera's
+  clip transform and depth row, the output texture (RGBA32F: composite colour, alpha = 1 where the
+  method saw at least one fragment) and its read-back as a :class:`~methods.base.Result`.
+- Depth: every method orders fragments by the *linear view depth* dot(depth_row, (p, 1)) = (p − eye)·forward,
+  interpolated perspective-correctly by the rasterizer (exact for a quantity linear in world space);
+  along one pixel ray it orders surfaces as the reference's distance does.
+- The clip transform is the G-buffer's (:meth:`methods.gbuffer.GBuffer.view_proj`): near and far planes
+  enclosing the scene's bounds.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from harness.effects.oit import BACKGROUND
+from harness.errors import LdbenchError
+from harness.gpu import read_texture
+from methods.base import Method, Result
+from methods.gbuffer import SceneGeometry
+
+B_MATERIALS = 11  # SSBO binding of the material table (methods/glsl/oit.glsl)
+
+
+def material_table(scene) -> np.ndarray:
+    """(K, 4) float32: albedo RGB and opacity of each material (= mesh index, as Scene.merged)."""
+    return np.array([[*m.albedo, m.opacity] for m in scene.meshes], np.float32)
+
+
+def camera_transform(geo: SceneGeometry, view) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(clip 4×4 world→clip, depth row (4,) of the linear view depth, near, far) of ``view``."""
+    cam = view.camera
+    _, _, fwd = cam.basis()
+    eye = np.array(cam.origin)
+    near, far = geo.near_far(eye, fwd)
+    clip = cam.projection_matrix(view.aspect, near, far) @ cam.view_matrix()
+    row = np.concatenate([fwd, [-float(fwd @ eye)]])
+    return clip, row, near, far
+
+
+class OITMethod(Method):
+    """Base of the OIT adapters (not registered itself: no ``name``)."""
+
+    effects = frozenset({"oit"})
+
+    def setup(self, gpu, scene):
+        self.gpu, self.scene = gpu, scene
+        self.res = gpu.resources()
+        self.geo = SceneGeometry(gpu, scene, self.res)
+        self.materials = self.res.buffer("oit.materials", material_table(scene))
+        self.out = None
+        self._size = None
+
+    def check_effect(self, effect):
+        if effect.name != "oit":
+            raise LdbenchError(f"method {self.name!r} computes the oit effect, not {effect.name!r}")
+
+    def output(self, w: int, h: int):
+        """The RGBA32F output texture of this size (re-allocated when the size changes)."""
+        if self._size != (w, h):
+            self.out = self.res.texture("oit.output", (w, h), 4, "f4")
+            self._size = (w, h)
+            self.resize(w, h)
+        return self.out
+
+    def resize(self, w: int, h: int):
+        """Per-size allocations of a subclass (called by :meth:`output` on a new size)."""
+
+    def set_common_uniforms(self, prog, view):
+        for name, value in (("background", tuple(float(x) for x in BACKGROUND)),
+                            ("size", (view.width, view.height))):
+            if name in prog:
+                prog[name].value = value
+        self.materials.bind_to_storage_buffer(B_MATERIALS)
+
+    def result(self, counters, invariants=()) -> Result:
+        out = self.out
+
+        def rgba():
+            return read_texture(out, 4)
+
+        return Result(image=lambda: rgba()[..., :3].copy(), mask=lambda: rgba()[..., 3] > 0.5,
+                      memory_bytes=self.res.by_buffer(), counters=counters,
+                      invariants=invariants if callable(invariants) else list(invariants))
