@@ -63,6 +63,7 @@ COLUMN_TYPES: dict[str, str] = {
     "hit_agreement": "float", "false_hit_rate": "float", "false_miss_rate": "float",
     "dist_err_p50": "float", "dist_err_p95": "float", "dist_err_p99": "float", "self_hit_rate": "float",
     "rays": "int", "rays_per_s": "float", "oracle_rays_per_s": "float", "oracle_timing": "str",
+    "range_err_p50": "float", "range_err_p95": "float", "range_within_5pct": "float", "vpls": "int",
     "metric_settings": "json",
     "ref_spp": "int", "ref_variant": "str", "ref_key": "str", "ref_noise": "json",
     "status": "str", "images": "json",

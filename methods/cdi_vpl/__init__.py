@@ -1,0 +1,334 @@
+"""``cdi-vpl``: a compound deep image (CDI) for VPL range determination (archer2019); effects ``vpl_range``,
+``indirect`` and ``rays``.
+
+**CDI** (§3.1): ``directions`` orthographic deep images of ``resolution``² texels over the scene's bounding
+sphere (:func:`methods.ldm.ldm_layers`), directions on the upper hemisphere as ``stacks × slices`` in
+spherical coordinates (:func:`methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
+(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.linear_arrays`). Build
+(stages ``count``, ``scan``, ``fill``, ``sort``), a variant of the shared layered-structure module:
+
+* ``one_pass`` (the paper): one raster of the scene per pass, each triangle swizzled to its dominant axis in
+  a geometry shader, the fragment shader projecting every fragment into all the deep images
+  (``methods/glsl/layered_build_one_pass.glsl``); not conservative (holes show in the ``rays`` hit
+  agreement); ``pass_directions`` > 0 splits it into passes of that many directions (1: the same CDI,
+  direction by direction);
+* ``brute_force``: one raster per direction in its own view (the paper's baseline: "re-rasterizes geometry
+  for each unique direction"), exact at texel centres;
+* ``instanced``: the per-direction raster as one instanced draw (what the ``ldm`` adapter does).
+
+Per-pixel sort: insertion sort in registers up to ``max_list`` fragments, an exact global-memory insertion
+sort for longer lists (counted: ``sort_overflow_lists``). ``cdi = "static"`` builds the CDI once in setup
+(untimed; the frames then time the raycast alone, as the paper's Table 3) and, for ``vpl_range`` and
+``rays``, releases the scene's triangles, which the CDI replaces (the memory column is then the CDI's).
+
+**Rays** (``rays_tracer``, ``cdi_trace.glsl``): the deep image of the nearest direction, the one pixel
+holding the ray's origin, its list stepped to the first fragment beyond the origin (backwards for rays
+against the direction); distances along that direction; self-intersection skipped with a receiver-plane
+test (see the GLSL).
+
+**VPLs** (§3.2; ``vpl_range``: the harness's VPLs and rays, :mod:`harness.effects.vpl_range`; ``indirect``:
+the method's own RSM of the spot light, ``rsm``² texels, every ``vpl_step``-th in x and y): six rays per VPL,
+range = mean or max of the hit distances, a miss counting ``miss_range`` × the diagonal. ``range``:
+``cdi`` (the method), ``random`` (uniform in [``r_min``, ``r_max``] × the diagonal: the paper's baseline) or
+``exact`` (Mitsuba on the same rays, computed once in setup: the quality bound, not a timing).
+
+**Lighting** (``indirect``, :mod:`methods.cdi_vpl.lighting`): 3D light grid of cubic cells (``grid`` along
+the longest side) over the scene bounds, a VPL sphere binned into the cells it overlaps that hold a visible
+surface (``depth_mask``), cells as linearised index lists (count → prefix sum → fill); each G-buffer pixel
+summed over its cell's VPLs: diffuse, cosine terms, unshadowed, cut off at the range.
+
+Stages: ``count``, ``scan``, ``fill``, ``sort`` (CDI); ``raycast`` (``vpl_range``, or ``random_range``,
+``exact_range``); ``trace`` (``rays``); ``gbuffer``, ``rsm``, ``vpl``, ``grid_mask``, ``grid_count``,
+``grid_scan``, ``grid_fill``, ``shade`` (``indirect``).
+
+=================  ==============  ==============  ===========================================================
+Parameter          Default         Paper           Meaning
+=================  ==============  ==============  ===========================================================
+``directions``     169             169             number of deep images
+``direction_set``  stacks_slices   stacks_slices   stacks × slices (spherical coordinates) | eqsp (zonal)
+``resolution``     64              64              texels per side of each deep image
+``build``          one_pass        one_pass        one_pass | brute_force | instanced
+``pass_directions`` 0                              one_pass: directions per raster pass (0 = all)
+``max_list``       32                              register-sort length (longer lists: exact slow path)
+``cdi``            frame           frame           build the CDI every frame | once in setup (static)
+``bias``           0.25                            self-intersection bias, in CDI texels
+``range``          cdi             cdi             cdi | random | exact (Mitsuba, once in setup)
+``r_min``          0.01                            random range: lower bound × scene diagonal
+``r_max``          0.25                            random range: upper bound × scene diagonal
+``rsm``            256             256             indirect: RSM side R
+``vpl_step``       2               (≈20k of 65k)   indirect: every vpl_step-th RSM texel is a VPL
+``primary``        normal          either          indirect: primary ray = normal | reflected light
+``cone_angle``     45              –               indirect: angle of the five rays around it (degrees)
+``range_mode``     mean            either          indirect: mean | max of the six distances
+``miss_range``     0.5             –               indirect: distance of a miss, × scene diagonal
+``grid``           16              –               indirect: light-grid cells along the longest side
+``depth_mask``     True            True            indirect: VPLs only into cells holding visible surfaces
+=================  ==============  ==============  ===========================================================
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from harness.errors import LdbenchError
+from methods.base import Method, ParamsBase, Result, param
+from methods.directions import ldm_axes, stacks_slices
+from methods.layered import bounding_sphere, make_structure
+from methods.ldm import ldm_layers
+
+B_AXES, B_RANGES, B_RAYS, B_HITS = 11, 13, 20, 21
+RAY_BYTES = 48
+
+
+@dataclass(frozen=True)
+class CdiVplParams(ParamsBase):
+    directions: int = param(169, "number of deep images (directions)", lo=1, hi=4096, paper=169)
+    direction_set: str = param("stacks_slices", "stacks x slices in spherical coordinates, or the zonal "
+                               "equal-area set", choices=("stacks_slices", "eqsp"), paper="stacks_slices")
+    resolution: int = param(64, "texels per side of each deep image", lo=4, hi=4096, paper=64)
+    build: str = param("one_pass", "CDI build: one pass for all directions, one raster per direction, or the "
+                       "per-direction raster as one instanced draw", choices=("one_pass", "brute_force", "instanced"),
+                       paper="one_pass (brute_force: the baseline)")
+    pass_directions: int = param(0, "one_pass: directions per raster pass (0 = all in one)", lo=0)
+    max_list: int = param(32, "register-array length of the per-pixel sort (longer lists: exact slow path)",
+                          lo=1, hi=1024)
+    cdi: str = param("frame", "build the CDI every frame, or once in setup (static scene)",
+                     choices=("frame", "static"), paper="frame")
+    bias: float = param(0.25, "self-intersection bias along the ray, in CDI texels", lo=0.0, hi=64.0)
+    range: str = param("cdi", "VPL ranges from the CDI raycast, random, or exact (Mitsuba, in setup)",
+                       choices=("cdi", "random", "exact"), paper="cdi (random: the baseline)")
+    r_min: float = param(0.01, "random range: lower bound, x scene diagonal", lo=0.0, hi=10.0)
+    r_max: float = param(0.25, "random range: upper bound, x scene diagonal", lo=0.0, hi=10.0)
+    rsm: int = param(256, "indirect: reflective shadow map side R", lo=4, hi=4096, paper=256)
+    vpl_step: int = param(2, "indirect: every vpl_step-th RSM texel in x and y is a VPL", lo=1, hi=64,
+                          paper="about 20,000 of 65,536 texels")
+    primary: str = param("normal", "indirect: primary ray direction", choices=("normal", "reflected"),
+                         paper="either")
+    cone_angle: float = param(45.0, "indirect: angle of the five rays around the primary one (degrees)",
+                              lo=0.0, hi=89.0)
+    range_mode: str = param("mean", "indirect: range = mean or max of the six distances", choices=("mean", "max"),
+                            paper="either")
+    miss_range: float = param(0.5, "indirect: distance of a miss (and clamp), x scene diagonal", lo=1e-4, hi=10.0)
+    grid: int = param(16, "indirect: light-grid cells along the longest side of the scene bounds", lo=1, hi=256)
+    depth_mask: bool = param(True, "indirect: bin VPLs only into cells holding a visible surface", paper=True)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.r_max < self.r_min:
+            raise LdbenchError(f"parameter r_max={self.r_max} below r_min={self.r_min}")
+
+
+class CdiVpl(Method):
+    """Compound deep image + VPL ranges + light grid (archer2019)."""
+
+    name = "cdi-vpl"
+    paper = "archer2019"
+    effects = frozenset({"vpl_range", "indirect", "rays"})
+    Params = CdiVplParams
+
+    # ---- setup ---------------------------------------------------------------------------------------
+    def setup(self, gpu, scene):
+        p = self.params
+        self.setup_scene(gpu, scene)
+        self.centre, self.radius = bounding_sphere(scene)
+        self.axes = stacks_slices(p.directions) if p.direction_set == "stacks_slices" else ldm_axes(p.directions)
+        clip, rows, (u, w, v) = ldm_layers(self.axes, self.centre, self.radius)
+        self._layers = (clip, rows)
+        self._basis = np.zeros((p.directions, 3, 4), np.float32)
+        self._basis[:, 0, :3], self._basis[:, 1, :3], self._basis[:, 2, :3] = u, w, v
+        self.texel = 2.0 * self.radius / p.resolution
+        self.cdi_struct = None
+        self.lighting = None
+        self._out: dict = {}
+        self._exact_cache = None
+        self._geometry_released = False
+        if p.range == "cdi":
+            self._cdi()
+            gpu.compute(self.shader("trace.glsl"), {**self.cdi_defines(), "CDI_VPL": 1})  # compiled untimed
+
+    def _cdi(self):
+        """The CDI (created at the first use that needs it; a static one is built then, untimed)."""
+        if self.cdi_struct is None:
+            p = self.params
+            build = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster"}[p.build]
+            s = make_structure(
+                "linear", self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+                max_list=p.max_list, instanced=p.build == "instanced", prefix="cdi.", build=build,
+                pass_layers=p.pass_directions, sphere=(self.centre, self.radius))
+            s.set_layers(*self._layers)
+            self.axes_buf = self.res.buffer("cdi.axes", self._basis)
+            self.cdi_struct = s
+            if p.cdi == "static":
+                s.build(stage=lambda name: contextlib.nullcontext())
+        return self.cdi_struct
+
+    def cdi_defines(self) -> dict:
+        return self._cdi().defines()
+
+    def bind_cdi(self, cs):
+        """CDI uniforms and buffers of a program that includes cdi_trace.glsl."""
+        p = self.params
+        for name, v in (("cdi_centre", tuple(float(x) for x in self.centre)), ("cdi_radius", float(self.radius)),
+                        ("cdi_size", (p.resolution, p.resolution)), ("cdi_dirs", p.directions),
+                        ("cdi_bias", p.bias * self.texel), ("cdi_spread", 1.0 if p.build == "one_pass" else 0.0)):
+            if name in cs:
+                cs[name].value = v
+        self.cdi_struct.bind()
+        self.axes_buf.bind_to_storage_buffer(B_AXES)
+
+    def _build_cdi(self):
+        if self.params.cdi == "frame":
+            self._cdi().build()
+
+    def _release_geometry(self):
+        """Static CDI answering rays: the triangles are not needed again (the CDI replaces them)."""
+        if self._geometry_released:
+            return
+        for name in [k for k in self.res.objects if k.startswith("geometry.")]:
+            self.res.free(name)
+        self._geometry_released = True
+
+    def _buffer(self, name: str, nbytes: int):
+        buf = self._out.get(name)
+        if buf is None or buf.size < nbytes:
+            buf = self._out[name] = self.res.buffer(f"out.{name}", reserve=nbytes)
+        return buf
+
+    # ---- frames --------------------------------------------------------------------------------------
+    def frame(self, view, effect, inputs=None):
+        if effect.name == "vpl_range":
+            return self._vpl_range(effect, inputs)
+        if effect.name == "rays":
+            return self._rays(inputs)
+        if effect.name == "indirect":
+            return self._indirect(view)
+        raise LdbenchError(f"method 'cdi-vpl' does not compute effect {effect.name!r}")
+
+    def _chunks(self, n_items: int, per_item_bytes: int):
+        """Dispatch ranges [a, b) whose ray bindings stay below the SSBO size limit (offsets aligned)."""
+        limit = int(self.gpu.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
+        step = max(256, (limit // per_item_bytes) // 256 * 256)
+        return [(a, min(a + step, n_items)) for a in range(0, n_items, step)]
+
+    def _dispatch_rays(self, defines: dict, rays_buf, n_items: int, rays_per_item: int, extra=None):
+        cs = self.gpu.compute(self.shader("trace.glsl"), {**self.cdi_defines(), **defines})
+        self.bind_cdi(cs)
+        if extra:
+            extra(cs)
+        hits = self._out["t"]
+        for a, b in self._chunks(n_items, RAY_BYTES * rays_per_item):
+            k = rays_per_item
+            rays_buf.bind_to_storage_buffer(B_RAYS, offset=a * k * RAY_BYTES, size=(b - a) * k * RAY_BYTES)
+            hits.bind_to_storage_buffer(B_HITS, offset=a * k * 4, size=(b - a) * k * 4)
+            if "ranges" in self._out:
+                self._out["ranges"].bind_to_storage_buffer(B_RANGES, offset=a * 4, size=(b - a) * 4)
+            cs["n_items"].value = b - a
+            cs.run(-(-(b - a) // 64))
+        self.gpu.ctx.memory_barrier()
+
+    def _vpl_range(self, effect, batch):
+        if batch is None:
+            raise LdbenchError("method 'cdi-vpl': the vpl_range effect needs its VPL batch")
+        p, gpu, n = self.params, self.gpu, len(batch)
+        nr = len(batch.rays)
+        self._buffer("ranges", 4 * n)
+        self._buffer("t", 4 * nr)
+        if p.range == "cdi":
+            if p.cdi == "static":
+                self._release_geometry()
+            self._build_cdi()
+            with gpu.stage("raycast"):
+                def extra(cs):
+                    cs["cap"].value = float(batch.cap)
+                    cs["range_max"].value = int(batch.mode == "max")
+                self._dispatch_rays({"CDI_VPL": 1}, batch.upload(gpu), n, 6, extra)
+        elif p.range == "random":
+            if p.cdi == "static":
+                self._release_geometry()
+            diag = self.scene.diagonal()
+            cs = gpu.compute(self.shader("trace.glsl"), {"CDI_RANDOM": 1})
+            with gpu.stage("random_range"):
+                cs["n_items"].value = n
+                cs["seed"].value = int(batch.seed) & 0xFFFFFFFF
+                cs["r_min"].value = p.r_min * diag
+                cs["r_max"].value = p.r_max * diag
+                self._out["ranges"].bind_to_storage_buffer(B_RANGES)
+                cs.run(-(-n // 64))
+                gpu.ctx.memory_barrier()
+        else:  # exact: Mitsuba once per batch (untimed), then a copy per frame
+            if self._exact_cache is None or self._exact_cache[0] is not batch:
+                from references.vpl_range import exact_ranges
+
+                ref = exact_ranges(self.scene, batch)
+                self._exact_cache = (batch, self.res.buffer("out.exact", ref.range),
+                                     self.res.buffer("out.exact_t", np.asarray(ref.t, np.float32)))
+            with gpu.stage("exact_range"):
+                _, rng, tt = self._exact_cache
+                gpu.ctx.copy_buffer(self._out["ranges"], rng)
+                gpu.ctx.copy_buffer(self._out["t"], tt)
+        ranges, t = self._out["ranges"], self._out["t"]
+        has_t = p.range != "random"
+        arrays = {"range": lambda: np.frombuffer(ranges.read(size=4 * n), np.float32).copy()}
+        if has_t:
+            arrays["t"] = lambda: np.frombuffer(t.read(size=4 * nr), np.float32).copy()
+        return Result(arrays=arrays, memory_bytes=self.res.by_buffer(), counters=self._counters,
+                      invariants=self._invariants)
+
+    def _rays(self, batch):
+        if batch is None:
+            raise LdbenchError("method 'cdi-vpl': the rays effect needs its ray batch")
+        p, n = self.params, len(batch)
+        self._cdi()
+        if p.cdi == "static":
+            self._release_geometry()
+        self._build_cdi()
+        self._out.pop("ranges", None)
+        self._buffer("t", 4 * n)
+        with self.gpu.stage("trace"):
+            self._dispatch_rays({"CDI_RAYS": 1}, batch.upload(self.gpu), n, 1)
+        t = self._out["t"]
+        return Result(arrays={"t": lambda: np.frombuffer(t.read(size=4 * n), np.float32).copy()},
+                      memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self._invariants)
+
+    def _indirect(self, view):
+        from .lighting import VplLighting
+
+        if self._geometry_released:
+            raise LdbenchError("method 'cdi-vpl': a static CDI that answered rays no longer holds the scene")
+        if self.lighting is None:
+            self.lighting = VplLighting(self, self.scene)
+        if self.params.range == "cdi":
+            self._build_cdi()
+        with self.gpu.stage("gbuffer"):
+            self.gbuf.render(view)
+        image = self.lighting.frame(view)
+        light = self.lighting
+        return Result(image=image, mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
+                      counters=lambda: {**self._counters(), **light.counters()},
+                      invariants=lambda c: self._invariants(c) + light.invariants(c))
+
+    # ---- counters and invariants ---------------------------------------------------------------------
+    def _uses_cdi(self) -> bool:
+        return self.cdi_struct is not None
+
+    def _counters(self) -> dict:
+        p = self.params
+        c = {"directions": p.directions, "resolution": p.resolution, "build": p.build,
+             "texel_world": self.texel, "bounding_radius": self.radius}
+        if self._uses_cdi():
+            c.update(self.cdi_struct.stats())
+            c["cdi_bytes"] = int(sum(self.cdi_struct.memory().values()))
+            c["cdi_mb"] = c["cdi_bytes"] / 2**20
+        return c
+
+    def _invariants(self, c: dict) -> list:
+        return self.cdi_struct.invariants(c) if self._uses_cdi() else []
+
+    def release(self):
+        self.lighting = None
+        self._out.clear()
+        self._exact_cache = None
+        super().release()

@@ -1,0 +1,85 @@
+// Rays through a compound deep image (archer2019 §3.2): the single-pixel lookup. A ray is answered by the
+// deep image whose direction is nearest to it (|d · v_k| largest; sigma = the side), in the one pixel that
+// contains its origin x: the list is stepped from the near end until a fragment beyond x is met ("stepped in
+// reverse order for rays in the matching opposite direction"). The distance is measured along sigma · v_k,
+// the paper's approximation of the ray ("the difference in depth between the fragment and the light").
+//
+// Deep image k: orthographic along v_k over the bounding sphere (cdi_centre, cdi_radius), texel
+// ((dot(p - c, u), dot(p - c, w)) / radius · ½ + ½) · size, stored depth dot(p - c, v) (methods/ldm
+// ldm_layers). Read through the layered-structure interface (layered.glsl); linear arrays are walked
+// backwards for sigma < 0.
+//
+// Self-intersection (ours; the paper does not say): x's own surface is in x's list, at the depth where its
+// tangent plane (normal n, dot(n, sigma v) > 0) crosses the column of the fragment's sample: at the texel
+// centre, t_c = -(δ_u n·u + δ_w n·w) / cos, for a build that samples texel centres (brute force); anywhere
+// in the texel for the one-pass build (cdi_spread = 1), i.e. up to ½ texel (|n·u| + |n·w|) / cos above
+// t_c. Entries up to that bound plus cdi_bias (world units: curvature, float error) are skipped; the first
+// beyond it is the hit (at max(t, 0): as in the LDM tracer, a crease entry above the plane but behind x
+// is a hit at 0). The skipped band also hides a wall meeting x's surface at a crease within it: a ray
+// from a VPL in a corner can miss the wall beside it (a stored normal per fragment to tell the two apart
+// was tried and measured worse: self hits on curved surfaces, docs/cdi_vpl.md).
+#ifndef LDBENCH_CDI_TRACE_GLSL
+#define LDBENCH_CDI_TRACE_GLSL
+#include "layered.glsl"
+
+struct CdiAxis { vec4 u; vec4 w; vec4 v; };
+layout(std430, binding = 11) readonly buffer CdiAxes { CdiAxis cdi_axes[]; };
+uniform vec3 cdi_centre;
+uniform float cdi_radius;
+uniform ivec2 cdi_size;
+uniform uint cdi_dirs;
+uniform float cdi_bias;
+uniform float cdi_spread;
+
+// The deep image whose direction is nearest to d; sigma = +1 along v, -1 against it.
+uint cdi_nearest(vec3 d, out float sigma) {
+    uint best = 0u;
+    float bc = -1.0;
+    for (uint k = 0u; k < cdi_dirs; ++k) {
+        float c = dot(d, cdi_axes[k].v.xyz);
+        if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
+    }
+    return best;
+}
+
+// Distance t >= 0 along sigma · v_k from x to the first stored surface beyond x, or -1.0 (none).
+float cdi_trace(uint k, float sigma, vec3 x, vec3 n) {
+    vec3 u = cdi_axes[k].u.xyz, w = cdi_axes[k].w.xyz, v = cdi_axes[k].v.xyz;
+    vec3 r = x - cdi_centre;
+    float texel = 2.0 * cdi_radius / float(cdi_size.x);
+    vec2 f = (vec2(dot(r, u), dot(r, w)) / cdi_radius * 0.5 + 0.5) * vec2(cdi_size);
+    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), cdi_size - 1);
+    vec2 delta = (vec2(px) + 0.5 - f) * texel;
+    float nu = dot(n, u), nw = dot(n, w);
+    float cos_t = max(sigma * dot(n, v), 1e-3);
+    float thr = (-(delta.x * nu + delta.y * nw) + cdi_spread * 0.5 * texel * (abs(nu) + abs(nw))) / cos_t
+                + cdi_bias;
+    float zx = dot(r, v);
+    uint list = ls_list(k, px, cdi_size);
+    if (sigma > 0.0) {
+        uint bound = ls_bound(), steps = 0u;
+        for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
+            float t = ls_depth(i) - zx;
+            if (t > thr) return max(t, 0.0);
+        }
+        return -1.0;
+    }
+#if LS_LAYOUT == 2
+    uint b = la_begin(list);
+    for (uint i = la_end(list); i > b; --i) {
+        float t = zx - la_depth[i - 1u];
+        if (t > thr) return max(t, 0.0);
+    }
+    return -1.0;
+#else
+    float best = -1.0;
+    uint bound = ls_bound(), steps = 0u;
+    for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
+        float t = zx - ls_depth(i);
+        if (t <= thr) break;
+        best = max(t, 0.0);
+    }
+    return best;
+#endif
+}
+#endif
