@@ -67,7 +67,7 @@ def plane_errors(img, pos, expected_fn, a_max=3.0):
 
 def test_registered_and_params():
     assert get_method("ldm-ao") is LdmAO and get_method("ldm") is LdmAO and "ldm" in registry()
-    assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao", "rays"})
+    assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao", "rays", "indirect"})
     p = LdmAOParams()
     assert (p.directions, p.resolution, p.sorted_insert) == (128, 128, True)
     with pytest.raises(LdbenchError, match="directions"):

@@ -1,4 +1,5 @@
-"""``ldm``: rays traced through N orthographic layered depth maps (aalund2015); effects ``ao`` and ``rays``.
+"""``ldm``: rays traced through N orthographic layered depth maps (aalund2015); effects ``ao``, ``rays`` and
+``indirect``.
 
 Also registered as ``ldm-ao`` (its earlier name): suites and command lines using it keep working.
 
@@ -16,6 +17,10 @@ build        the N maps as a layered structure (:mod:`methods.layered`), ``layou
 ``trace``    (``rays``) one invocation per ray of the harness's batch: the map whose axis is nearest to the
              ray answers it with the same two-way query, along ±v_k (the method's approximation of the
              direction). A ray into the surface it starts on (n·d < 0) hits it at t = 0.
+indirect     (``indirect``, §3.4, §4.2) ``gbuffer``, the build, then ``light_raster``, ``trace`` (photons:
+             first hit by rasterizing from the spot light, split into the N map directions, second hit by
+             the two-way query, camera visibility, photon differentials) and ``splat`` (Silverman's kernel
+             over each photon's footprint): :mod:`methods.ldm.indirect`, docs/ldm_indirect.md.
 
 Maps. The N axes are :func:`methods.directions.ldm_axes` (the recursive zonal equal-area partition of the
 upper hemisphere; {±v_i} is an antipodally symmetric equal-area set of 2N directions). Map i is an
@@ -47,7 +52,16 @@ Parameter               Default   Paper    Meaning
 ``instanced``           True               one instanced draw for all maps (False: a draw per map)
 ``aggregate_atomics``   False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
 ``indexed``             True               build from indexed position-only geometry (vertex reuse)
-``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos
+``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
+                                           photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
+``photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
+``footprint_scale``     8.0       ≈24      (indirect) multiplies the photon differentials before splatting
+``differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
+``max_splat_px``        400       400      (indirect) largest splat kept: screen diagonal in pixels
+``topology_bias``       1.0                (indirect) the paper's a: off-plane cut-off, per footprint size
+``visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
+``refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
+``splat``               blend     blend    (indirect) additive blending, or float atomics in a compute pass
 ======================  ========  =======  ========================================================
 """
 from __future__ import annotations
@@ -110,8 +124,27 @@ class LdmParams(ParamsBase):
     instanced: bool = param(True, "one instanced draw for all maps (False: one draw per map)")
     aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
     indexed: bool = param(True, "build from indexed position-only geometry (else the triangle list)")
-    estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2)",
-                           choices=("ratio", "paper"), paper="paper")
+    estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
+                           "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
+                           paper="paper")
+    photons: int = param(128, "indirect: light raster side R (one photon per texel inside the spot cone)",
+                         lo=4, hi=4096, paper="not published (the author's engine: 100)")
+    footprint_scale: float = param(8.0, "indirect: multiplies the photon differentials before splatting",
+                                   lo=1e-3, hi=1e4, paper="engine: 2000 per far-plane unit, about 24 light texels")
+    differential_bias: float = param(1.0, "indirect: a photon whose positional differential has a component "
+                                     "above this fraction of the scene's bounding radius is dropped", lo=0.0,
+                                     paper="engine: 0.5 (two-pass) / 10 (atomic) model units")
+    max_splat_px: float = param(400.0, "indirect: largest splat kept, screen-rectangle diagonal in pixels",
+                                lo=1.0, paper="engine (atomic variant): 400")
+    topology_bias: float = param(1.0, "indirect: the paper's a (eq. 7); an offset along the normal of one "
+                                 "footprint size / a leaves the kernel", lo=0.0, paper="engine: a = footprint scale")
+    visibility_bias: float = param(2.0, "indirect: a second hit is visible when it lies within this many LDM "
+                                   "texels of the camera pixel's tangent plane", lo=0.0)
+    refine_hit: bool = param(True, "indirect: move the second hit along the ray onto the tangent plane of the "
+                             "camera pixel that sees it (False: the map's texel-centre depth, as the paper)",
+                             paper=False)
+    splat: str = param("blend", "indirect: additive blending of rasterized quads, or float atomics in a "
+                       "compute pass", choices=("blend", "atomic"), paper="blend")
 
     def __post_init__(self):
         super().__post_init__()
@@ -120,12 +153,13 @@ class LdmParams(ParamsBase):
 
 
 class Ldm(Method):
-    """Rays through N layered depth maps (aalund2015 §3): AO / obscurance (§3.3, §4.1) and ray queries."""
+    """Rays through N layered depth maps (aalund2015 §3): AO / obscurance (§3.3, §4.1), ray queries and
+    single-bounce indirect light with photon differentials (§3.4, §4.2)."""
 
     name = "ldm"
     aliases = ("ldm-ao",)
     paper = "aalund2015"
-    effects = frozenset({"ao", "rays"})
+    effects = frozenset({"ao", "rays", "indirect"})
     Params = LdmParams
 
     def setup(self, gpu, scene):
@@ -147,6 +181,7 @@ class Ldm(Method):
         self.out = None
         self._out_size = None
         self._batch = None
+        self.indirect = None
 
     def _bind_maps(self, cs):
         p = self.params
@@ -161,6 +196,8 @@ class Ldm(Method):
     def frame(self, view, effect, inputs=None):
         if effect.name == "rays":
             return self._rays(inputs)
+        if effect.name == "indirect":
+            return self._indirect(view)
         p, gpu = self.params, self.gpu
         with gpu.stage("gbuffer"):
             self.gbuf.render(view)
@@ -207,6 +244,26 @@ class Ldm(Method):
         return Result(arrays={"t": lambda: np.frombuffer(hits.read(), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
                       invariants=self.ls.invariants)
+
+    def _indirect(self, view):
+        from .indirect import IndirectLight
+
+        if self.indirect is None:
+            self.indirect = IndirectLight(self)
+        with self.gpu.stage("gbuffer"):
+            self.gbuf.render(view)
+        self.ls.build()
+        ind = self.indirect
+        image = ind.frame(view)
+        return Result(image=image, mask=self.gbuf.mask, memory_bytes={**self.res.by_buffer(), **ind.memory()},
+                      counters=lambda: {**self._counters(), **ind.counters()},
+                      invariants=lambda c: self.ls.invariants(c) + ind.invariants(c))
+
+    def release(self):
+        if self.indirect is not None:
+            self.indirect.release()
+            self.indirect = None
+        super().release()
 
     def _mean_ray_angle(self) -> float:
         """Mean angle (degrees) between the batch's rays and their maps' axes: an untimed dispatch."""
