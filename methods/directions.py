@@ -231,6 +231,71 @@ def orthonormal_basis(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------------
+# Cube-sampled directions (niessner2010 §3.1)
+#
+# Each face of the unit cube is split into k × k equal squares; the normalized square centres are the
+# n = 6k² directions. Face a (0, 1, 2 = x, y, z) with sign s has in-face coordinates (p, q) = the
+# components (a + 1) mod 3 and (a + 2) mod 3 of d / |d_a|, both in [−1, 1]; square (i, j) holds
+# p ∈ [2i/k − 1, 2(i + 1)/k − 1), q likewise with j. The set is antipodally symmetric: square (i, j) of
+# face −a is minus square (i, j) of face +a, so one orthographic LDI can answer both (``half``).
+#
+# Lookup (:func:`cube_cell`, and the same rule in methods/ldi/ldi_trace.glsl): the major axis a is the
+# first of x, y, z whose |component| is largest (x wins ties with y and z, y wins ties with z), s its
+# sign, and the square that contains d. This is the cell whose centre is (nearly) the closest
+# direction, found in O(1): the reason the paper samples a cube.
+
+
+def cube_directions(k: int, half: bool = False) -> np.ndarray:
+    """The cube-sampled directions, (6k², 3) float64 unit vectors, or (3k², 3) with ``half``.
+
+    Order: faces +x, −x, +y, −y, +z, −z (``half``: +x, +y, +z), then i, then j (see the comment above).
+    """
+    if int(k) != k or k < 1:
+        raise ValueError(f"cube sampling needs k >= 1 squares per face edge, got {k!r}")
+    k = int(k)
+    c = (2.0 * np.arange(k) + 1.0) / k - 1.0
+    p, q = np.meshgrid(c, c, indexing="ij")
+    p, q = p.reshape(-1), q.reshape(-1)
+    out = []
+    for a in range(3):
+        v = np.zeros((k * k, 3))
+        v[:, a], v[:, (a + 1) % 3], v[:, (a + 2) % 3] = 1.0, p, q
+        v /= np.linalg.norm(v, axis=1, keepdims=True)
+        out += [v] if half else [v, -v]
+    return np.concatenate(out)
+
+
+def cube_k(n: int) -> int:
+    """k with 6k² = n (the paper's LDI counts 96, 150, 384 are k = 4, 5, 8); ValueError otherwise."""
+    k = int(round(math.sqrt(max(int(n), 0) / 6.0)))
+    if k < 1 or 6 * k * k != int(n):
+        lo = max(1, int(math.floor(math.sqrt(max(int(n), 0) / 6.0))))
+        raise ValueError(f"{n} is not 6k^2 (nearest: {6 * lo * lo}, {6 * (lo + 1) ** 2})")
+    return k
+
+
+def cube_cell(d: np.ndarray, k: int, half: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(index into :func:`cube_directions`, sigma) of each direction d (N, 3): the square containing d;
+    with ``half``, the square containing sigma·d on a positive face (sigma = ±1). float64 arithmetic."""
+    d = np.asarray(d, np.float64).reshape(-1, 3)
+    ad = np.abs(d)
+    a = np.where((ad[:, 0] >= ad[:, 1]) & (ad[:, 0] >= ad[:, 2]), 0, np.where(ad[:, 1] >= ad[:, 2], 1, 2))
+    rows = np.arange(len(d))
+    da = d[rows, a]
+    s = np.where(da >= 0.0, 1.0, -1.0)
+    dp = d * s[:, None]
+    ma = dp[rows, a]
+    ij = []
+    for off in (1, 2):
+        t = dp[rows, (a + off) % 3] / ma
+        ij.append(np.clip(np.floor((t + 1.0) * 0.5 * k), 0, k - 1).astype(np.int64))
+    cell = ij[0] * k + ij[1]
+    if half:
+        return a * k * k + cell, s
+    return (2 * a + (s < 0)) * k * k + cell, np.ones(len(d))
+
+
+# --------------------------------------------------------------------------------------------------
 # Stacks × slices hemisphere directions (archer2019 §3.1, Fig. 2)
 
 

@@ -1,0 +1,144 @@
+// Image effects of the LDI adapter: one invocation per G-buffer pixel x1 (normal n1 facing the camera,
+// albedo a1), N secondary rays traced through the LDIs (ldi_trace.glsl). Random numbers: a PCG hash of
+// (pixel, sample, seed). Secondary rays start at x1 + n1 * (1 + max|x1|) * ray_eps (Mitsuba's offset).
+//
+// EFFECT 1 `indirect` (the paper's diffuse pass): w cosine-distributed about n1; at the hit x2 (normal n2
+//   facing x1, albedo a2, both from the fragment's payload) the spot light's direct light
+//   L_d(x2) = a2/pi * I * falloff * cos2 / d^2 * V, V from the cube shadow map (the paper's "local lighting
+//   model including a shadow map"). Writes E = mean L_d (rgb) and 1; the filter pass (blur.glsl) blurs E
+//   and multiplies by a1 (pdf cos/pi and BRDF a1/pi cancel to a1).
+// EFFECT 2 `glossy_indirect`: w from the normalized Phong lobe (e+1)/(2pi) cos^e(alpha) about the mirror
+//   direction of the view ray; BRDF a1 (e+2)/(2pi) cos^e(alpha), so a sample weighs a1 (e+2)/(e+1) cos(theta)
+//   (0 below the surface). Writes the final radiance.
+// EFFECT 3 `soft_shadows`: the spot light's unshadowed direct term at x1 times the fraction of shadow rays
+//   towards points uniform (by area) on the sphere of light_radius around the light that reach it
+//   (t_max = distance * (1 - shadow_eps)). Writes the final radiance.
+#include "common.glsl"
+#include "cube_shadow.glsl"
+#include "ldi_trace.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(rgba32f, binding = 0) writeonly uniform image2D out_image;
+uniform sampler2D g_position;
+uniform sampler2D g_normal;
+uniform sampler2D g_albedo;
+uniform SpotLight light;
+uniform int spp;
+uniform uint seed;
+uniform vec3 eye;
+uniform float ray_eps;
+#if EFFECT != 3
+uniform sampler2D shadow_atlas;
+uniform mat4 face_vp[6];
+uniform float normal_offset;
+uniform float depth_bias;
+#endif
+#if EFFECT == 2
+uniform float exponent;
+#endif
+#if EFFECT == 3
+uniform float light_radius;
+uniform float shadow_eps;
+#endif
+#if defined(LDI_STATS)
+layout(std430, binding = 12) writeonly buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
+#endif
+
+uint pcg_hash(uint v) {
+    uint s = v * 747796405u + 2891336453u;
+    uint word = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+float rnd(inout uint s) { s = pcg_hash(s); return float(s >> 8) * (1.0 / 16777216.0); }
+
+// (t, b) completing n to an orthonormal basis (Duff et al. 2017), as harness/effects/rays.py
+void basis(vec3 n, out vec3 t, out vec3 b) {
+    float sg = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (sg + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + sg * n.x * n.x * a, sg * c, -sg * n.x);
+    b = vec3(c, sg + n.y * n.y * a, -n.y);
+}
+vec3 around(vec3 axis, float cos_t, float phi) {
+    vec3 t, b;
+    basis(axis, t, b);
+    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    return normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + axis * cos_t);
+}
+
+#if EFFECT != 3
+// Direct light leaving the hit fragment towards the ray's origin (two-sided: n2 faces the origin).
+vec3 hit_radiance(vec3 o, vec3 d, LdiHit hit) {
+    vec3 x2 = o + d * hit.t;
+    vec3 n2 = ls_unpack_normal(ls_payload(hit.node, uint(LS_PL_NORMAL)));
+    if (dot(n2, d) > 0.0) n2 = -n2;
+    vec3 irr = spot_irradiance(light, x2, n2);
+    if (all(equal(irr, vec3(0.0)))) return vec3(0.0);
+    float dist = distance(x2, light.position);
+    float vis = cube_shadow(shadow_atlas, face_vp, light.position, x2 + n2 * normal_offset * dist, depth_bias);
+    vec3 a2 = unpackUnorm4x8(ls_payload(hit.node, uint(LS_PL_ALBEDO))).rgb;
+    return a2 / PI * irr * vis;
+}
+#endif
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(out_image);
+    if (any(greaterThanEqual(p, size))) return;
+    vec4 pos = texelFetch(g_position, p, 0);
+    if (pos.w < 0.5) { imageStore(out_image, p, vec4(0.0)); return; }
+    vec3 x = pos.xyz, n = texelFetch(g_normal, p, 0).xyz;
+    vec3 o = x + n * ((1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))) * ray_eps);
+    uint rng = pcg_hash(uint(p.y * size.x + p.x) ^ pcg_hash(seed));
+    uvec4 st = uvec4(0u);
+    vec3 sum = vec3(0.0);
+#if EFFECT == 2
+    vec3 rdir = reflect(normalize(x - eye), n);
+#endif
+#if EFFECT == 3
+    vec3 unshadowed = texelFetch(g_albedo, p, 0).rgb / PI * spot_irradiance(light, x, n);
+    float visible = 0.0;
+    if (any(greaterThan(unshadowed, vec3(0.0)))) {
+#endif
+    for (int s = 0; s < spp; ++s) {
+        float u0 = rnd(rng), u1 = rnd(rng);
+        float phi = 2.0 * PI * u1;
+#if EFFECT == 1
+        vec3 d = around(n, sqrt(1.0 - u0), phi);
+        LdiHit hit = ldi_trace(o, d, n, LDI_INF);
+        if (hit.node != LS_END) sum += hit_radiance(o, d, hit);
+#elif EFFECT == 2
+        vec3 d = around(rdir, pow(u0, 1.0 / (exponent + 1.0)), phi);
+        float c = dot(d, n);
+        if (c <= 0.0) continue;
+        LdiHit hit = ldi_trace(o, d, n, LDI_INF);
+        if (hit.node != LS_END) sum += (exponent + 2.0) / (exponent + 1.0) * c * hit_radiance(o, d, hit);
+#else
+        float z = 1.0 - 2.0 * u0;
+        float rr = sqrt(max(0.0, 1.0 - z * z));
+        vec3 y = light.position + light_radius * vec3(rr * cos(phi), rr * sin(phi), z);
+        vec3 d = y - o;
+        float dist = length(d);
+        d /= max(dist, 1e-30);
+        if (dot(n, d) < 0.0) continue;                          // into the surface: blocked
+        LdiHit hit = ldi_trace(o, d, n, dist * (1.0 - shadow_eps));
+        if (hit.node == LS_END) visible += 1.0;
+#endif
+#if defined(LDI_STATS)
+        st += uvec4(hit.crossings, 0u, hit.ended ? 1u : 0u, 1u);
+        st.y = max(st.y, hit.crossings);
+#endif
+    }
+#if EFFECT == 3
+    }
+    sum = unshadowed * (visible / float(spp));
+#elif EFFECT == 2
+    sum *= texelFetch(g_albedo, p, 0).rgb / float(spp);
+#else
+    sum /= float(spp);
+#endif
+#if defined(LDI_STATS)
+    ldi_stats[p.y * size.x + p.x] = st;
+#endif
+    imageStore(out_image, p, vec4(sum, 1.0));
+}
