@@ -263,7 +263,7 @@ def test_spot_light_lights_most_of_the_view():
 
 def test_list_scenes():
     rows = {r["name"]: r for r in list_scenes()}
-    assert set(rows) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon"}
+    assert set(rows) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon", "city"}
     assert rows["atrium"]["parameters"] == {"triangles": 20000}
     assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0, "opacity": 1.0}
     assert rows["cornell"]["parameters"] == {"subdivide": 0}
