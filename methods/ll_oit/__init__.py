@@ -12,12 +12,13 @@ Per frame (stages):
 ``resolve``  one full-screen pass (``resolve.glsl``): per pixel, walk the list into a register array,
              insertion-sort it by (depth, material) — the effect's tie rule — and composite front to back
              over the background (yang2010 §4.1 step 3). A list longer than ``max_list`` is composited
-             exactly by repeated minimum search (O(n²); counted as ``slow_path_lists``).
+             exactly by repeated minimum search over the list (O(n²); counted as ``slow_path_lists``).
 
-First n layers (yang2010 §4.1.1, §4.1.3): ``max_layers = n`` keeps only the n nearest fragments while
-walking the list (bounded insertion into an n-entry array) and composites those over the background —
-fragments behind them are dropped, the paper's accuracy-for-speed trade (8 of 64 layers: −13.5 dB,
-36 % faster on the mecha).
+First n layers (yang2010 §4.1.1, §4.1.3): ``max_layers = n`` composites only the n nearest fragments over
+the background — fragments behind them are dropped, the paper's accuracy-for-speed trade (8 of 64 layers:
+−13.5 dB, 36 % faster on the mecha). The saving is in the sort: a list of L > 4n fragments has only its
+first n places selected (~nL steps instead of insertion sort's ~L²/4), and a list longer than
+``max_list`` needs only n minimum searches.
 
 Payload: the material id, not the paper's packed RGBA8 colour: the colour and opacity come from the
 material table in float32, so the composite matches the exact reference to float precision (RGBA8
@@ -33,7 +34,7 @@ lost fragment changes the image — every stored node reachable once, no abandon
 Parameter               Default   Paper        Meaning
 ======================  ========  ===========  ==================================================
 ``max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
-``max_list``            64                     register array of the resolve's insertion sort
+``max_list``            64                     register array of the resolve's sort (longer: slow path)
 ``pool``                grow                   node pool: grow | count | fixed (methods/linked_list.py)
 ``pool_capacity``       0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
 ``aggregate_atomics``   False                  one atomicAdd per subgroup on the node counter
@@ -90,9 +91,9 @@ class LLOIT(OITMethod):
 
     def _program(self):
         p = self.params
-        d = {**self.ls.defines(), "OIT_ARRAY": p.max_layers or p.max_list}
+        d = {**self.ls.defines(), "OIT_ARRAY": p.max_list}
         if p.max_layers:
-            d["OIT_FIRST_N"] = 1
+            d["OIT_FIRST_N"] = p.max_layers
         return self.gpu.program(self.shader("resolve.glsl"), d)
 
     def frame(self, view, effect, inputs=None):

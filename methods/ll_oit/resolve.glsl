@@ -2,10 +2,12 @@
 // by the effect's order (oit_before: depth, then material id) and composite them front to back.
 //
 // Defines: the layered structure's (methods/layered.py: LS_LAYOUT, LS_PAYLOAD, LS_PL_MATERIAL, LL_PAGES, ...)
-//   OIT_ARRAY     register array length: the insertion sort's capacity, or the n of OIT_FIRST_N
-//   OIT_FIRST_N   keep only the OIT_ARRAY nearest fragments (bounded insertion, one pass over the list)
-// Without OIT_FIRST_N a list longer than OIT_ARRAY is composited exactly by repeated minimum search over the
-// list (O(n^2)) and counted in oit_counters[0].
+//   OIT_ARRAY     register array length: lists up to this long are sorted in registers
+//   OIT_FIRST_N   composite only the n nearest fragments (yang2010's first n layers)
+// A list of L <= OIT_ARRAY fragments is gathered into the array and sorted: all of it by insertion sort
+// (~L^2/4 steps), or with OIT_FIRST_N = n and 4n < L only its first n places by selection (~nL steps: the
+// cheap extraction of the n closest layers that makes the layer cap pay). A longer list is composited
+// exactly by repeated minimum search over the list itself (O(nL); counted in oit_counters[0]).
 #include "layered.glsl"
 #include "oit.glsl"
 
@@ -33,45 +35,45 @@ void main() {
     uint bound = ls_bound();
     float z[OIT_ARRAY];
     uint m[OIT_ARRAY];
-    uint n = 0u, total = 0u;
+    uint n = 0u;
     for (uint i = ls_first(list), s = 0u; i != LS_END && s < bound; i = ls_next(list, i), ++s) {
-        float zi = ls_depth(i);
-        uint mi = ls_payload(i, uint(LS_PL_MATERIAL));
-        ++total;
-#if defined(OIT_FIRST_N)
-        if (n == K && !oit_before(zi, mi, z[K - 1u], m[K - 1u])) continue;  // not among the K nearest
-        uint j = min(n, K - 1u);                                              // full: the last one drops out
-        while (j > 0u && oit_before(zi, mi, z[j - 1u], m[j - 1u])) { z[j] = z[j - 1u]; m[j] = m[j - 1u]; --j; }
-        z[j] = zi;
-        m[j] = mi;
-        n = min(n + 1u, K);
-#else
-        if (n < K) { z[n] = zi; m[n] = mi; }
+        if (n < K) { z[n] = ls_depth(i); m[n] = ls_payload(i, uint(LS_PL_MATERIAL)); }
         ++n;
-#endif
     }
+#if defined(OIT_FIRST_N)
+    uint layers = min(n, uint(OIT_FIRST_N));
+#else
+    uint layers = n;
+#endif
     vec3 C = vec3(0.0);
     float T = 1.0;
-#if defined(OIT_FIRST_N)
-    for (uint k = 0u; k < n; ++k) blend(C, T, m[k]);
-#else
     if (n <= K) {
-        for (uint a = 1u; a < n; ++a) {                 // insertion sort (yang2010 §4.1.1)
-            float za = z[a];
-            uint ma = m[a];
-            uint b = a;
-            while (b > 0u && oit_before(za, ma, z[b - 1u], m[b - 1u])) { z[b] = z[b - 1u]; m[b] = m[b - 1u]; --b; }
-            z[b] = za;
-            m[b] = ma;
+        if (4u * layers < n) {
+            for (uint a = 0u; a < layers; ++a) {          // selection of the first `layers` places
+                uint s = a;
+                for (uint b = a + 1u; b < n; ++b) if (oit_before(z[b], m[b], z[s], m[s])) s = b;
+                float zs = z[s]; uint ms = m[s];
+                z[s] = z[a]; m[s] = m[a];
+                z[a] = zs; m[a] = ms;
+            }
+        } else {
+            for (uint a = 1u; a < n; ++a) {               // insertion sort (yang2010 §4.1.1)
+                float za = z[a];
+                uint ma = m[a];
+                uint b = a;
+                while (b > 0u && oit_before(za, ma, z[b - 1u], m[b - 1u])) { z[b] = z[b - 1u]; m[b] = m[b - 1u]; --b; }
+                z[b] = za;
+                m[b] = ma;
+            }
         }
-        for (uint k = 0u; k < n; ++k) blend(C, T, m[k]);
+        for (uint k = 0u; k < layers; ++k) blend(C, T, m[k]);
     } else {
         atomicAdd(oit_counters[0], 1u);
         // the next fragment is the least (depth, material, node) strictly after the last one composited
         float lz = 0.0;
         uint lm = 0u, li = 0u;
         bool first = true;
-        for (uint k = 0u; k < total; ++k) {
+        for (uint k = 0u; k < layers; ++k) {
             float bz = 0.0;
             uint bm = 0u, bi = LS_END;
             for (uint i = ls_first(list), s = 0u; i != LS_END && s < bound; i = ls_next(list, i), ++s) {
@@ -87,7 +89,6 @@ void main() {
             first = false;
         }
     }
-#endif
-    out_color = vec4(C + T * background, total > 0u ? 1.0 : 0.0);
+    out_color = vec4(C + T * background, n > 0u ? 1.0 : 0.0);
 }
 #endif
