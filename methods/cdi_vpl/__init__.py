@@ -148,6 +148,8 @@ class CdiVpl(Method):
         if p.range == "cdi":
             self._cdi()
             gpu.compute(self.shader("trace.glsl"), {**self.cdi_defines(), "CDI_VPL": 1})  # compiled untimed
+        elif p.range == "random":
+            gpu.compute(self.shader("trace.glsl"), {"CDI_RANDOM": 1})
 
     def _cdi(self):
         """The CDI (created at the first use that needs it; a static one is built then, untimed)."""
