@@ -26,7 +26,7 @@ Counters (an untimed statistics pass re-traces the same photons and sorts every 
 ``photons_offscreen`` and ``photons_hidden`` (discarded by the camera visibility test),
 ``photons_escaped`` (the trace left the scene), ``photons_dropped`` (differential bias),
 ``splats_clipped`` (behind the eye or larger than ``max_splat_px``), and the power (W, mean of RGB) of
-each: ``power_*``; ``power_reflected`` = Σ photon flux × albedo at x₁. Invariants: no photon lost to a
+each: ``power_*``; ``splat_pixels`` (the drawn splats' total screen area: about the fragments shaded); ``power_reflected`` = Σ photon flux × albedo at x₁. Invariants: no photon lost to a
 full buffer, the trace's atomic count equals the statistics pass's, every candidate has exactly one
 fate, and with ``estimator = "ratio"`` the candidates carry exactly the reflected power.
 """
@@ -221,7 +221,7 @@ class IndirectLight:
                     g.bind(0)
                     self.photons.bind_to_storage_buffer(B_PHOTONS)
                     self.accum.bind_to_storage_buffer(B_ACCUM)
-                    cs.run(min(-(-n // 64), _WORKGROUPS))
+                    cs.run(min(n, _WORKGROUPS))  # one workgroup per photon
                     ctx.memory_barrier()
 
     def _compute(self, name, defines):
@@ -294,6 +294,7 @@ class IndirectLight:
             raw = stats.read()
             out["splats_clipped"] = int(np.frombuffer(raw[:4], np.uint32)[0])
             out["power_splats_clipped"] = float(np.frombuffer(raw[64:68], np.float32)[0])
+            out["splat_pixels"] = float(np.frombuffer(raw[68:72], np.float32)[0])
         finally:
             stats.release()
         return out

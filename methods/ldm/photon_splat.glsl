@@ -7,9 +7,10 @@
 // irradiance and filter matrix, geometry shader = the parallelogram as a quad (dropped when a corner is
 // behind the eye or its screen rectangle's diagonal exceeds max_splat_px), fragment shader = kernel;
 // additive blending into an RGBA32F target.
-// COMPUTE_SHADER, SPLAT_ATOMIC: one invocation per photon loops over the pixels of the same quad and adds
+// COMPUTE_SHADER, SPLAT_ATOMIC: one workgroup per photon loops over the pixels of the same quad and adds
 // with float atomics (GL_NV_shader_atomic_float) into 3 floats per pixel (binding 15).
-// COMPUTE_SHADER, SPLAT_STATS: untimed statistics: splats clipped (count, power) into binding 16.
+// COMPUTE_SHADER, SPLAT_STATS: untimed statistics into binding 16: splats clipped (count, power) and the
+// drawn splats' screen area (about the fragments shaded).
 #if defined(COMPUTE_SHADER)
 #extension GL_NV_shader_atomic_float : require
 #endif
@@ -80,37 +81,54 @@ layout(std430, binding = 13) readonly buffer Photons { Photon photons[]; };
 uniform uint n_photons;
 #if defined(SPLAT_STATS)
 layout(std430, binding = 16) buffer SplatStats { uint st_count[16]; float st_power[16]; };
+void main() {   // one invocation per photon (grid-stride)
+    for (uint i = gl_GlobalInvocationID.x; i < n_photons; i += gl_NumWorkGroups.x * 64u) {
+        vec3 du = photons[i].du_g.xyz * footprint_scale, dv = photons[i].dv_b.xyz * footprint_scale;
+        vec3 flux = vec3(photons[i].x_r.w, photons[i].du_g.w, photons[i].dv_b.w);
+        vec4 c[4];
+        vec2 lo, hi;
+        if (!splat_corners(photons[i].x_r.xyz, du, dv, view_proj, image_size, max_splat_px, c, lo, hi)) {
+            atomicAdd(st_count[0], 1u);
+            atomicAdd(st_power[0], (flux.x + flux.y + flux.z) * (1.0 / 3.0));
+            continue;
+        }
+        // the projected quad's area in pixels (shoelace over q0 q1 q3 q2), clipped to the image by its
+        // bounding rectangle's overlap fraction: about the fragments the raster path shades
+        vec2 q[4];
+        for (int j = 0; j < 4; ++j) q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
+        float area = 0.5 * abs((q[0].x * q[1].y - q[1].x * q[0].y) + (q[1].x * q[3].y - q[3].x * q[1].y) +
+                               (q[3].x * q[2].y - q[2].x * q[3].y) + (q[2].x * q[0].y - q[0].x * q[2].y));
+        vec2 s = max(hi - lo, vec2(1e-6));
+        vec2 o = max(min(hi, image_size) - max(lo, vec2(0.0)), vec2(0.0));
+        atomicAdd(st_power[1], area * (o.x * o.y) / (s.x * s.y));
+    }
+}
 #else
+// One workgroup per photon (grid-stride over photons), its 64 invocations stride over the pixels of the
+// splat's screen rectangle: a 400-pixel splat is not left to one thread. Pixel centres inside the
+// projected quad only, as the rasterizer samples it.
 layout(std430, binding = 15) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;
 float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
-#endif
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= n_photons) return;
-    vec3 x = photons[i].x_r.xyz;
-    vec3 du = photons[i].du_g.xyz * footprint_scale, dv = photons[i].dv_b.xyz * footprint_scale;
-    vec3 flux = vec3(photons[i].x_r.w, photons[i].du_g.w, photons[i].dv_b.w);
-    vec4 c[4];
-    vec2 lo, hi;
-    bool drawn = splat_corners(x, du, dv, view_proj, image_size, max_splat_px, c, lo, hi);
-#if defined(SPLAT_STATS)
-    if (!drawn) {
-        atomicAdd(st_count[0], 1u);
-        atomicAdd(st_power[0], (flux.x + flux.y + flux.z) * (1.0 / 3.0));
-    }
-#else
-    if (!drawn) return;
-    vec3 E = flux / (0.25 * 3.14159265358979323846 * length(cross(du, dv)));
-    mat3 M = filter_matrix(du, dv, normalize(photons[i].n_id.xyz), topology);
-    vec2 q[4];
-    for (int j = 0; j < 4; ++j) q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
-    float orient = sign(edge(q[0], q[1], q[3]));   // quad q0 -> q1 -> q3 -> q2 is convex
-    ivec2 a = max(ivec2(floor(lo)), ivec2(0)), b = min(ivec2(ceil(hi)), ivec2(image_size));
-    for (int py = a.y; py < b.y; ++py) {
-        for (int px = a.x; px < b.x; ++px) {
-            vec2 pc = vec2(px, py) + 0.5;   // pixel centre, as the rasterizer samples it
+    for (uint i = gl_WorkGroupID.x; i < n_photons; i += gl_NumWorkGroups.x) {
+        vec3 x = photons[i].x_r.xyz;
+        vec3 du = photons[i].du_g.xyz * footprint_scale, dv = photons[i].dv_b.xyz * footprint_scale;
+        vec3 flux = vec3(photons[i].x_r.w, photons[i].du_g.w, photons[i].dv_b.w);
+        vec4 c[4];
+        vec2 lo, hi;
+        if (!splat_corners(x, du, dv, view_proj, image_size, max_splat_px, c, lo, hi)) continue;
+        vec3 E = flux / (0.25 * 3.14159265358979323846 * length(cross(du, dv)));
+        mat3 M = filter_matrix(du, dv, normalize(photons[i].n_id.xyz), topology);
+        vec2 q[4];
+        for (int j = 0; j < 4; ++j) q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
+        float orient = sign(edge(q[0], q[1], q[3]));   // the quad q0 -> q1 -> q3 -> q2 is convex
+        ivec2 a = max(ivec2(floor(lo)), ivec2(0)), b = min(ivec2(ceil(hi)), ivec2(image_size));
+        int w = b.x - a.x, n = w * (b.y - a.y);
+        for (int j = int(gl_LocalInvocationID.x); j < n; j += 64) {
+            int px = a.x + j % w, py = a.y + j / w;
+            vec2 pc = vec2(px, py) + 0.5;
             if (orient * edge(q[0], q[1], pc) < 0.0 || orient * edge(q[1], q[3], pc) < 0.0 ||
                 orient * edge(q[3], q[2], pc) < 0.0 || orient * edge(q[2], q[0], pc) < 0.0) continue;
             vec4 g = texelFetch(g_position, ivec2(px, py), 0);
@@ -124,6 +142,6 @@ void main() {
             atomicAdd(accum[o + 2u], L.b);
         }
     }
-#endif
 }
+#endif
 #endif
