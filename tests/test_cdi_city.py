@@ -38,7 +38,7 @@ def test_houses_face_outwards():
 
 def test_camera_and_light():
     sc = load_scene("city", triangles=16000)
-    hit, lit = lit_fraction(sc)
+    hit, lit = lit_fraction(sc, w=16, h=12)
     assert hit > 0.6 and lit > 0.5, (hit, lit)
     with pytest.raises(LdbenchError, match="triangles"):
         load_scene("city", triangles=1000)
