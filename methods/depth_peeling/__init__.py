@@ -160,6 +160,5 @@ class DepthPeeling(OITMethod):
     def release(self):
         for f in getattr(self, "_fbos", []):
             f.release()
-        if getattr(self, "query", None) is not None:
-            self.query.release() if hasattr(self.query, "release") else None
+        self._fbos = []
         super().release()

@@ -151,10 +151,9 @@ class DualDepthPeeling(OITMethod):
         for v in (geo_vao, full, full_final):
             v.release()
         done = samples[-1] == 0
-        clip32 = clip
 
         def counters():
-            c = self._fragment_counts(clip32, w, h)
+            c = self._fragment_counts(clip, w, h)
             covered = c > 0
             return {"peel_passes": passes, "geometry_passes": passes + 1, "samples_per_pass": samples,
                     "depth_complexity_max": int(c.max()),
@@ -193,4 +192,5 @@ class DualDepthPeeling(OITMethod):
     def release(self):
         for f in getattr(self, "_fbos", []):
             f.release()
+        self._fbos = []
         super().release()

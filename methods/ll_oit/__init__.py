@@ -117,6 +117,13 @@ class LLOIT(OITMethod):
         vao.release()
         return self.result(self._counters, self._invariants)
 
+    def release(self):
+        if getattr(self, "ls", None) is not None:
+            self.ls.fbo.release()
+            self.fbo.release()
+            self.ls = None
+        super().release()
+
     def _counters(self) -> dict:
         st = self.ls.stats()
         slow = int(np.frombuffer(self.counters_buf.read(), np.uint32)[0])
