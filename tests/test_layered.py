@@ -50,7 +50,7 @@ def test_every_layout_stores_exactly_the_rasterized_fragments(setup, expected, l
             for x in range(W):
                 got, exp = lists[k][y][x], [z for z, _ in expected[k, y, x]]
                 assert got == sorted(got), (layout, k, y, x)
-                np.testing.assert_allclose(got, exp, atol=1e-5)
+                np.testing.assert_allclose(got, exp, atol=5e-4)  # NVIDIA interpolates to ~1.7e-4 (H200)
                 n += len(exp)
     st = s.stats()
     assert st["fragments"] == st["fragments_stored"] == st["linked_nodes"] == n > 200

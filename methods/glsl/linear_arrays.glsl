@@ -29,7 +29,12 @@
 #define LA_C_FILLED 5u      // fragments written by the fill pass (must equal the count)
 #define LA_C_OVERFLOW 7u    // fill-pass fragments beyond the capacity (never with the "grow" policy)
 #define LA_C_CAPACITY 8u    // fragments the depth buffer holds (host-written)
-layout(std430, binding = 0) coherent buffer LACounters { uint la_counters[16]; };
+#if defined(LA_WRITABLE) || defined(LA_STATS)   // readers: a plain cached load (see linked_list.glsl)
+#define LA_COUNTERS_QUAL coherent
+#else
+#define LA_COUNTERS_QUAL readonly
+#endif
+layout(std430, binding = 0) LA_COUNTERS_QUAL buffer LACounters { uint la_counters[16]; };
 layout(std430, binding = 1) LA_QUAL buffer LAOffsets { uint la_off[]; };
 
 layout(std430, binding = 3) LA_QUAL buffer LADepth { float la_depth[]; };

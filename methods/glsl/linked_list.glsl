@@ -46,7 +46,14 @@
 #define LL_C_FAILED 6u      // sorted inserts abandoned (LL_MAX_RETRIES lost races, or a walk past the bound)
 #define LL_C_OVERFLOW 7u    // fragments refused because the pool was full
 #define LL_C_CAPACITY 8u    // pool capacity, written by the host: the bound of every list walk
-layout(std430, binding = 0) coherent buffer LLCounters { uint ll_counters[16]; };
+// Passes that only read lists (tracers) see the counters as a plain readonly buffer: a coherent load of the
+// walk bound in every step of every walk made tracing 100x slower on an H200 (docs/rays.md).
+#if defined(LL_WRITABLE) || defined(LL_STATS)
+#define LL_COUNTERS_QUAL coherent
+#else
+#define LL_COUNTERS_QUAL readonly
+#endif
+layout(std430, binding = 0) LL_COUNTERS_QUAL buffer LLCounters { uint ll_counters[16]; };
 layout(std430, binding = 1) LL_QUAL buffer LLHeads { uint ll_head[]; };
 
 struct LLNode {

@@ -1,6 +1,7 @@
 // List statistics: ll_counters[LL_C_NONEMPTY] non-empty lists, [LL_C_MAXLEN] max length, [LL_C_UNSORTED]
 // lists out of order, [LL_C_LINKED] nodes reached from the heads (must equal the nodes stored). Walks are
 // bounded by the pool capacity (a corrupt link shows as LL_C_LINKED != stored).
+#define LL_STATS 1
 #include "linked_list.glsl"
 layout(local_size_x = 64) in;
 uniform uint n_lists;

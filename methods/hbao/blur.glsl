@@ -38,5 +38,5 @@ void main() {
         sum += w * texelFetch(in_ao, q, 0).r;
         wsum += w;
     }
-    imageStore(out_ao, p, vec4(sum / wsum));
+    imageStore(out_ao, p, vec4(clamp(sum / wsum, 0.0, 1.0)));  // rounding may give 1 + 1 ulp
 }
