@@ -295,6 +295,45 @@ def cube_cell(d: np.ndarray, k: int, half: bool = False) -> tuple[np.ndarray, np
     return (2 * a + (s < 0)) * k * k + cell, np.ones(len(d))
 
 
+def nearest_axis_table(axes: np.ndarray, res: int = 128, slots: int = 4) -> np.ndarray:
+    """Candidate nearest axes per cell of a half cube (:func:`cube_cell` with ``half``, k = ``res``):
+    (3·res², ``slots``) uint32, unused slots 0xFFFFFFFF. "Nearest" is by |d·v| (a map answers ±v).
+
+    Each cell lists the nearest axis of a 3 × 3 grid of directions over the cell (corners, edge midpoints,
+    centre); a lookup takes the best candidate of its cell, so it finds the true nearest axis unless that
+    axis's Voronoi cell touches the cube cell without containing one of the 9 samples (a sliver; then the
+    second nearest, within a fraction of the axes' spacing). ``ValueError`` when a cell needs more than
+    ``slots`` candidates (raise ``res``).
+    """
+    axes = np.asarray(axes, np.float64).reshape(-1, 3)
+    r = int(res)
+    t = np.arange(r + 1) / r * 2.0 - 1.0          # cell edges
+    m = (t[:-1] + t[1:]) * 0.5                    # cell centres
+    grid = [t[:-1], m, t[1:]]
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(np.concatenate([axes, -axes]))  # the nearest of ±v on the unit sphere = largest |d·v|
+    out = np.full((3 * r * r, slots), 0xFFFFFFFF, np.uint32)
+    for a in range(3):
+        best = []
+        for gi in grid:
+            for gj in grid:
+                P, Q = np.meshgrid(gi, gj, indexing="ij")
+                d = np.zeros((r * r, 3))
+                d[:, a], d[:, (a + 1) % 3], d[:, (a + 2) % 3] = 1.0, P.reshape(-1), Q.reshape(-1)
+                d /= np.linalg.norm(d, axis=1, keepdims=True)
+                best.append(tree.query(d)[1] % len(axes))
+        b = np.sort(np.stack(best, 1), 1)                         # (cells, 9), per cell ascending
+        first = np.concatenate([np.ones((len(b), 1), bool), b[:, 1:] != b[:, :-1]], 1)
+        count = first.sum(1)
+        if count.max() > slots:
+            raise ValueError(f"{count.max()} candidate axes in one cell of a {r}² cube face: raise res")
+        rank = np.cumsum(first, 1) - 1                            # slot of each first occurrence
+        rows, cols = np.nonzero(first)
+        out[a * r * r + rows, rank[rows, cols]] = b[rows, cols]
+    return out
+
+
 # --------------------------------------------------------------------------------------------------
 # Stacks × slices hemisphere directions (archer2019 §3.1, Fig. 2)
 

@@ -88,3 +88,26 @@ def test_orthonormal_basis_right_handed():
     for a, b in ((u, w), (u, v), (w, v)):
         assert np.allclose((a * b).sum(1), 0, atol=1e-12)
     assert np.allclose(np.cross(u, w), v, atol=1e-12)
+
+
+@pytest.mark.parametrize("n", [1, 7, 512, 2048])
+def test_nearest_axis_table(n):
+    """The best candidate of a direction's cube cell is its nearest axis by |d·v| for all but a sliver of
+    directions (measured mismatch over 200 000 directions: 0, 0, 1.5e-5, 5e-5), and then an almost as
+    near one. 50 000 directions here."""
+    from methods.directions import cube_cell, ldm_axes, nearest_axis_table
+
+    ax = ldm_axes(n)
+    lut = nearest_axis_table(ax, 128)
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(50000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    cand = lut[cube_cell(d, 128, half=True)[0]].astype(np.int64)
+    ok = cand != 0xFFFFFFFF
+    dots = np.where(ok, np.abs(np.einsum("nj,nkj->nk", d, ax[np.where(ok, cand, 0)])), -1.0)
+    pick = cand[np.arange(len(d)), dots.argmax(1)]
+    exact = np.abs(d @ ax.T)
+    true = exact.argmax(1)
+    assert (pick != true).mean() <= 1.2e-4
+    loss = exact.max(1) - exact[np.arange(len(d)), pick]
+    assert loss.max() < 2e-3  # cos of the chosen axis vs the best one

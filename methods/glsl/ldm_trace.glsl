@@ -61,14 +61,36 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 }
 
 // The map whose axis is closest to direction d (for arbitrary directions); sigma = which side.
+// LDM_LUT: the candidates of d's cell of a half cube (methods/directions.py nearest_axis_table, the
+// cell rule of cube_cell: major axis a, first of x, y, z on ties, the two others in order a+1, a+2);
+// otherwise a scan of all N axes.
+#if defined(LDM_LUT)
+layout(std430, binding = 13) readonly buffer LdmLut { uvec4 ldm_lut[]; };
+uniform int ldm_lut_res;
+#endif
 uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     uint best = 0u;
     float bc = -1.0;
     sigma = 1.0;
+#if defined(LDM_LUT)
+    vec3 ad = abs(d);
+    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
+    vec3 e = d[a] >= 0.0 ? d : -d;
+    vec2 uv = vec2(e[(a + 1) % 3], e[(a + 2) % 3]) / e[a];
+    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(ldm_lut_res))), ivec2(0), ivec2(ldm_lut_res - 1));
+    uvec4 cand = ldm_lut[(a * ldm_lut_res + ij.x) * ldm_lut_res + ij.y];
+    for (int s = 0; s < 4; ++s) {
+        uint k = cand[s];
+        if (k == 0xFFFFFFFFu) break;
+        float c = dot(d, ldm_axes[k].v.xyz);
+        if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
+    }
+#else
     for (uint k = 0u; k < n_maps; ++k) {
         float c = dot(d, ldm_axes[k].v.xyz);
         if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
     }
+#endif
     return best;
 }
 #endif
