@@ -44,7 +44,7 @@ from methods.direct_raster import set_spot_uniforms
 from methods.gbuffer import GBuffer, mat_bytes
 from methods.layered import fill_uint
 
-B_PHOTONS, B_PHOTON_COUNT, B_ACCUM, B_STATS = 13, 14, 15, 16
+B_PHOTONS, B_PHOTON_COUNT, B_ACCUM, B_STATS = 14, 15, 16, 17  # 11-13: the maps (ldm_trace.glsl)
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
 MAX_CUTOFF_DEG = 80.0
@@ -93,6 +93,7 @@ class IndirectLight:
         self.view = None
         self.n_stored = 0
         self.splat_prog = self.gpu.program(ldm.shader("photon_splat.glsl"))
+        self.splat_cs = self._compute("photon_splat.glsl", {"SPLAT_ATOMIC": 1}) if self.p.splat == "atomic" else None
         self.trace_defines = {**ldm.ls.defines(), "REFINE_HIT": int(self.p.refine_hit)}
         self.trace_cs = self.gpu.compute(ldm.shader("photon_trace.glsl"), self.trace_defines)
 
@@ -212,7 +213,7 @@ class IndirectLight:
             else:
                 w, h = self._size
                 fill_uint(gpu, self.accum, 3 * w * h, 0)
-                cs = self._compute("photon_splat.glsl", {"SPLAT_ATOMIC": 1})
+                cs = self.splat_cs
                 if n:
                     self._splat_uniforms(cs, view)
                     cs["n_photons"].value = n
