@@ -388,8 +388,8 @@ def test_errors():
     kw = dict(width=8, height=8, spp=4, cache=False, progress=False)
     with pytest.raises(LdbenchError, match="does not render effect rays"):  # rays: references.rays
         render_reference(s, Effect("rays"), **kw)
-    with pytest.raises(LdbenchError, match="unknown effect 'oit'"):
-        Effect("oit")
+    with pytest.raises(LdbenchError, match="unknown effect 'caustics'"):
+        Effect("caustics")
     with pytest.raises(LdbenchError, match="no spot or point light"):
         render_reference(s, Effect("direct"), **kw)
     with pytest.raises(LdbenchError, match="spp"):
