@@ -135,6 +135,10 @@ class Gpu:
     ----------
     require : int
         Minimum GL version as moderngl writes it (430 = 4.3).
+
+    The context opens on the EGL device of this process's GPU (:mod:`harness.egl`: the first
+    ``CUDA_VISIBLE_DEVICES`` GPU through ``EGL_NV_device_cuda``; without an NVIDIA GPU, EGL device 0
+    as always). ``selection`` says which, and :attr:`device_columns` are the record's device columns.
     """
 
     def __init__(self, *, require: int = 430):
@@ -142,8 +146,15 @@ class Gpu:
             import moderngl
         except ImportError as e:  # pragma: no cover - packaging error
             raise LdbenchError(f"moderngl is not installed: {e}")
+        from .egl import Selection, select_device, visible_gpu
+
         try:
-            self.ctx = moderngl.create_standalone_context(backend="egl", require=require)
+            self.selection = select_device()
+        except Exception:  # a broken EGL install: no choice, the default device as before
+            self.selection = Selection(None, visible_gpu(), None, "default")
+        where = {} if self.selection.egl_device is None else {"device_index": self.selection.egl_device}
+        try:
+            self.ctx = moderngl.create_standalone_context(backend="egl", require=require, **where)
         except Exception as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise LdbenchError(
@@ -151,6 +162,7 @@ class Gpu:
                 "ldbench needs a GPU driver or Mesa llvmpipe with EGL (apt-get install libegl1 libgl1-mesa-dri)")
         self.info = {k: self.ctx.info.get(k) for k in ("GL_RENDERER", "GL_VERSION", "GL_VENDOR")}
         self.device = classify_device(self.info["GL_RENDERER"] or "", self.info["GL_VENDOR"] or "")
+        self.device_columns = self.selection.columns()
         self.timer_queries = self.device != "cpu-software"
         self._pending: list = []  # (stage, query or ms) for the current frame
         self._frame_t0 = None

@@ -54,7 +54,8 @@ COLUMN_TYPES: dict[str, str] = {
     "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
     "width": "int", "height": "int", "seed": "int",
     "device": "str", "gl_renderer": "str", "gl_version": "str", "driver": "str", "cpu": "str",
-    "gpu_name": "str", "machine_key": "str", "machine": "json",
+    "gpu_name": "str", "egl_device": "int", "cuda_device": "str", "pci_bus_id": "str",
+    "machine_key": "str", "machine": "json",
     "warmup": "int", "frames": "int",
     "total_ms": "float", "total_ms_iqr": "float", "wall_ms": "float",
     "stage_ms": "json", "stage_iqr": "json", "raw_ms": "json",
@@ -220,10 +221,14 @@ def machine_key(info: dict) -> str:
 
 def machine_columns(info: dict) -> dict:
     """Row fields from :func:`machine_info`: ``device, gl_renderer, gl_version, driver, cpu, gpu_name,
-    machine_key`` and the full dict as ``machine``."""
+    machine_key`` and the full dict as ``machine``; and the GPU the row ran on where the runner added
+    it to ``info`` (:attr:`harness.gpu.Gpu.device_columns`): ``egl_device`` (EGL device index),
+    ``cuda_device`` (the ``CUDA_VISIBLE_DEVICES`` GPU given to the job), ``pci_bus_id``."""
     return {"device": info.get("device"), "gl_renderer": info.get("gl_renderer"),
             "gl_version": info.get("gl_version"), "driver": info.get("driver"), "cpu": info.get("cpu"),
-            "gpu_name": info.get("gpu_name"), "machine_key": machine_key(info), "machine": info}
+            "gpu_name": info.get("gpu_name"), "egl_device": info.get("egl_device"),
+            "cuda_device": info.get("cuda_device"), "pci_bus_id": info.get("pci_bus_id"),
+            "machine_key": machine_key(info), "machine": info}
 
 
 # --------------------------------------------------------------------------------------------------
