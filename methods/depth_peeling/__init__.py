@@ -65,6 +65,8 @@ class DepthPeeling(OITMethod):
         for f in self._fbos:
             f.release()
         self.depth = [r.depth_texture(f"oit.dp.depth{i}", (w, h)) for i in range(2)]
+        for d in self.depth:
+            d.compare_func = ""  # read as plain depth values (moderngl enables shadow comparison by default)
         self.layer = r.texture("oit.dp.layer", (w, h), 4, "f4")
         self.accum = r.texture("oit.dp.accum", (w, h), 4, "f4")
         self.count = r.texture("oit.dp.count", (w, h), 1, "f4")

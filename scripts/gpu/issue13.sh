@@ -8,7 +8,7 @@
 # SCENE_MIRROR: a folder laid out like shared/scenes holding stanford_dragon/ (default: shared/scenes or
 # ../shared/scenes when present); without it the dragon rows fail with one line and everything else runs.
 # Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/issue13/"; a summary on stdout.
-# Every step runs under `timeout` and a failing step does not stop the script; the limits add up to < 4 min.
+# Every step runs under `timeout` and a failing step does not stop the script; the limits add up to 222 s.
 # ISSUE13_TINY=1: a CPU-sized dry run (64×64, small hairballs, `reproduce --scale ci`) to test the script.
 set -u
 O="${OUT:-/tmp/ldbench-gpu}/issue13"
@@ -24,7 +24,7 @@ if [ "$TINY" = 1 ]; then
 else
     SIZE=512x512; SCALE=paper; DENSITIES="20000 60000 200000 600000 1200000"; FRAMES="--warmup 2 --frames 5"
 fi
-declare -A LIMIT=([20000]=18 [60000]=18 [200000]=25 [600000]=30 [1200000]=40 [2000]=30 [6000]=30)
+declare -A LIMIT=([20000]=15 [60000]=15 [200000]=20 [600000]=25 [1200000]=35 [2000]=30 [6000]=30)
 step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on failure
     local t=$1 name=$2; shift 2
     echo "== $name: $*" >> "$O/log.txt"
@@ -35,7 +35,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on fa
 }
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 10 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
+step 8 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
 
 # 0. the Stanford dragon for Table 1 (copied from a mirror into the checksummed cache)
 MIRROR="${1:-}"
@@ -43,13 +43,13 @@ for d in shared/scenes ../shared/scenes; do
     [ -z "$MIRROR" ] && [ -d "$d/stanford_dragon" ] && MIRROR="$d"
 done
 if [ -n "$MIRROR" ]; then
-    step 15 fetch $LD scenes fetch dragon --from "$MIRROR"
+    step 12 fetch $LD scenes fetch dragon --from "$MIRROR"
 else
     echo "   no scene mirror: the dragon rows of Table 1 will fail (ldbench scenes fetch dragon)" | tee -a "$O/log.txt"
 fi
 
 # 1. Table 1 and the layer cap: ldbench reproduce yang2010-table1 (suites/yang2010-table1.toml)
-step 70 table1 $LD reproduce yang2010-table1 --scale "$SCALE" --out "$W/table1" --no-progress --no-report
+step 80 table1 $LD reproduce yang2010-table1 --scale "$SCALE" --out "$W/table1" --no-progress --no-report
 if [ -d "$W/table1" ]; then
     cp "$W/table1/reproduce.md" "$O/table1-reproduce.md" 2>/dev/null
     cp "$W/table1/results.csv" "$O/table1-results.csv" 2>/dev/null
@@ -69,7 +69,7 @@ for t in $DENSITIES; do
 done
 
 # 3. Sweep table, the crossing point and the figure
-step 15 analysis $PY - "$W" "$O" <<'EOF'
+step 12 analysis $PY - "$W" "$O" <<'EOF'
 import json, sys
 from pathlib import Path
 
