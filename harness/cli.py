@@ -188,6 +188,27 @@ def _run_args(p):
     p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
     p.add_argument("--no-report", action="store_true")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--executor", default="local", choices=("local", "ray"),
+                   help="local: this process (default); ray: one task per job group on a Ray cluster "
+                        "(pip install 'ldbench[ray]'; docs/ray.md)")
+    p.add_argument("--address", default=None,
+                   help="ray: the cluster to join (auto, HOST:6379, ray://HOST:10001); default: start a local one")
+    p.add_argument("--retries", type=int, default=None,
+                   help="ray: times a failed task is run again (default 1)")
+
+
+def _executor_from(args):
+    """The executor of ``ldbench run``: local, or Ray with --address/--retries."""
+    if args.executor == "local":
+        if args.address is not None or args.retries is not None:
+            raise LdbenchError("--address and --retries go with --executor ray")
+        return "local"
+    from .executors import get_executor
+
+    opts = {"address": args.address}
+    if args.retries is not None:
+        opts["retries"] = args.retries
+    return get_executor("ray", **opts)
 
 
 def _method_sets(pairs) -> dict:
@@ -254,9 +275,10 @@ def _run(args):
     from .runner import run_jobs
 
     suite = suite_from_args(args)
+    executor = _executor_from(args)
     from .naming import slug  # a suite named "../../x" stays inside reports/
     out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
-    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report)
+    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
     cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
                         "ssim", "status") if c in df.columns]
     import pandas as pd

@@ -14,6 +14,11 @@ the invariants it declares (:attr:`methods.base.Result.invariants`): a violation
 
 The run directory is written under a temporary name and renamed into place only when complete
 (:mod:`harness.rundir`), so a failed run never leaves a folder that looks finished.
+
+Who runs the jobs is an executor (:mod:`harness.executors`): this process one job after the other
+(``local``, the default), or Ray tasks on one or several machines (``ray``). :func:`plan_run`,
+:func:`prepare` and :func:`run_job` (with its :class:`RunContext`) are the units both use; the run
+directory stays with :func:`run_jobs`, in this process.
 """
 from __future__ import annotations
 
@@ -65,14 +70,14 @@ def _progress(iterable, total, desc, enabled):
 
 @dataclass
 class RunContext:
-    """What every job of one run shares."""
+    """What every job of one run shares (in one process: each Ray task builds its own)."""
 
     gpu: object
     machine: dict
     git: dict
     run_id: str
     suite_name: str
-    out: Path  # the (temporary) run directory being written
+    out: Path  # the (temporary) run directory being written, or a task's staging folder
 
 
 @dataclass
@@ -84,51 +89,96 @@ class Prepared:
     reference: object
 
 
+@dataclass
+class RunPlan:
+    """A checked suite, ready for an executor (:mod:`harness.executors`): jobs in suite order with their
+    sizes resolved, their scenes by ``job.scene_key``, and what every row of the run shares."""
+
+    suite_name: str
+    jobs: list
+    scenes: dict
+    run_id: str
+    git: dict
+    machine: dict  # the driver's (rows of jobs that never ran get it)
+    reference_cache: bool = True
+
+    def keys(self) -> list:
+        """The distinct :func:`prepare_key` of the jobs (one inputs + reference each), in a fixed order."""
+        return sorted({prepare_key(j) for j in self.jobs}, key=str)
+
+
 def prepare_key(job: Job) -> tuple:
     return (job.scene_key, job.effect, job.width, job.height, job.spp, job.seed)
 
 
-def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
-             reference_cache: bool = True) -> "pandas.DataFrame":
-    """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table."""
+def machine_of(gpu) -> dict:
+    """:func:`records.machine_info` of this process's context, with the device it opened on."""
     from . import records
-    from .gpu import Gpu
+
+    return {**records.machine_info(gpu.info), **gpu.device_columns}
+
+
+def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
+    """Load and check every scene, resolve sizes and check them against ``gpu``: the last chance to
+    reject bad input (one line, exit 2) before anything is rendered."""
+    from . import records
     from .scenes import load_scene
 
-    out_dir = Path(out_dir)
+    scenes = {}
+    for job in suite.jobs:
+        if job.scene_key not in scenes:
+            scenes[job.scene_key] = load_scene(job.scene, **dict(job.scene_params))
+            for w in scenes[job.scene_key].warnings:
+                print(f"ldbench: warning: {w}", file=sys.stderr)
+        job.effect.check_scene(scenes[job.scene_key])
+    scenes = unique_scene_names(scenes)  # a/scene.xml and b/scene.xml: two names, two image folders
+    jobs = resolve_sizes(suite.jobs, scenes)  # no size given: the XML film's
+    for w, h in sorted({(j.width, j.height) for j in jobs}):
+        gpu.check_image_size(w, h)  # GL limits and memory, before anything is rendered
+    return RunPlan(suite_name=suite.name, jobs=jobs, scenes=scenes,
+                   run_id=time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + uuid.uuid4().hex[:6],
+                   git=records.git_info(REPO), machine=machine_of(gpu), reference_cache=reference_cache)
+
+
+def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
+    """The effect's inputs and reference of one :func:`prepare_key` (the reference from the cache, or
+    rendered into it)."""
+    _, effect, w, h, spp, seed = key
+    inputs = effect.spec.inputs(scene, w, h, effect.params, seed)
+    ref = effect.spec.reference(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs,
+                                cache=cache, progress=progress)
+    camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
+    return Prepared(scene, inputs, ref)
+
+
+def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
+             reference_cache: bool = True, executor=None) -> "pandas.DataFrame":
+    """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
+
+    ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
+    executor object (:mod:`harness.executors`). Whatever runs the jobs, this process holds the run
+    directory's lock, writes the results and commits the folder, or deletes it on any failure.
+    """
+    from . import records
+    from .executors import get_executor
+    from .gpu import Gpu
+
+    ex = get_executor(executor)  # before the run directory: a missing extra is one line, nothing written
     rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
     tmp = rundir.open()
-    prepared: dict = {}
+    gpu = None
     try:
         gpu = Gpu()
-        ctx = RunContext(gpu=gpu, machine=records.machine_info(gpu.info), git=records.git_info(REPO),
-                         run_id=time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + uuid.uuid4().hex[:6],
-                         suite_name=suite.name, out=tmp)
-        # Scenes first (cheap, and the last chance to reject bad input before GPU work).
-        scenes = {}
-        for job in suite.jobs:
-            if job.scene_key not in scenes:
-                scenes[job.scene_key] = load_scene(job.scene, **dict(job.scene_params))
-                for w in scenes[job.scene_key].warnings:
-                    print(f"ldbench: warning: {w}", file=sys.stderr)
-            job.effect.check_scene(scenes[job.scene_key])
-        scenes = unique_scene_names(scenes)  # a/scene.xml and b/scene.xml: two names, two image folders
-        suite.jobs = resolve_sizes(suite.jobs, scenes)  # no size given: the XML film's
-        for w, h in sorted({(j.width, j.height) for j in suite.jobs}):
-            gpu.check_image_size(w, h)  # GL limits and memory, before anything is rendered
-        keys = sorted({prepare_key(j) for j in suite.jobs}, key=str)
-        for key in _progress(keys, len(keys), "references", progress):
-            (sk, effect, w, h, spp, seed), sc = key, scenes[key[0]]
-            inputs = effect.spec.inputs(sc, w, h, effect.params, seed)
-            ref = effect.spec.reference(sc, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs,
-                                        cache=reference_cache, progress=progress)
-            camera_sees_geometry(sc, ref, w, h)  # else every metric is NaN
-            prepared[key] = Prepared(sc, inputs, ref)
-        rows = [run_job(ctx, job, prepared[prepare_key(job)])
-                for job in _progress(suite.jobs, len(suite.jobs), "runs", progress)]
+        plan = plan_run(suite, gpu, reference_cache=reference_cache)
+        suite.jobs = plan.jobs
+        if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
+            gpu.release()
+            gpu = None
+        rows = ex.run(plan, tmp, gpu=gpu, progress=progress)
         records.write_results(rows, tmp)
-        _release_inputs(prepared)
-        gpu.release()
+        if gpu is not None:
+            gpu.release()
+            gpu = None
         (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
                                                     "jobs": len(suite.jobs)}, indent=1))
         if report:
@@ -136,14 +186,18 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
             write_report(tmp)
         rundir.commit()  # old run aside, new one in, old one deleted
     except BaseException:
-        _release_inputs(prepared)
-        rundir.abort()
+        try:
+            if gpu is not None:
+                gpu.release()
+        finally:
+            rundir.abort()
         raise
     return records.read_results(out_dir)
 
 
-def _release_inputs(prepared: dict):
-    for p in prepared.values():
+def release_inputs(prepared) -> None:
+    """Release the GPU side of effect inputs (``Prepared`` values of a dict, or an iterable of them)."""
+    for p in (prepared.values() if isinstance(prepared, dict) else prepared):
         if hasattr(p.inputs, "release"):
             p.inputs.release()
 
@@ -182,14 +236,8 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     finally:
         method.release()
 
-    meta = getattr(ref, "meta", {}) or {}
-    row = dict(run_id=ctx.run_id, suite=ctx.suite_name, **records.git_columns(ctx.git), scene=scene.name,
-               scene_hash=scene.content_hash(), triangles=scene.triangle_count,
-               scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
-               effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
-               width=job.width, height=job.height, seed=job.seed, **records.machine_columns(ctx.machine),
-               warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
-               ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+    row = _job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, scene, getattr(ref, "meta", {}),
+                      status)
     if status != "ok":
         return records.make_row(**row)
     if result.invariants:
@@ -205,3 +253,31 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},
                ref_noise=spec.noise(ref), images=images, **scores)
     return records.make_row(**row)
+
+
+def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, status) -> dict:
+    """The columns that name a job and where it ran (every row has them, failed ones too)."""
+    from methods.base import get_method
+
+    from . import records
+
+    cls = get_method(job.method)
+    params = cls.Params.from_dict(dict(job.params), method=job.method)
+    meta = ref_meta or {}
+    return dict(run_id=run_id, suite=suite_name, **records.git_columns(git), scene=scene.name,
+                scene_hash=scene.content_hash(), triangles=scene.triangle_count,
+                scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
+                effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
+                width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
+                warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
+                ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+
+
+def failed_row(plan: RunPlan, job: Job, status: str, ref_meta: dict | None = None) -> dict:
+    """The row of a job that could not run to its end elsewhere (a Ray task that died): ``status``
+    says why; the machine columns are the driver's, the device columns empty."""
+    from . import records
+
+    machine = {**plan.machine, "egl_device": None, "cuda_device": None, "pci_bus_id": None}
+    return records.make_row(**_job_fields(plan.run_id, plan.suite_name, plan.git, machine, job,
+                                          plan.scenes[job.scene_key], ref_meta, status))

@@ -1,0 +1,190 @@
+"""The Ray executor on a 2-worker local cluster (``ray.init(num_cpus=2, num_gpus=0)``: without GPUs each
+task asks for one CPU, so two run at a time), on llvmpipe.
+
+* a Ray run equals a serial run: same rows, same metrics, same images bit for bit (timing columns
+  differ), with tasks writing into the run directory and with tasks returning their files;
+* faults: a worker that dies marks only its job's rows ``error: …`` and the run completes; a task that
+  fails once succeeds on its retry; Ctrl-C kills every task and leaves no run directory behind;
+* without Ray installed, ``--executor ray`` is one line, exit 2.
+"""
+import os
+import signal
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+ray = pytest.importorskip("ray", reason="the test extra installs ray (pip install -e '.[test]')")
+
+from harness.executors.check import differences, image_files  # noqa: E402
+from harness.executors.ray import RayExecutor, group_jobs  # noqa: E402
+from harness.runner import run_jobs  # noqa: E402
+from harness.suite import suite_from_dict  # noqa: E402
+
+def _suite(d_max=(0.5, "inf"), methods=("hbao", "ldm")):
+    return suite_from_dict({"suite": {"name": "ray-test", "size": "24x24", "spp": 8, "warmup": 0, "frames": 1},
+                            "run": [{"scene": "cornell", "effect": "ao", "d_max": list(d_max),
+                                     "methods": list(methods),
+                                     "params": {"ldm": {"directions": 16, "resolution": 32}}}]}, name="ray-test")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    ray.init(num_cpus=2, num_gpus=0, include_dashboard=False, log_to_driver=False, logging_level="ERROR")
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial") / "run"
+    return out, run_jobs(_suite(d_max=("inf",)), out, progress=False, report=False)
+
+
+def _assert_same_run(a_dir, a, b_dir, b):
+    assert len(a) == len(b) == 2 and (a["status"] == "ok").all() and (b["status"] == "ok").all()
+    assert np.isfinite(a["psnr"]).all() and np.isfinite(b["psnr"]).all()
+    assert differences(a_dir, b_dir) == []  # every column but times, every image byte for byte
+    assert len(image_files(b_dir)) == 2 * 4 + 2  # per job: image and error map (png + exr); the reference
+    assert not list(b_dir.glob(".*")), "staging folders must not reach the committed run"
+
+
+def test_differences_bite(serial, tmp_path):
+    """The comparison the Ray tests rely on sees a changed metric and a changed image byte."""
+    import shutil
+
+    from harness import records
+
+    copy = tmp_path / "copy"
+    shutil.copytree(serial[0], copy)
+    assert differences(serial[0], copy) == []
+    df = records.read_results(copy)
+    df.loc[1, "ssim"] += 1e-12
+    records.write_results(df.to_dict("records"), copy)
+    img = sorted((copy / "images").rglob("*.exr"))[0]
+    data = bytearray(img.read_bytes())
+    data[-1] ^= 1
+    img.write_bytes(bytes(data))
+    d = differences(serial[0], copy)
+    assert len(d) == 2 and "ssim" in d[0] and d[1] == f"image differs: {img.relative_to(copy).as_posix()}", d
+
+
+@pytest.mark.parametrize("stage_in_run_dir", [True, False])
+def test_ray_run_equals_serial_run(cluster, serial, tmp_path, stage_in_run_dir):
+    """Tasks write into the run directory (same file system), or return their files to the driver."""
+    out = tmp_path / "ray"
+    df = run_jobs(_suite(d_max=("inf",)), out, progress=False, report=False,
+                  executor=RayExecutor(group_size=1 if stage_in_run_dir else 2, stage_in_run_dir=stage_in_run_dir))
+    _assert_same_run(*serial, out, df)
+    assert df["egl_device"].tolist() == [0] * 2 and df["cuda_device"].isna().all()  # llvmpipe: EGL device 0
+
+
+def test_group_jobs_by_reference():
+    jobs = [j for j in _suite(d_max=(0.25, 0.5, "inf"), methods=("hbao", "ldm")).jobs]  # 6 jobs, 3 references
+    groups = group_jobs(jobs, workers=1)  # 6 / (2 * 1) = 3 per task: one task per reference
+    assert [[i for i, _ in items] for _, items in groups] == [[0, 1], [2, 3], [4, 5]]
+    assert all(len({(j.effect, j.width) for _, j in items}) == 1 for _, items in groups)
+    assert [len(items) for _, items in group_jobs(jobs, workers=3)] == [1] * 6
+    assert [len(items) for _, items in group_jobs(jobs, workers=8, group_size=4)] == [2, 2, 2]
+
+
+def test_dead_worker_marks_its_rows_and_the_run_completes(cluster, tmp_path, monkeypatch):
+    monkeypatch.setenv("LDBENCH_FAULT", "exit:hbao")  # every task running an hbao job dies (os._exit)
+    out = tmp_path / "run"
+    df = run_jobs(_suite(d_max=("inf",)), out, progress=False, report=False,
+                  executor=RayExecutor(retries=0, group_size=2))
+    st = dict(zip(df["method"], df["status"]))
+    assert st["ldm"] == "ok"  # its group died, then it ran alone
+    assert st["hbao"].startswith("error: WorkerCrashedError") and "task failed 1 time" in st["hbao"], st
+    assert (out / "results.parquet").is_file() and not list(tmp_path.glob(".run.*"))
+    imgs = {p.name for p in (out / "images" / "cornell").iterdir()}
+    assert any(n.startswith("ldm-") for n in imgs) and not any(n.startswith("hbao-") for n in imgs)
+
+
+def test_dead_reference_task_marks_its_jobs(cluster, tmp_path, monkeypatch):
+    monkeypatch.setenv("LDBENCH_FAULT", "exit:reference")
+    df = run_jobs(_suite(d_max=("inf",)), tmp_path / "run", progress=False, report=False,
+                  executor=RayExecutor(retries=0))
+    assert len(df) == 2 and all(s.startswith("error: reference task failed: WorkerCrashedError")
+                                for s in df["status"]), df["status"].tolist()
+
+
+def test_retry_recovers_a_failed_task(cluster, tmp_path, monkeypatch):
+    once = tmp_path / "fired"
+    monkeypatch.setenv("LDBENCH_FAULT", f"raise:ldm:{once}")  # the first attempt raises, the retry runs
+    df = run_jobs(_suite(d_max=("inf",)), tmp_path / "run", progress=False, report=False,
+                  executor=RayExecutor(retries=1, group_size=2))
+    assert once.is_file() and (df["status"] == "ok").all(), df["status"].tolist()
+
+
+def test_ctrl_c_cancels_every_task_and_leaves_no_run_directory(cluster, tmp_path, monkeypatch):
+    """SIGINT (what Ctrl-C sends) while an hbao task sleeps: KeyboardInterrupt in the driver (the CLI
+    turns it into exit 130, tests/test_cli.py), every task killed, no run directory left."""
+    fired = tmp_path / "sleeping"
+    monkeypatch.setenv("LDBENCH_FAULT", f"sleep:hbao:{fired}")
+    out = tmp_path / "run"
+
+    def interrupt():
+        deadline = time.monotonic() + 60
+        while not fired.is_file() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        seen["partial"] = [p.name for p in tmp_path.glob(".run.partial-*")]
+        os.kill(os.getpid(), signal.SIGINT)
+
+    seen: dict = {}
+    t = threading.Thread(target=interrupt, daemon=True)
+    t.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs(_suite(d_max=("inf",)), out, progress=False, report=False, executor=RayExecutor(group_size=1))
+    t.join()
+    assert fired.is_file() and seen["partial"], "interrupted while the run directory was being written"
+    assert not out.exists() and not list(tmp_path.glob(".run*")), list(tmp_path.iterdir())
+    task_pid = int(fired.read_text())
+    for _ in range(50):  # the sleeping task was killed, not left running
+        try:
+            os.kill(task_pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        pytest.fail(f"task process {task_pid} still alive")
+    assert ray.is_initialized() and ray.available_resources().get("CPU") == 2  # both workers free again
+
+
+def test_without_ray_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    from harness.cli import main
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    out = tmp_path / "run"
+    rc = main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "16x16",
+               "--out", str(out), "--executor", "ray"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.strip() == "ldbench: error: the Ray executor needs Ray: pip install 'ldbench[ray]'"
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_cli_flags_checked(tmp_path, capsys):
+    from harness.cli import main
+
+    base = ["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--out", str(tmp_path / "r")]
+    assert main(base + ["--retries", "2"]) == 2
+    assert "--address and --retries go with --executor ray" in capsys.readouterr().err
+    assert main(base + ["--executor", "ray", "--retries", "-1"]) == 2
+    assert "--retries must be an integer >= 0" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
+def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
+    """What the Ctrl-C test above raises becomes exit 130 and one line at the command line."""
+    import harness.runner
+    from harness.cli import main
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(harness.runner, "run_jobs", interrupted)
+    assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--executor", "ray",
+                 "--out", str(tmp_path / "r")]) == 130
+    assert capsys.readouterr().err == "ldbench: interrupted\n"
