@@ -532,10 +532,11 @@ def build_teapot(segments=48, opacity=0.5) -> Scene:
 
 
 def build_transparent_dragon(opacity=0.5, albedo=(0.15, 0.45, 0.75)) -> Scene:
-    """The registered ``dragon`` scene (fetched with ``ldbench scenes fetch dragon``) with the dragon at
-    ``opacity`` α for the ``oit`` effect and the given ``albedo`` (yang2010 Table 1, Fig. 2: a transparent
-    dragon among opaque objects); the floor and walls stay opaque. Camera, light and layout are the
-    registered scene's."""
+    """The Stanford dragon, transparent, in an opaque open box (yang2010 Table 1, Fig. 2).
+
+    The registered ``dragon`` scene (``ldbench scenes fetch dragon`` first) with the dragon at ``opacity``
+    α for the ``oit`` effect and the given ``albedo``; the floor and walls stay opaque. Camera, light and
+    layout are the registered scene's."""
     opacity = _float_param("transparent_dragon", "opacity", opacity, 0.0, 1.0)
     albedo = _albedo_param("transparent_dragon", "albedo", albedo)
     sc = build_registered("dragon")
