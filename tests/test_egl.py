@@ -23,12 +23,12 @@ def _nv(index, cuda, gpu, drm=None, uuid=True):
 
 
 def test_cuda_visible_gpu_maps_to_its_egl_device_not_the_same_index():
-    # The task was given physical GPU 2: in its CUDA numbering that is ordinal 0, and EGL lists it third.
-    devices = [_nv(0, None, 0), _nv(1, None, 1), _nv(2, 0, 2), EglDevice(3, "EGL_MESA_device_software")]
+    # The task was given GPU 2: in its CUDA numbering that is ordinal 0, and EGL lists it first.
+    devices = [_nv(0, 0, 2), _nv(1, None, 0), _nv(2, None, 1), EglDevice(3, "EGL_MESA_device_software")]
     sel = select(devices, env={"CUDA_VISIBLE_DEVICES": "2"}, gpus=SMI)
-    assert (sel.egl_device, sel.how, sel.cuda_device) == (2, "cuda", "2")
+    assert (sel.egl_device, sel.how, sel.cuda_device) == (0, "cuda", "2")
     assert sel.pci_bus_id == "0000:3a:00.0"  # from the EGL device's own UUID
-    assert sel.columns() == {"egl_device": 2, "cuda_device": "2", "pci_bus_id": "0000:3a:00.0",
+    assert sel.columns() == {"egl_device": 0, "cuda_device": "2", "pci_bus_id": "0000:3a:00.0",
                              "egl_selection": "cuda"}
 
 
