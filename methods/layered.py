@@ -38,6 +38,13 @@ material ids); without, the indexed position-only copy.
   order). Not conservative: a layer sees a triangle's fragments at the raster's sample positions, not at
   its own texel centres (holes where a triangle is more face-on to the layer than to its dominant axis,
   extra fragments where it is edge-on).
+* ``splat``: a compute-shader rasterizer of the small triangles with the hardware's fill rule (the same
+  fragments as ``raster``), the triangles longer than ``splat_max`` texels drawn by the hardware in the
+  same pass (:class:`methods.layered_builds.Splat`; affine layers only).
+
+``assembly`` (linear layout): ``direct`` (count → scan → fill → sort: two fragment passes) or ``sort``
+(one pass appends (list, depth) pairs, then scan → scatter by list → sort: :func:`methods.layered_builds
+.build_sorted`). Every fragment pass of every layout and assembly runs the chosen ``build``.
 
 Each layer ``k`` has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the
 stored depth is ``dot(depth_row, (p, 1))`` of the fragment's world position (interpolated
@@ -56,7 +63,8 @@ from harness.gpu import GLSL_DIR
 
 PAYLOAD_WORDS = ("normal", "albedo", "material")
 LAYOUT_CODES = {"linked": 1, "linear": 2}
-BUILDS = ("raster", "one_pass")
+BUILDS = ("raster", "one_pass", "splat")
+ASSEMBLIES = ("direct", "sort")
 B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, B_ALBEDO = 0, 1, 2, 3, 7, 9
 N_COUNTERS = 16
 C_CAPACITY = 8
@@ -101,6 +109,8 @@ class LayeredStructure:
         self._vaos: dict = {}
         self._have_layers = False
         self.build_variant, self.pass_layers, self.sphere, self.raster_size = "raster", 0, None, 0
+        self.assembly, self.splat = "direct", None
+        self.layer_scale, self.layers_affine = 0.0, True
 
     # ---- configuration ---------------------------------------------------------------------------
     def defines(self) -> dict:
@@ -119,15 +129,32 @@ class LayeredStructure:
         data[:, 16:] = rows
         self.layers_buf.write(data.tobytes())
         self._have_layers = True
+        from methods.layered_builds import layer_scale
 
-    def set_build(self, build: str = "raster", *, pass_layers: int = 0, sphere=None, raster_size: int = 0):
-        """Choose the build variant (module docstring): ``raster`` or ``one_pass`` (with ``pass_layers``
+        self.layer_scale, self.layers_affine = layer_scale(clip, self.width, self.height)
+
+    def set_build(self, build: str = "raster", *, pass_layers: int = 0, sphere=None, raster_size: int = 0,
+                  assembly: str = "direct", splat_max: float = 16.0, splat_batch: int = 8):
+        """Choose the build variant (module docstring): ``raster``, ``one_pass`` (with ``pass_layers``
         layers per pass, 0 = all; ``sphere`` = (centre, radius) the swizzled raster covers, default the
-        geometry's bounding sphere; ``raster_size`` samples per side, 0 = the larger layer side)."""
+        geometry's bounding sphere; ``raster_size`` samples per side, 0 = the larger layer side) or
+        ``splat`` (``splat_max`` texels: longest edge splatted, longer ones rasterized; ``splat_batch``
+        layers per invocation); ``assembly`` ``direct`` or ``sort`` (linear layout)."""
         if build not in BUILDS:
             raise LdbenchError(f"layered build {build!r} not one of {list(BUILDS)}")
+        if assembly not in ASSEMBLIES:
+            raise LdbenchError(f"layered assembly {assembly!r} not one of {list(ASSEMBLIES)}")
+        if assembly == "sort" and self.layout != "linear":
+            raise LdbenchError("assembly 'sort' needs the linear layout")
         if int(pass_layers) < 0 or int(raster_size) < 0:
             raise LdbenchError("pass_layers and raster_size must be >= 0")
+        if build == "splat":
+            from methods.layered_builds import Splat
+
+            self.splat = Splat(self, splat_max, splat_batch)
+        if assembly != self.assembly:
+            self.assembly = assembly
+            self._allocate(self.capacity)  # the sort assembly's pairs
         self.build_variant, self.pass_layers = build, int(pass_layers)
         self.raster_size = int(raster_size)
         if build == "one_pass":
@@ -153,6 +180,8 @@ class LayeredStructure:
         """One geometry pass into every layer with the build shader compiled with ``extra`` defines."""
         if not self._have_layers:
             raise LdbenchError(f"{type(self).__name__}.build: set_layers() was not called")
+        if self.build_variant == "splat":
+            return self.splat.run(extra, capacity)
         ctx = self.gpu.ctx
         prog, vao = self._raster_program(extra)
         if "ls_size" in prog:
@@ -195,6 +224,13 @@ class LayeredStructure:
         c = np.zeros(N_COUNTERS, np.uint32)
         c[C_CAPACITY] = min(int(capacity), 0xFFFFFFFF)
         self.counters_buf.write(c.tobytes())
+
+    def build_stats(self) -> dict:
+        """The build's part of :meth:`stats`: variant, assembly, triangles the splat left to the hardware."""
+        out = {"build_variant": self.build_variant, "assembly": self.assembly}
+        if self.splat is not None and self.build_variant == "splat":
+            out["splat_large_triangles"] = self.splat.large_triangles()
+        return out
 
     # ---- the interface subclasses implement ------------------------------------------------------
     def build(self, stage=None):
@@ -249,9 +285,10 @@ def fill_uint(gpu, buffer, n: int, value: int):
 
 
 def make_structure(layout: str, gpu, geometry, res, *, build: str = "raster", pass_layers: int = 0,
-                   sphere=None, raster_size: int = 0, **kw) -> LayeredStructure:
+                   sphere=None, raster_size: int = 0, assembly: str = "direct", splat_max: float = 16.0,
+                   splat_batch: int = 8, **kw) -> LayeredStructure:
     """A structure of ``layout`` (``linked`` | ``linear``); ``kw`` are the layout's parameters; ``build``
-    (``raster`` | ``one_pass``) and its options as :meth:`LayeredStructure.set_build`."""
+    (``raster`` | ``one_pass`` | ``splat``), ``assembly`` and their options as :meth:`LayeredStructure.set_build`."""
     from methods.linear_arrays import LinearisedArrays
     from methods.linked_list import LayeredLinkedLists
 
@@ -259,4 +296,5 @@ def make_structure(layout: str, gpu, geometry, res, *, build: str = "raster", pa
     if layout not in classes:
         raise LdbenchError(f"unknown layered layout {layout!r} (known: {', '.join(classes)})")
     s = classes[layout](gpu, geometry, res, **kw)
-    return s.set_build(build, pass_layers=pass_layers, sphere=sphere, raster_size=raster_size)
+    return s.set_build(build, pass_layers=pass_layers, sphere=sphere, raster_size=raster_size,
+                       assembly=assembly, splat_max=splat_max, splat_batch=splat_batch)

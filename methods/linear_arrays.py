@@ -7,12 +7,19 @@ read with unit stride and its length is known without a walk. Build, per frame (
 ``scan``   GPU exclusive prefix sum over all ``layers × W × H`` counts + 1 (:class:`methods.scan.Scan`):
            offsets, and the total in the last entry, which is read back to size the arrays
            (policy ``grow``: re-allocate when too small, shrink when more than twice too large;
-           ``fixed``: ``pool_capacity`` fragments, overflow reported).
+           ``fixed``: ``pool_capacity`` fragments, overflow reported, no read-back; ``lazy``: no
+           read-back either, the arrays sized when the next build starts from this build's total, which
+           has completed by then — the first build is sized as ``grow``; a build that overflows is
+           reported, the next one fits).
 ``fill``   rasterize again; each fragment takes ``slot = atomicAdd(offset[list], 1)`` and writes its depth
            and payload there. Afterwards ``offset[list]`` is the end of the list, i.e. the beginning of
            the next one, so no second offset array is kept.
 ``sort``   one thread per list: insertion sort in registers up to ``max_list`` fragments, an exact
            in-place insertion sort in global memory for longer lists (counted).
+
+``assembly = "sort"`` (:func:`methods.layered_builds.build_sorted`): one fragment pass appends (list,
+depth, payload) pairs and counts the lists, then ``scan``, a scatter of the pairs (``fill``) and ``sort``;
+the pairs hold ``capacity`` fragments, sized from the emitted count as above.
 
 Invariants: fragments filled = fragments counted (the end of the last list equals the total), no
 overflow unless the pool is ``fixed``, every list sorted.
@@ -27,8 +34,8 @@ from harness.gpu import GLSL_DIR
 from .layered import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
 from .scan import Scan
 
-POLICIES = ("grow", "fixed")
-C_COUNTED, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_FILLED, _, C_OVERFLOW = range(8)
+POLICIES = ("grow", "fixed", "lazy")
+C_COUNTED, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_FILLED, C_EMITTED, C_OVERFLOW = range(8)
 
 
 class LinearisedArrays(LayeredStructure):
@@ -36,7 +43,8 @@ class LinearisedArrays(LayeredStructure):
 
     Parameters (besides those of :class:`~methods.layered.LayeredStructure`)
     ------------------------------------------------------------------------
-    pool : ``"grow"`` (sized from the scanned total every frame) or ``"fixed"`` (``pool_capacity``).
+    pool : ``"grow"`` (sized from the scanned total every frame), ``"fixed"`` (``pool_capacity``) or
+        ``"lazy"`` (sized from the previous build's total: no read-back inside a build).
     pool_capacity : fragments for ``fixed``; first size for ``grow`` (0 = 1 per texel).
     max_list : register-array length of the sort pass (longer lists: exact global-memory sort).
     """
@@ -57,16 +65,25 @@ class LinearisedArrays(LayeredStructure):
         self.max_capacity = self.ssbo_limit // 4 // max(1, len(self.payload))
         self.offsets = res.buffer(prefix + "offsets", reserve=4 * (self.n_lists + 1))
         self.scan = Scan(gpu, res, prefix + "scan.")
-        self.depth_buf = self.payload_buf = None
+        self.depth_buf = self.payload_buf = self.pairs = None
         self.capacity = 0
         self.total = 0
+        self._built, self._shrink_to = False, 0
         self._allocate(pool_capacity if pool_capacity > 0 else self.n_lists)
 
     def _allocate(self, capacity: int):
+        sort = getattr(self, "assembly", "direct") == "sort"
+        if sort:  # (list, depth, payload) pairs within one SSBO
+            self.max_capacity = min(self.max_capacity, self.ssbo_limit // (4 * (2 + len(self.payload))))
         cap = max(1, min(int(capacity), self.max_capacity))
         self.depth_buf = self.res.buffer(self.prefix + "depth", reserve=4 * cap)
         if self.payload:
             self.payload_buf = self.res.buffer(self.prefix + "payload", reserve=4 * len(self.payload) * cap)
+        if sort:
+            self.pairs = self.res.buffer(self.prefix + "pairs", reserve=4 * (2 + len(self.payload)) * cap)
+        elif self.pairs is not None:
+            self.res.free(self.prefix + "pairs")
+            self.pairs = None
         self.capacity = cap
 
     def bind(self):
@@ -76,36 +93,59 @@ class LinearisedArrays(LayeredStructure):
         self.depth_buf.bind_to_storage_buffer(B_NODES0)
         if self.payload_buf is not None:
             self.payload_buf.bind_to_storage_buffer(B_PAYLOAD)
+        if self.pairs is not None:  # the sort assembly's (list, depth, payload) pairs
+            self.pairs.bind_to_storage_buffer(B_NODES0 + 1)
 
     def build(self, stage=None):
-        """Build all layers; stages ``count``, ``scan``, ``fill``, ``sort`` (``stage(name)`` times each)."""
+        """Build all layers; stages ``count``, ``scan``, ``fill``, ``sort`` (``stage(name)`` times each;
+        the sort assembly: ``emit``, ``scan``, ``fill``, ``sort``)."""
         stage = stage or self.gpu.stage
         n = self.n_lists
+        sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
+        if self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
+            need = (int(self._counters()[C_EMITTED]) if self.assembly == "sort"
+                    else int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0]))
+            if (need > self.capacity and self.capacity < self.max_capacity) or need < self.capacity // 2:
+                self._allocate(max(need, 1))
+        elif self._shrink_to:
+            self._allocate(self._shrink_to)
+        self._shrink_to = 0
+        self._built = True
+        if self.assembly == "sort":
+            from .layered_builds import build_sorted
+
+            return build_sorted(self, stage, sync)
         with stage("count"):
             fill_uint(self.gpu, self.offsets, n + 1, 0)
             self._reset_counters(self.capacity)
             self._raster({"LS_PASS_COUNT": 1}, self.capacity)
         with stage("scan"):
             self.scan.run(self.offsets, n + 1)
-            self.total = int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0])
-            if self.pool == "grow" and (self.total > self.capacity or self.total < self.capacity // 2):
-                self._allocate(max(self.total, 1))
+            if sync:
+                self.total = int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0])
+                if self.total > self.capacity or self.total < self.capacity // 2:
+                    self._allocate(max(self.total, 1))
         with stage("fill"):
             self._reset_counters(self.capacity)
             self._raster({}, self.capacity)
         with stage("sort"):
-            cs = self.gpu.compute(GLSL_DIR / "linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
-            cs["n_lists"].value = n
-            self.bind()
-            cs.run(min(-(-n // 64), 8192))
-            self.gpu.ctx.memory_barrier()
+            self._sort()
+
+    def _sort(self):
+        """Per-list depth sort (``linear_sort.glsl``)."""
+        cs = self.gpu.compute(GLSL_DIR / "linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
+        cs["n_lists"].value = self.n_lists
+        self.bind()
+        cs.run(min(-(-self.n_lists // 64), 8192))
+        self.gpu.ctx.memory_barrier()
 
     def stats(self) -> dict:
         """Counters of the last build (a statistics pass and a read-back; not for timed regions).
 
-        fragments (counted), fragments_stored, pool_capacity, overflow, lists, lists_nonempty,
-        mean_list_length, max_list_length, unsorted_lists, linked_nodes (fragments reachable through the
-        offsets: the end of the last list, must equal fragments_stored), sort_overflow_lists.
+        fragments (counted; the sort assembly: emitted), fragments_stored, pool_capacity, overflow, lists,
+        lists_nonempty, mean_list_length, max_list_length, unsorted_lists, linked_nodes (fragments
+        reachable through the offsets: the end of the last list, must equal fragments_stored),
+        sort_overflow_lists, and :meth:`~methods.layered.LayeredStructure.build_stats`.
         """
         c = self._counters()
         c[C_NONEMPTY:C_UNSORTED + 1] = 0
@@ -122,8 +162,9 @@ class LinearisedArrays(LayeredStructure):
         stored = min(total, self.capacity)
         nonempty = int(c[C_NONEMPTY])
         return {
+            **self.build_stats(),
             "layout": self.layout,
-            "fragments": total,
+            "fragments": int(c[C_EMITTED]) if self.assembly == "sort" else total,
             "fragments_stored": stored,
             "pool_capacity": self.capacity,
             "overflow": overflow,

@@ -52,6 +52,10 @@ Pool sizing (``pool``):
   the capacity) and build: two raster passes every frame, never a redo (the policy for dynamic scenes
   whose fragment count changes every frame).
 - ``"fixed"``: ``pool_capacity`` nodes, never resized; overflow is reported, not repaired.
+- ``"lazy"``: no read-back inside a build. The pool is sized when the *next* build starts, from this
+  build's count (nodes + overflow), which has completed by then: no stall on the frame being built.
+  The first build is sized as ``"grow"``; a build that overflows (the scene grew) is reported by the
+  invariants and the next one fits. For a static scene: one raster pass, an exact pool, no read-back.
 
 Hard limits: 4 pages of ``page_nodes`` each (beyond: overflow reported) and ``layers × width × height``
 heads within one SSBO. Every list walk in GLSL (insert, sort, statistics, tracers) is bounded by the
@@ -68,7 +72,7 @@ from .layered import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, Layered
 
 EOL = 0xFFFFFFFF
 MAX_PAGES = 4
-POLICIES = ("grow", "count", "fixed")
+POLICIES = ("grow", "count", "fixed", "lazy")
 NODE_BYTES = 8
 NODE_DTYPE = np.dtype([("depth", "<f4"), ("next", "<u4")])
 # counter indices (methods/glsl/linked_list.glsl)
@@ -85,8 +89,8 @@ class LayeredLinkedLists(LayeredStructure):
     Parameters (besides those of :class:`~methods.layered.LayeredStructure`)
     ------------------------------------------------------------------------
     sorted_insert : lock-free sorted insert (True) or yang2010 insert + sort pass (False).
-    pool : ``"grow"``, ``"count"`` or ``"fixed"``; ``pool_capacity`` is the fixed size, or the initial
-        size for ``"grow"`` (0 = 1 node per list).
+    pool : ``"grow"``, ``"count"``, ``"fixed"`` or ``"lazy"``; ``pool_capacity`` is the fixed size, or
+        the initial size for ``"grow"`` and ``"lazy"`` (0 = 1 node per list).
     max_list : local-array size of the sort pass (unsorted variant).
     page_nodes : nodes per SSBO page (a power of two; default from the driver's SSBO size limit).
     aggregate : warp-aggregated node allocation (``ARB_shader_ballot``): one ``atomicAdd`` on the
@@ -130,6 +134,7 @@ class LayeredLinkedLists(LayeredStructure):
         self._allocate(first if pool != "count" else 1)
         self._shrink_to = 0
         self.build_passes = 0
+        self._built = False
 
     # ---- allocation ------------------------------------------------------------------------
     def _allocate(self, capacity: int):
@@ -204,9 +209,15 @@ class LayeredLinkedLists(LayeredStructure):
         elif self.pool == "grow" and self._shrink_to:
             self._allocate(self._shrink_to)
             self._shrink_to = 0
+        elif self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
+            n = self.read_counter()
+            if (n > self.capacity and self.capacity < self.max_capacity) or n < self.capacity // 2:
+                self._allocate(max(n, 1))
+        sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
+        self._built = True
         with stage("build"):
             self._build_once()
-            if self.pool == "grow":
+            if sync:
                 n = self.read_counter()
                 if n > self.capacity and self.capacity < self.max_capacity:
                     self._allocate(n)
@@ -257,6 +268,7 @@ class LayeredLinkedLists(LayeredStructure):
         stored = nodes - failures
         nonempty = int(c[C_NONEMPTY])
         return {
+            **self.build_stats(),
             "layout": self.layout,
             "fragments": nodes + overflow,
             "fragments_stored": stored,

@@ -5,6 +5,8 @@
 //   void ls_store(uint list, float depth, vec3 normal, uint material)
 //
 // LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
+// LS_EMIT         linear, sort assembly (methods/layered_builds.py): append (list, depth, payload) to the
+//                 pairs (binding 4; one atomicAdd per subgroup with LL_AGGREGATE) and count la_off[list]++
 // otherwise       linked: insert (LL_SORTED: lock-free sorted insert, else yang2010's atomicExchange);
 //                 linear: fill (slot = atomicAdd(la_off[list], 1))
 // Payload words (LS_PAYLOAD > 0; LS_PL_NORMAL / LS_PL_ALBEDO / LS_PL_MATERIAL = the word index of each):
@@ -14,6 +16,26 @@
 
 #if LS_PAYLOAD > 0 && defined(LS_PL_ALBEDO)
 layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
+#endif
+
+#if defined(LS_EMIT) && LS_LAYOUT == 2
+#define LS_PAIR_WORDS (2 + LS_PAYLOAD)
+layout(std430, binding = 4) writeonly buffer LSPairs { uint ls_pairs[]; };
+uint ls_reserve_pair() {   // next pair slot (aggregated as ll_reserve in linked_list.glsl)
+#if defined(LL_AGGREGATE)
+    uint64_t live = ballotARB(true);
+    uvec2 m = unpackUint2x32(live);
+    uvec2 below = unpackUint2x32(live & gl_SubGroupLtMaskARB);
+    uint total = uint(bitCount(m.x) + bitCount(m.y));
+    uint rank = uint(bitCount(below.x) + bitCount(below.y));
+    uint leader = m.x != 0u ? uint(findLSB(m.x)) : 32u + uint(findLSB(m.y));
+    uint base = 0u;
+    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(la_counters[LA_C_EMITTED], total);
+    return readInvocationARB(base, leader) + rank;
+#else
+    return atomicAdd(la_counters[LA_C_EMITTED], 1u);
+#endif
+}
 #endif
 
 void ls_store(uint list, float depth, vec3 normal, uint material) {
@@ -46,6 +68,19 @@ void ls_store(uint list, float depth, vec3 normal, uint material) {
 #if LS_PAYLOAD > 0
     if (n != LL_EOL) ll_set_payload(n, w);
 #endif
+#elif defined(LS_EMIT)
+    uint slot = ls_reserve_pair();
+    if (slot < ls_capacity) {
+        atomicAdd(la_off[list], 1u);   // only stored pairs are counted: the offsets match the scatter
+        uint s = slot * uint(LS_PAIR_WORDS);
+        ls_pairs[s] = list;
+        ls_pairs[s + 1u] = floatBitsToUint(depth);
+#if LS_PAYLOAD > 0
+        for (int k = 0; k < LS_PAYLOAD; ++k) ls_pairs[s + 2u + uint(k)] = w[k];
+#endif
+    } else {
+        atomicAdd(la_counters[LA_C_OVERFLOW], 1u);
+    }
 #else
     uint slot = atomicAdd(la_off[list], 1u);
     if (slot < ls_capacity) {

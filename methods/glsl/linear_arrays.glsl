@@ -27,6 +27,7 @@
 #define LA_C_MAXLEN 3u      //   longest list
 #define LA_C_UNSORTED 4u    //   lists out of order
 #define LA_C_FILLED 5u      // fragments written by the fill pass (must equal the count)
+#define LA_C_EMITTED 6u     // sort assembly: fragments appended as pairs, stored or not
 #define LA_C_OVERFLOW 7u    // fill-pass fragments beyond the capacity (never with the "grow" policy)
 #define LA_C_CAPACITY 8u    // fragments the depth buffer holds (host-written)
 #if defined(LA_WRITABLE) || defined(LA_STATS)   // readers: a plain cached load (see linked_list.glsl)

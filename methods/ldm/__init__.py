@@ -45,7 +45,13 @@ Parameter               Default   Paper    Meaning
 ``resolution``          128       200, 50  texels per side of each LDM
 ``bias``                0.25               self-intersection bias along the ray, in LDM texels
 ``crease``              0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
-``pool``                grow               pool sizing: grow | count | fixed (count: linked only)
+``pool``                grow               pool sizing: grow | count | fixed | lazy (count: linked only;
+                                           lazy: no read-back inside a build, docs/fast_builds.md)
+``build``               raster    raster   fragments from: raster (hardware, per map) | one_pass
+                                           (archer2019, not conservative) | splat (compute, same
+                                           fragments as raster; long triangles on the hardware)
+``assembly``            direct             linear layout: direct (count, scan, fill, sort) | sort
+                                           (one pass of (list, depth) pairs, scan, scatter, sort)
 ``pool_capacity``       0                  nodes for ``fixed`` (and first size for ``grow``)
 ``sorted_insert``       True      True     lock-free sorted insert; False = yang2010 + sort pass
 ``max_list``            64                 register-array length of the sort passes (longer: slow path)
@@ -115,7 +121,13 @@ class LdmParams(ParamsBase):
     bias: float = param(0.25, "self-intersection bias along the ray, in LDM texels", lo=0.0, hi=64.0)
     crease: float = param(0.5, "crease window behind the point, in LDM texels (0 = plain skip rule)",
                           lo=0.0, hi=64.0, paper=0)
-    pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed", choices=POLICIES)
+    pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed / lazy (sized from the "
+                      "previous build: no read-back inside a build)", choices=POLICIES)
+    build: str = param("raster", "fragments from the hardware raster per map, the one-pass raster (not "
+                       "conservative) or the compute splat (same fragments as raster)",
+                       choices=("raster", "one_pass", "splat"), paper="raster")
+    assembly: str = param("direct", "linear layout: count + fill passes, or one pass of (list, depth) pairs "
+                          "sorted by list", choices=("direct", "sort"))
     pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per texel)", lo=0)
     sorted_insert: bool = param(True, "lock-free sorted insert (PSPPSLL); False = yang2010 insert + sort pass",
                                 paper=True)
@@ -150,6 +162,8 @@ class LdmParams(ParamsBase):
         super().__post_init__()
         if self.layout == "linear" and self.pool == "count":
             raise LdbenchError("parameter pool='count' needs layout='linked' (linear arrays always count)")
+        if self.assembly == "sort" and self.layout != "linear":
+            raise LdbenchError("parameter assembly='sort' needs layout='linear'")
 
 
 class Ldm(Method):
@@ -169,6 +183,7 @@ class Ldm(Method):
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
         common = dict(layers=p.directions, width=p.resolution, pool=p.pool, pool_capacity=p.pool_capacity,
+                      build=p.build, assembly=p.assembly,
                       max_list=p.max_list, instanced=p.instanced, indexed=p.indexed, prefix="ldm.")
         if p.layout == "linked":
             common.update(sorted_insert=p.sorted_insert, aggregate=p.aggregate_atomics)

@@ -1,0 +1,124 @@
+// Compute-shader rasterizer of small triangles into a layered structure (methods/layered_builds.py,
+// build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
+// stored with the same ls_store as the hardware raster (layered_store.glsl).
+//
+// Coverage is the hardware's: window coordinates snapped to LS_SUBPIXEL_BITS of fixed point (round to
+// nearest even), samples at texel centres, exact integer edge functions, and a sample exactly on an edge
+// covered only when the hardware includes that class of edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1,
+// measured on this context by splat_probe.glsl). With the triangle taken counter-clockwise (GL window
+// coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge
+// going down is a left edge, going up a right edge. Zero-area triangles (after snapping) cover nothing.
+// Depth and clip z are the planes through the three (unsnapped) vertices evaluated at the texel centre,
+// as the hardware interpolates; a sample outside the near/far planes (|z| > 1) is dropped as clipping
+// would. Layers must be affine (w = 1, orthographic maps: checked on the host).
+//
+// Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
+// layer), exceeds splat_max texels is left to the hardware: the invocation of its first layer batch
+// appends its vertex indices to sp_large, the index list of an instanced indirect draw (the draw command
+// is sp_cmd; sp_cmd[0] counts the indices). splat_max <= 64 keeps every edge function within int32
+// (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
+//
+// Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
+// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT.
+#if defined(LL_AGGREGATE)
+#extension GL_ARB_shader_ballot : require
+#extension GL_ARB_gpu_shader_int64 : require
+#endif
+#define LL_WRITABLE 1
+#define LA_WRITABLE 1
+#include "layered.glsl"
+
+layout(local_size_x = 64) in;
+// geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
+layout(std430, binding = 8) readonly buffer SplatVertices { float sp_vtx[]; };
+layout(std430, binding = 10) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
+uniform ivec2 ls_size;       // W, H of one layer
+uniform uint ls_capacity;    // nodes / fragments the structure holds
+uniform uint n_triangles;
+uniform uint n_layers;
+uniform float splat_scale;   // texels per world unit, the largest of any layer
+uniform float splat_max;     // longest edge (texels) rasterized here
+#include "layered_store.glsl"
+
+const int SP_ONE = 1 << LS_SUBPIXEL_BITS;
+const int SP_HALF = SP_ONE >> 1;
+
+// 0 when a sample exactly on this edge (direction d, counter-clockwise triangle) is covered, else 1
+int sp_bias(ivec2 d) {
+    bool incl = d.y == 0 ? (d.x < 0 ? SPLAT_TOP != 0 : SPLAT_BOTTOM != 0)
+                         : (d.y < 0 ? SPLAT_LEFT != 0 : SPLAT_RIGHT != 0);
+    return incl ? 0 : 1;
+}
+
+void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
+    mat4 M = ls_layers[k].clip;
+    vec4 row = ls_layers[k].depth_row;
+    vec2 hs = vec2(ls_size) * 0.5;
+    vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
+    vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;   // window coordinates
+    vec2 lo = min(w0, min(w1, w2)), hi = max(w0, max(w1, w2));
+    if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return;
+    float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
+    float z0 = c0.z, z1 = c1.z, z2 = c2.z;
+    const float S = float(SP_ONE);
+    ivec2 f0 = ivec2(roundEven(w0 * S)), f1 = ivec2(roundEven(w1 * S)), f2 = ivec2(roundEven(w2 * S));
+    ivec2 a = f1 - f0, b = f2 - f0;
+    int area = a.x * b.y - a.y * b.x;
+    if (area == 0) return;
+    if (area < 0) {   // counter-clockwise
+        ivec2 ti = f1; f1 = f2; f2 = ti;
+        vec2 tw = w1; w1 = w2; w2 = tw;
+        float t = d1; d1 = d2; d2 = t;
+        t = z1; z1 = z2; z2 = t;
+    }
+    ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
+    int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
+    ivec2 fmin = min(f0, min(f1, f2)), fmax = max(f0, max(f1, f2));
+    // texel centres i * ONE + HALF inside [fmin, fmax] (arithmetic shifts: floor for negatives too)
+    ivec2 i0 = max((fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS, ivec2(0));
+    ivec2 i1 = min((fmax - SP_HALF) >> LS_SUBPIXEL_BITS, ls_size - 1);
+    vec2 A = w1 - w0, B = w2 - w0;
+    float af = A.x * B.y - A.y * B.x;
+    vec2 dd = vec2(0.0), dz = vec2(0.0);
+    if (af != 0.0) {
+        dd = vec2((d1 - d0) * B.y - (d2 - d0) * A.y, (d2 - d0) * A.x - (d1 - d0) * B.x) / af;
+        dz = vec2((z1 - z0) * B.y - (z2 - z0) * A.y, (z2 - z0) * A.x - (z1 - z0) * B.x) / af;
+    }
+    for (int y = i0.y; y <= i1.y; ++y) {
+        for (int x = i0.x; x <= i1.x; ++x) {
+            ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
+            int E0 = e0.x * (p.y - f0.y) - e0.y * (p.x - f0.x);
+            int E1 = e1.x * (p.y - f1.y) - e1.y * (p.x - f1.x);
+            int E2 = e2.x * (p.y - f2.y) - e2.y * (p.x - f2.x);
+            if (E0 < b0 || E1 < b1 || E2 < b2) continue;
+            vec2 q = vec2(x, y) + 0.5 - w0;
+            if (abs(z0 + dot(dz, q)) > 1.0) continue;
+            ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, q), normal, material);
+        }
+    }
+}
+
+void main() {
+    uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
+    uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
+    uint stride = gl_NumWorkGroups.x * 64u;
+    for (uint t = gl_GlobalInvocationID.x; t < n_triangles; t += stride) {
+        uint o = 21u * t;
+        vec3 v0 = vec3(sp_vtx[o], sp_vtx[o + 1u], sp_vtx[o + 2u]);
+        vec3 v1 = vec3(sp_vtx[o + 7u], sp_vtx[o + 8u], sp_vtx[o + 9u]);
+        vec3 v2 = vec3(sp_vtx[o + 14u], sp_vtx[o + 15u], sp_vtx[o + 16u]);
+        float e = max(max(distance(v0, v1), distance(v1, v2)), distance(v2, v0));
+        if (!(e * splat_scale <= splat_max)) {   // large (or not finite): the hardware's
+            if (gl_WorkGroupID.y == 0u) {
+                uint i = atomicAdd(sp_cmd[0], 3u);
+                sp_large[i] = 3u * t;
+                sp_large[i + 1u] = 3u * t + 1u;
+                sp_large[i + 2u] = 3u * t + 2u;
+            }
+            continue;
+        }
+        vec3 normal = vec3(sp_vtx[o + 3u], sp_vtx[o + 4u], sp_vtx[o + 5u]);
+        uint material = uint(sp_vtx[o + 6u] + 0.5);
+        for (uint k = k0; k < k1; ++k) sp_layer(k, v0, v1, v2, normal, material);
+    }
+}

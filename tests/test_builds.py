@@ -1,0 +1,319 @@
+"""Build variants of the layered structures (methods/layered_builds.py, docs/fast_builds.md): every variant
+stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
+vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, zero-area and sliver
+triangles, triangles larger than the map, a triangle crossing the far plane); the sort assembly, the lazy
+pool policy (no read-back inside a build), and LDM AO images across builds."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from harness.errors import LdbenchError
+from harness.scene import Camera, Mesh, Scene
+from methods.gbuffer import SceneGeometry
+from methods.layered import make_structure
+from methods.layered_builds import fill_rule, list_counts, rule_from_probe
+
+W = H = 32
+T = 2.0 / W  # one texel in NDC (= world units in layer 0)
+
+
+def centre(i, j):
+    """World (x, y) of texel centre (i, j) of layer 0."""
+    return (i + 0.5) * T - 1.0, (j + 0.5) * T - 1.0
+
+
+def _mesh(name, tris, mid_z=0.0):
+    v = np.asarray(tris, np.float64).reshape(-1, 3)
+    return Mesh(name, v.astype(np.float32), np.arange(len(v), dtype=np.int32).reshape(-1, 3))
+
+
+def edge_case_scene() -> Scene:
+    rng = np.random.default_rng(14)
+    ms = []
+    # shared edges through texel centres: a grid of triangles whose vertices are texel centres of layer 0
+    # (horizontal, vertical and diagonal edges), both diagonals, and a fan of slopes 1/2, 2, 3/1 from one
+    # centre (edges spanning several texels pass through interior centres)
+    grid = []
+    for i in range(2, 12, 2):
+        for j in range(2, 12, 2):
+            (x0, y0), (x1, y1) = centre(i, j), centre(i + 2, j + 2)
+            z = 0.05 * (i - j) / 10
+            if (i + j) % 4:
+                grid += [[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y0, z], [x1, y1, z], [x0, y1, z]]
+            else:
+                grid += [[x0, y0, z], [x1, y0, z], [x0, y1, z], [x1, y0, z], [x1, y1, z], [x0, y1, z]]
+    fan = []
+    c = centre(20, 20)
+    ring = [centre(20 + a, 20 + b) for a, b in ((4, 2), (2, 4), (-2, 4), (-4, 2), (-3, -1), (-1, -3), (2, -4),
+                                                  (4, -2))]
+    for a, b in zip(ring, ring[1:] + ring[:1]):
+        fan += [[*c, -0.2], [*a, -0.1], [*b, 0.1]]
+    ms += [_mesh("grid", grid), _mesh("fan", fan)]
+    # vertices a fraction of a sub-pixel step (1/256 texel) off texel centres: snapping decides
+    snap = []
+    for n, d in enumerate((1 / 1024, -1 / 1024, 3 / 1024, -3 / 1024, 5 / 1024)):
+        i = 3 + 5 * n
+        (x0, y0), (x1, y1) = centre(i, 24), centre(i + 3, 27)
+        e = d * T
+        snap += [[x0 + e, y0 - e, 0.3], [x1 - e, y0 + e, 0.3], [x0 - e, y1 + e, 0.3]]
+    ms.append(_mesh("snap", snap))
+    # zero-area triangles (collinear through centres, a repeated vertex, a point) and slivers
+    deg = []
+    (x0, y0), (x1, y1) = centre(2, 28), centre(8, 28)
+    deg += [[x0, y0, 0.1], [x1, y1, 0.2], [(x0 + x1) / 2, y0, 0.15]]
+    deg += [[x0, y0 - 2 * T, 0.1], [x0, y0 - 2 * T, 0.1], [x1, y1 - 3 * T, 0.2]]
+    deg += [[x1, y1 - 5 * T, 0.1]] * 3
+    deg += [[x0, y0 - 7 * T, 0.0], [x1, y0 - 7 * T + T / 600, 0.0], [x1 + 2 * T, y0 - 7 * T, 0.1]]
+    ms.append(_mesh("degenerate", deg))
+    # small random triangles all over the map (some partly outside), tilted in depth
+    p = rng.uniform(-1.1, 1.1, (700, 1, 3)) + rng.normal(0, 1.2 * T, (700, 3, 3))
+    p[..., 2] = np.clip(rng.uniform(-0.8, 0.8, (700, 1)) + rng.normal(0, 0.05, (700, 3)), -0.95, 0.95)
+    ms.append(_mesh("random", p))
+    # larger than the map, and larger than splat_max while overlapping it partly
+    big = [[-3.0, -3.0, 0.45], [3.0, -2.5, 0.5], [-2.0, 3.0, 0.55],
+           [0.4, 0.1, -0.6], [1.7, 0.3, -0.5], [0.9, 1.6, -0.4]]
+    ms.append(_mesh("large", big))
+    # crossing the far plane of layer 0 (clip z = z / 2 > 1 beyond z = 2), the clip line far from centres
+    ms.append(_mesh("far", [[-0.4, -0.9, 1.9], [-0.1, -0.9, 1.9], [-0.25, -0.55, 2.3]]))
+    return Scene("edge_cases", ms, Camera((0, 0, 5), (0, 0, 0)))
+
+
+def edge_case_layers():
+    """Layer 0: along z (world x, y = NDC), depth z. Layer 1: mirrored in x, depth −2z + 1. Layer 2: a
+    general orthographic direction. All affine."""
+    c0 = np.eye(4)
+    c0[2, 2] = 0.5
+    c1 = c0.copy()
+    c1[0, 0] = -1.0
+    q, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))
+    c2 = np.eye(4)
+    c2[:3, :3] = q.T * np.array([[0.8], [0.8], [0.5]])
+    rows = np.array([[0, 0, 1, 0], [0, 0, -2, 1], [*q[:, 2], 0.25]], float)
+    return np.stack([c0, c1, c2]), rows
+
+
+@pytest.fixture(scope="module")
+def scene_geo(gpu):
+    res = gpu.resources()
+    geo = SceneGeometry(gpu, edge_case_scene(), res)
+    yield gpu, geo, res
+    res.release()
+
+
+def build(scene_geo, layout, name, **kw):
+    gpu, geo, res = scene_geo
+    s = make_structure(layout, gpu, geo, res, layers=3, width=W, height=H, prefix=f"b.{name}.", **kw)
+    s.set_layers(*edge_case_layers())
+    s.build()
+    return s
+
+
+def multisets(s):
+    """Per list (layer-major, OpenGL rows), the sorted depths."""
+    return [sorted(d) for layer in s.lists() for row in layer for d in row]
+
+
+@pytest.fixture(scope="module")
+def reference(scene_geo):
+    s = build(scene_geo, "linear", "ref")
+    st = s.stats()
+    assert s.invariants(st) == [] and st["fragments"] > 2000
+    return multisets(s), st
+
+
+def assert_same_lists(ref, got, what):
+    assert len(ref) == len(got)
+    bad = [i for i, (a, b) in enumerate(zip(ref, got)) if len(a) != len(b)]
+    assert not bad, f"{what}: {len(bad)} lists differ in length, first list {bad[0]}: {ref[bad[0]]} vs {got[bad[0]]}"
+    a = np.concatenate([x for x in ref if x])
+    b = np.concatenate([x for x in got if x])
+    np.testing.assert_allclose(b, a, atol=5e-4, err_msg=what)  # NVIDIA interpolates to ~1.7e-4
+
+
+def test_fill_rule_covers_every_shared_edge_once(gpu):
+    r = fill_rule(gpu)
+    assert r["top"] != r["bottom"] and r["left"] != r["right"] and r["subpixel_bits"] >= 4
+
+
+def _probe(bottom, left, top, cw_same=True):
+    """Synthetic probe texels of a rule (bits 1, 2: counter-clockwise A, B; 4, 8: clockwise A, B)."""
+    px = np.zeros((4, 4), np.uint32)
+    for t, same in ((0, True), (1, cw_same)):
+        a, b = 1 << 2 * t, 1 << 2 * t + 1
+        bo, le = (bottom, left) if same else (1 - bottom, left)
+        px[1, 2] |= a * bo
+        px[2, 1] |= a * le
+        px[2, 2] |= a * (1 - le) | b * le
+        px[3, 2] |= b * top
+        px[2, 3] |= b * (1 - le)
+    return px
+
+
+def test_fill_rule_probe_is_decoded_and_checked():
+    assert rule_from_probe(_probe(1, 1, 0)) == {"top": False, "bottom": True, "left": True, "right": False}
+    assert rule_from_probe(_probe(0, 0, 1)) == {"top": True, "bottom": False, "left": False, "right": True}
+    for bad in (_probe(1, 1, 1), _probe(0, 1, 0), _probe(1, 1, 0, cw_same=False)):
+        with pytest.raises(LdbenchError, match="fill rule"):
+            rule_from_probe(bad)
+
+
+VARIANTS = {
+    "splat-linear": ("linear", dict(build="splat")),
+    "splat-linked-sorted": ("linked", dict(build="splat")),
+    "splat-linked-yang": ("linked", dict(build="splat", sorted_insert=False)),
+    "splat-linked-count": ("linked", dict(build="splat", pool="count")),
+    "splat-sort": ("linear", dict(build="splat", assembly="sort")),
+    "raster-sort": ("linear", dict(assembly="sort")),
+    "splat-batch2-max2.5": ("linear", dict(build="splat", splat_batch=2, splat_max=2.5)),
+    "splat-linked-lazy": ("linked", dict(build="splat", pool="lazy", sorted_insert=False)),
+    "splat-sort-lazy": ("linear", dict(build="splat", assembly="sort", pool="lazy")),
+    "raster-linear-lazy": ("linear", dict(pool="lazy")),
+}
+
+
+@pytest.mark.parametrize("name", list(VARIANTS))
+def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, name):
+    layout, kw = VARIANTS[name]
+    s = build(scene_geo, layout, name, **kw)
+    s.build()  # twice: the lazy policies size the second build from the first
+    assert_same_lists(reference[0], multisets(s), name)
+    st = s.stats()
+    assert s.invariants(st) == [] and st["fragments"] == reference[1]["fragments"]
+    assert st["unsorted_lists"] == 0 and st["build_variant"] == kw.get("build", "raster")
+    if kw.get("build") == "splat":
+        assert st["splat_large_triangles"] == expected_large(kw.get("splat_max", 16.0))
+
+
+def expected_large(splat_max):
+    """Triangles whose longest edge spans more than splat_max texels in some layer (16 texels per unit)."""
+    v, f, _, _ = edge_case_scene().merged()
+    p = v[f].astype(np.float64)
+    e = np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).max(1)
+    return int((e * W / 2 > splat_max).sum())
+
+
+def test_splat_leaves_long_triangles_to_the_hardware(scene_geo, reference):
+    """With splat_max = 1 texel most triangles take the hardware path; the lists stay the same."""
+    s = build(scene_geo, "linear", "max1", build="splat", splat_max=1.0)
+    assert_same_lists(reference[0], multisets(s), "splat_max=1")
+    assert s.stats()["splat_large_triangles"] == expected_large(1.0) > scene_geo[1].triangles // 2
+
+
+def test_payload_travels_with_the_splat_and_the_sort(scene_geo):
+    ref = build(scene_geo, "linear", "pref", payload=("material", "normal"))
+    want = [sorted((round(z, 4), w) for z, w in d) for layer in ref.lists(payload=True) for row in layer for d in row]
+    for name, layout, kw in (("psplat", "linked", dict(build="splat")),
+                             ("psort", "linear", dict(build="splat", assembly="sort"))):
+        s = build(scene_geo, layout, name, payload=("material", "normal"), **kw)
+        got = [sorted((round(z, 4), w) for z, w in d) for layer in s.lists(payload=True) for row in layer for d in row]
+        assert sum(a != b for a, b in zip(want, got)) <= 2, name  # rounding at the 4th decimal may split a tie
+
+
+def test_one_pass_coverage_difference_is_measured(scene_geo, reference):
+    """The one-pass raster is not conservative: list_counts gives its missing and extra fragments."""
+    s = build(scene_geo, "linear", "onepass", build="one_pass")
+    ref = build(scene_geo, "linear", "ref2")
+    a, b = list_counts(ref), list_counts(s)
+    np.testing.assert_array_equal(a, [len(x) for x in reference[0]])
+    missing, extra = int(np.maximum(a - b, 0).sum()), int(np.maximum(b - a, 0).sum())
+    assert missing > 0 and extra > 0  # the tilted layer 2 both loses and gains fragments
+    assert b.sum() == s.stats()["fragments"]
+
+
+def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scene_geo):
+    """pool = lazy: after the first build no read-back happens inside a build stage; when the scene grows
+    (here: the layers zoomed 2x, more fragments) that build overflows and says so, the next one fits."""
+    gpu = scene_geo[0]
+    for layout, kw in (("linked", dict(sorted_insert=False)), ("linear", {}), ("linear", dict(assembly="sort"))):
+        s = build(scene_geo, layout, f"lazy{layout}{len(kw)}", pool="lazy", build="splat", **kw)
+        n0 = s.stats()["fragments"]
+        reads = []
+        inside = [False]
+        bufs = [b for b in vars(s).values() if hasattr(b, "read") and hasattr(b, "glo")] + list(
+            getattr(s, "node_pages", []))
+        originals = {id(b): b.read for b in bufs}
+
+        def spy(b):
+            def read(*a, **k):
+                reads.append(inside[0])
+                return originals[id(b)](*a, **k)
+            return read
+
+        def stage(name):
+            from contextlib import contextmanager
+
+            @contextmanager
+            def cm():
+                inside[0] = True
+                yield
+                inside[0] = False
+            return cm()
+
+        for b in bufs:
+            b.read = spy(b)
+        clip, rows = edge_case_layers()
+        zoom = clip.copy()
+        zoom[:, :2, :] *= 2.0
+        s.set_layers(zoom, rows)
+        s.build(stage)
+        st = s.stats()
+        assert st["overflow"] > 0 and any("not stored" in v for v in s.invariants(st)), layout
+        s.build(stage)
+        st = s.stats()
+        assert s.invariants(st) == [] and st["fragments"] > n0, layout
+        assert reads and not any(reads), f"{layout}: {sum(reads)} read-backs inside a build stage"
+        for b in bufs:
+            b.read = originals[id(b)]
+
+
+def test_sort_assembly_overflow_is_reported(scene_geo, reference):
+    s = build(scene_geo, "linear", "sortfixed", assembly="sort", pool="fixed", pool_capacity=500)
+    st = s.stats()
+    assert st["fragments"] == reference[1]["fragments"] and st["fragments_stored"] == 500
+    assert st["overflow"] == st["fragments"] - 500 and st["linked_nodes"] == 500
+    got = multisets(s)
+    assert sum(len(d) for d in got) == 500
+    for want, have in zip(reference[0], got):  # every stored fragment is one of its list's
+        for z in have:
+            assert any(abs(z - w) < 5e-4 for w in want)
+
+
+def test_build_arguments(scene_geo):
+    gpu, geo, res = scene_geo
+    with pytest.raises(LdbenchError, match="linear layout"):
+        make_structure("linked", gpu, geo, res, layers=1, width=4, assembly="sort")
+    with pytest.raises(LdbenchError, match="assembly"):
+        make_structure("linear", gpu, geo, res, layers=1, width=4, assembly="radix")
+    with pytest.raises(LdbenchError, match="splat_max"):
+        make_structure("linear", gpu, geo, res, layers=1, width=4, build="splat", splat_max=100)
+    s = make_structure("linear", gpu, geo, res, layers=1, width=4, build="splat", prefix="b.persp.")
+    persp = np.eye(4)
+    persp[3] = [0, 0, -1, 0]
+    s.set_layers(persp[None], np.array([[0, 0, 1, 0]]))
+    with pytest.raises(LdbenchError, match="affine"):
+        s.build()
+
+
+def test_ldm_ao_is_the_same_image_with_every_build(gpu):
+    from harness.effects import Effect
+    from methods.base import View
+    from methods.ldm import Ldm, LdmParams
+    from testkit import cornell_like
+
+    sc = cornell_like(light=False)
+    view = View(sc.camera, 48, 48)
+    eff = Effect("ao", d_max=1.0, falloff="quadratic")
+    imgs = {}
+    for name, kw in {"raster": {}, "splat": dict(build="splat"), "splat-linear-sort": dict(
+            layout="linear", build="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
+            layout="linear", assembly="sort", pool="lazy")}.items():
+        m = Ldm(LdmParams(directions=24, resolution=48, **kw))
+        m.setup(gpu, sc)
+        for _ in range(2):
+            r = m.frame(view, eff)
+        imgs[name] = np.asarray(r.image() if callable(r.image) else r.image, np.float64)
+        assert m.ls.invariants(m.ls.stats()) == [], name
+        m.release()
+    for name, im in imgs.items():
+        assert np.abs(im - imgs["raster"]).max() <= 1e-5, name
