@@ -93,7 +93,8 @@ def receiver_radiance(points, n=32, nphi=256):
 def test_registered_and_params():
     assert "indirect" in Ldm.effects and {"ao", "rays"} <= Ldm.effects
     p = LdmParams()
-    assert (p.photons, p.footprint_scale, p.max_splat_px, p.splat, p.refine_hit) == (128, 8.0, 400.0, "blend", True)
+    assert (p.photons, p.footprint_scale, p.max_splat_px, p.splat, p.refine_hit, p.rotation) == \
+        (128, 2.0, 400.0, "blend", True, "incident")
     with pytest.raises(LdbenchError, match="splat"):
         LdmParams(splat="bogus")
     with pytest.raises(LdbenchError, match="photons"):
@@ -113,8 +114,8 @@ def test_closed_form_quadrature_converged():
 def test_closed_form_and_flux(gpu):
     """Receiver radiance vs the closed form on receiver pixels within 0.9 of the axis (the border of the
     image lacks the splats of photons that land off screen: discarded, as §4.2 step b says). 256 LDMs of
-    64², R = 48, 48². Measured on llvmpipe: mean |relative error| 0.0194 (p95 0.0385), ratio of sums
-    1.00003, emitted flux 3.39371 vs 3.39476 analytic (3e-4: the cone's edge is sampled at texel centres)."""
+    64², R = 48, 48². Measured on llvmpipe: mean |relative error| 0.0241 (p95 0.0557), ratio of sums
+    1.0015, emitted flux 3.39371 vs 3.39476 analytic (3e-4: the cone's edge is sampled at texel centres)."""
     (r,) = render(gpu, plates(), 48, directions=256, resolution=64, photons=48)
     c = r.counters
     assert c["power_emitted"] == pytest.approx(spot_flux(), rel=1e-3)
@@ -126,7 +127,7 @@ def test_closed_form_and_flux(gpu):
     got = r.image[..., 0][sel]
     assert np.allclose(r.image[..., 0], r.image[..., 1]) and sel.sum() > 1000
     rel = got / ref - 1
-    assert np.abs(rel).mean() < 0.022, np.abs(rel).mean()
+    assert np.abs(rel).mean() < 0.026, np.abs(rel).mean()
     assert abs(got.sum() / ref.sum() - 1) < 0.005, got.sum() / ref.sum()
     assert r.invariants == []
 
@@ -154,12 +155,11 @@ FACES = [((0, 2, 0), (0, 0, -1)), ((1, 1, 0), (0, 1, 0)), ((-1, 1, 0), (0, 1, 0)
 def test_energy_closed_cube(gpu):
     """Σ over the five views of the splatted power (irradiance π L / albedo × pixel area (2/size)², every
     face is 1 from the eye and square to it) equals the photon power × albedo. 64 LDMs of 32², R = 96,
-    footprint 2, 64². Measured: splatted / reflected 0.9978 (the rest: splats cut at the cube's edges),
-    stored / reflected 1.00006; nothing escapes or is dropped."""
+    64². Measured: splatted / reflected 0.9937 (the rest: splats cut at the cube's edges), stored /
+    reflected 1.00007; nothing escapes or is dropped."""
     size = 64
     views = [Camera((0, 1, 0), t, u, 90.0) for t, u in FACES]
-    rs = render(gpu, closed_cube(), size, views=views, directions=64, resolution=32, photons=96,
-                footprint_scale=2.0)
+    rs = render(gpu, closed_cube(), size, views=views, directions=64, resolution=32, photons=96)
     splatted = 0.0
     for r in rs:
         pos, _, alb = r.gbuf
@@ -186,66 +186,77 @@ def _rotate(q, v):
     return v + 2 * np.cross(q[:3], np.cross(q[:3], v) + q[3] * v)
 
 
-def expected_differentials(scene, R, n_maps, photons, axes, rotate=True):
+def expected_differentials(scene, R, n_maps, photons, axes, mode="incident"):
     """(D_u x₂, D_v x₂) of each stored photon, from the geometry: the offset rays through the light texel's
-    edge midpoints (u ± ½, v ± ½) hit the emitter plane y = 0, are turned by the *same* rotation that takes
-    the central ray's direction d₁ to the photon's direction d₂ (§3.4: α depends on neither x nor d), and
-    meet the receiver plane y = H. Central differences; first-order agreement expected."""
+    edge midpoints (u ± ½, v ± ½) hit the emitter plane y = 0, leave it along their own direction mapped by
+    the *same* linear map as the central ray (§3.4: α depends on neither x nor d) and meet the receiver
+    plane y = H; central differences (first order). The map takes the central d₁ to the photon's d₂:
+    ``propagation``: the rotation α(d₁, d₂); ``incident``: α(−d₁, d₂) after mirroring d through the plane
+    normal to d₁ (d ↦ α (d − 2(d·d₁)d₁) ᾱ: the map whose derivative is the engine's α(−d₁, d₂) D d);
+    ``none``: D d₂ = D d₁ (a broken rotation)."""
     light = scene.lights[0]
     r, u, f = light_camera(light).basis()
     T = math.tan(math.radians(light.cutoff_angle))
     step = 2 * T / R
     pos = np.array(light.position)
     ids = photons[:, 15].view(np.uint32)
-    texel, k = ids // n_maps, ids % n_maps
     out = []
-    for t, kk, ph in zip(texel, k, photons):
+    for t, kk in zip(ids // n_maps, ids % n_maps):
         i, j = t % R, t // R
-        n1 = np.array([0.0, 1.0, 0.0])
-        v = axes[kk] * np.sign(axes[kk] @ n1)
+        v = axes[kk] * np.sign(axes[kk][1])  # the emitter's normal is +y
 
-        def hit(si, sj):
+        def ray(si, sj):
             d = f + ((i + 0.5 + si) * step - T) * r + ((j + 0.5 + sj) * step - T) * u
             d = d / np.linalg.norm(d)
-            x1 = pos + d * (-pos[1] / d[1])
-            return x1, d
+            return pos + d * (-pos[1] / d[1]), d
 
-        x1c, d1c = hit(0, 0)
-        q = _quat(d1c, v) if rotate else np.array([0.0, 0.0, 0.0, 1.0])
+        _, d1c = ray(0, 0)
         ends = []
         for si, sj in ((0.5, 0), (-0.5, 0), (0, 0.5), (0, -0.5)):
-            x1, d1 = hit(si, sj)
-            d2 = _rotate(q, d1)
+            x1, d1 = ray(si, sj)
+            if mode == "propagation":
+                d2 = _rotate(_quat(d1c, v), d1)
+            elif mode == "incident":
+                d2 = _rotate(_quat(-d1c, v), d1 - 2 * (d1 @ d1c) * d1c)
+            else:
+                d2 = v + (d1 - d1c)
             ends.append(x1 + d2 * ((H - x1[1]) / d2[1]))
         out.append((ends[0] - ends[1], ends[2] - ends[3]))
     return np.array(out)
 
 
-def test_photon_differentials_follow_the_rotated_rays(gpu):
+@pytest.mark.parametrize("rotation", ["incident", "propagation"])
+def test_photon_differentials_follow_the_reflected_rays(gpu, rotation):
     """An oblique spot (light at (-0.5, 0.6, 0.2)) so that d₁ is far from every ±v_k: the GPU's
-    differentials (transfer to x₁, rotation α(d₁, d₂), transfer to x₂) match the finite differences of the
-    rotated offset rays (measured relative error: median 0.0002, p99 0.0023, max 0.0124 — second-order
-    terms, largest for the smaller of the two vectors); without the rotation (D d₂ = D d₁) every photon is
-    off by more than 100 % (measured min 1.11, median 1.28), so a broken rotation fails this test."""
+    differentials (transfer to x₁, diffuse reflection, transfer to x₂) match the finite differences of the
+    offset rays under the same map (measured relative error: incident median 2.0e-4, max 8.1e-4;
+    propagation median 1.9e-4, p99 2.3e-3, max 1.2e-2 — second-order terms, largest for the shorter
+    vector). The other reading is off by more than 50 % on every photon (measured min 0.51 / 0.66); no
+    rotation at all by more than 50 % on every photon of the propagation reading and, for the incident
+    one (a mirror, so near-mirror bounces barely turn the differential), by a median of 15 % and more
+    than 5 % on 80 % of the photons: a broken rotation fails this test."""
     from methods.directions import ldm_axes
 
     scene = plates(light_pos=(-0.5, 0.6, 0.2), light_target=(0.1, 0.0, 0.0), cutoff=20.0, beam=15.0)
     R, N = 16, 16
     got = {}
-    render(gpu, scene, 32, directions=N, resolution=64, photons=R,
+    render(gpu, scene, 32, directions=N, resolution=64, photons=R, rotation=rotation,
            keep=lambda m: got.update(photons=m.indirect.photon_array()))
     ph = got["photons"]
-    assert len(ph) > 200
-    ph = ph[np.abs(ph[:, 1] - H) < 1e-4]  # photons on the receiver
-    want = expected_differentials(scene, R, N, ph, ldm_axes(N))
+    assert len(ph) > 200 and np.allclose(ph[:, 1], H, atol=1e-4)  # every photon on the receiver
     have = np.stack([ph[:, 4:7], ph[:, 8:11]], axis=1)
+    want = expected_differentials(scene, R, N, ph, ldm_axes(N), rotation)
     scale = np.linalg.norm(want, axis=2)
     err = np.linalg.norm(have - want, axis=2) / scale
     assert np.median(err) < 0.001 and np.percentile(err, 99) < 0.005 and err.max() < 0.02, \
         (np.median(err), np.percentile(err, 99), err.max())
-    unrotated = expected_differentials(scene, R, N, ph, ldm_axes(N), rotate=False)
-    off = np.linalg.norm(have - unrotated, axis=2).max(axis=1) / scale.max(axis=1)
-    assert off.min() > 0.5, off.min()
+    for other in {"incident", "propagation", "none"} - {rotation}:
+        wrong = expected_differentials(scene, R, N, ph, ldm_axes(N), other)
+        off = np.linalg.norm(have - wrong, axis=2).max(axis=1) / scale.max(axis=1)
+        if other == "none" and rotation == "incident":  # a near-mirror bounce barely turns the differential
+            assert np.median(off) > 0.1 and (off > 0.05).mean() > 0.75, (np.median(off), (off > 0.05).mean())
+        else:
+            assert off.min() > 0.5, (other, off.min())
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -265,27 +276,26 @@ def cornell_runs(gpu):
 
 
 def test_cornell_against_mitsuba(cornell_runs):
-    """48², 1024-spp reference; 128 LDMs of 64², R = 96, footprint 8: PSNR 26.2 dB, SSIM 0.846 measured
-    (peak = the reference's maximum), coverage 1, mean 11 % below the reference (splats cut at creases
-    and photons discarded behind occluders lose power near them: docs/ldm_indirect.md)."""
+    """48², 1024-spp reference; 128 LDMs of 64², R = 96: PSNR 29.47 dB, SSIM 0.900 measured (peak = the
+    reference's maximum), coverage 1, mean 4.7 % below the reference (splats cut at creases and photons
+    discarded behind occluders lose power near them: docs/ldm_indirect.md)."""
     scene, ref, blend, _ = cornell_runs
     s = IND.spec.score(blend[-1], ref, scene=scene, inputs=None, stage_ms={})
-    assert s["psnr"] >= 25.9 and s["ssim"] >= 0.83, (s["psnr"], s["ssim"])
+    assert s["psnr"] >= 29.2 and s["ssim"] >= 0.89, (s["psnr"], s["ssim"])
     assert s["coverage"] == 1.0
     m = ref.mask
-    assert 0.85 < blend[-1].image[m].mean() / ref.mean[m].mean() < 1.0
+    assert 0.93 < blend[-1].image[m].mean() / ref.mean[m].mean() < 1.0
 
 
 def test_blend_and_atomic_splats_agree(cornell_runs):
     """Same photons, two accumulations: the raster path decides coverage of the projected quads with the
     rasterizer's fixed-point edges, the atomic path with exact edge functions at pixel centres. Measured:
-    median per-pixel relative difference 6e-7 (summation order), mean absolute difference 0.6 % of the mean
-    radiance, 76 % of it in 50 pixels: needle-thin splats (huge E, docs/ldm_indirect.md) whose coverage
-    flips between the two."""
+    median per-pixel relative difference 2e-7 (summation order), mean absolute difference 0.06 % of the
+    mean radiance (thin splats whose coverage flips between the two)."""
     _, ref, blend, atomic = cornell_runs
     a, b = blend[-1].image, atomic.image
     rel = np.abs(a - b).sum(-1) / np.maximum(a.sum(-1), 1e-6)
-    assert np.median(rel) < 1e-5 and np.abs(a - b).mean() / a.mean() < 0.01
+    assert np.median(rel) < 1e-5 and np.abs(a - b).mean() / a.mean() < 0.005
     assert atomic.counters["photons_stored"] == blend[-1].counters["photons_stored"]
 
 
@@ -339,24 +349,25 @@ def test_fig10_published_numbers_and_ci_run(tmp_path):
     assert all(c["verdict"] != NOT_MEASURED for c in res["claims"]), res["claims"]
 
 
-MAXPX = 17.5  # about the median splat (diagonals: 10 % 14.1 px, 50 % 17.4 px, 90 % 20.9 px)
+MAXPX = 20.5  # about the median splat (diagonals: 10 % 16.0 px, 50 % 20.5 px, 90 % 23.1 px)
 
 
 def test_largest_splat_kept(gpu):
     """max_splat_px: the geometry shader drops a splat whose screen rectangle's diagonal exceeds it (or with a
     corner behind the eye); the statistics pass counts them, and numpy finds the same splats from the stored
-    photons. The dropped power is missing from the image (closed-form scene, 48²). Measured: 9148 of 18564
-    splats dropped by both, 0.77686 vs 0.77688 W; image power 0.517 of the full one, kept power 0.514."""
+    photons. The dropped power is missing from the image (closed-form scene, 48², footprint 8). Measured:
+    9292 of 18564 splats dropped by both, 0.83011 vs 0.83013 W; image power 0.492 of the full one, kept
+    power 0.480 (splats cut by the image border make up the difference)."""
     scene, got = plates(), {}
 
     def keep(m):
         got.update(ph=m.indirect.photon_array(), vp=m.gbuf.view_proj(View(scene.camera, 48, 48)))
 
-    kw = dict(directions=64, resolution=64, photons=32)
+    kw = dict(directions=64, resolution=64, photons=32, footprint_scale=8.0)
     (full,) = render(gpu, scene, 48, **kw)
     (cut,) = render(gpu, scene, 48, max_splat_px=MAXPX, keep=keep, **kw)
     ph, vp = got["ph"], got["vp"]
-    s = LdmParams().footprint_scale
+    s = kw["footprint_scale"]
     x, du, dv = ph[:, :3], ph[:, 4:7] * s, ph[:, 8:11] * s
     corners = np.stack([x - du / 2 - dv / 2, x + du / 2 - dv / 2, x - du / 2 + dv / 2, x + du / 2 + dv / 2], 1)
     clip = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], -1) @ vp.T
@@ -369,4 +380,4 @@ def test_largest_splat_kept(gpu):
     flux = ph[:, [3, 7, 11]].mean(1)
     assert c["power_splats_clipped"] == pytest.approx(flux[dropped].sum(), rel=0.01)
     kept = 1 - c["power_splats_clipped"] / c["power_stored"]
-    assert cut.image.sum() / full.image.sum() == pytest.approx(kept, abs=0.01)
+    assert cut.image.sum() / full.image.sum() == pytest.approx(kept, abs=0.02)

@@ -192,8 +192,9 @@ AALUND2015_FIG8_REAL = Reproduction(
 
 
 # Figure 10 (§4.2, §5.2): indirect light. R (photons) is not published; the author's engine hard-codes a
-# 100 × 100 light view (photon_tracing.fragment.glsl). footprint_scale 2 is the best of 1, 2, 4 measured
-# on the atrium with these maps (docs/ldm_indirect.md); "large" is 4× that, "small" half with R doubled.
+# 100 × 100 light view (photon_tracing.fragment.glsl). footprint_scale 1 is the best of 1, 2, 4 measured
+# on the atrium with these maps (docs/ldm_indirect.md); "large" is 4× that, "small" doubles R (half the
+# splat size, four times the photons).
 _FIG10_LDM = {"directions": 512, "resolution": 200}
 _FIG10 = {"scene": "atrium", "method": "ldm", "effect": "indirect"}
 
@@ -209,21 +210,27 @@ AALUND2015_FIG10 = Reproduction(
     rows=(
         {"id": "a", "label": "Fig. 10(a) LDM indirect light",
          "paper_setup": "Crytek Sponza, 512 LDMs of 200×200; photon tracing 2062 ms of the total",
-         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 2.0, "splat": "blend"}},
+         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 1.0, "splat": "blend",
+                                         "rotation": "incident"}},
          "time_ms": 2413.0, "memory_mb": 805.5},
         {"id": "c", "label": "Fig. 10(c) LDM indirect light",
          "paper_setup": "as (a), another view of Sponza; photon tracing 1434 ms of the total",
-         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 2.0, "splat": "blend"}},
+         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 1.0, "splat": "blend",
+                                         "rotation": "incident"}},
          "time_ms": 1716.0, "memory_mb": 805.5},
         {"id": "atomic", "label": "splatting with atomics (§5.2 text)",
          "paper_setup": "tracing and splatting in one fragment pass with atomic image load/store (no numbers)",
-         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 2.0, "splat": "atomic"}}},
+         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 1.0, "splat": "atomic"}}},
         {"id": "large", "label": "large splats (4×)",
          "paper_setup": "\"the large photon splats blur the indirect shadows\" (§5.2)",
-         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 8.0}}},
+         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 4.0}}},
         {"id": "small", "label": "smaller splats, more photons",
          "paper_setup": "\"reduced by using a smaller splat size and increasing the photon count\" (§5.2)",
          "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 200, "footprint_scale": 1.0}}},
+        {"id": "propagation", "label": "differential turned by α(d₁, d₂)",
+         "paper_setup": "§3.4 read literally: d* = α d ᾱ takes d₁ to d₂ (the engine: α(−d₁, d₂))",
+         "match": {**_FIG10, "params": {**_FIG10_LDM, "photons": 100, "footprint_scale": 1.0,
+                                         "rotation": "propagation"}}},
         {"id": "ao", "label": "Fig. 8(a) LDM AO, same maps",
          "paper_setup": "Crytek Sponza, 512 LDMs of 200×200, d_max = 1280 m (attenuated)",
          "match": {"scene": "atrium", "method": "ldm", "effect": "ao", "d_max": FIG8_D_MAX, "falloff": "quadratic",
@@ -262,9 +269,12 @@ AALUND2015_FIG10 = Reproduction(
         "Our stage times (light_raster, trace, splat in the run's stage_ms) check the claim 'splatting is the "
         "bottleneck, LDM tracing is cheap'; this table cannot (it compares total times), "
         "scripts/gpu/issue12.sh prints that verdict.",
-        "R (photons) is not published: 100, the author's engine's light view. footprint_scale 2: the best PSNR "
+        "R (photons) is not published: 100, the author's engine's light view. footprint_scale 1: the best PSNR "
         "of 1, 2, 4 on the atrium with 512 LDMs of 200² (llvmpipe, 400², docs/ldm_indirect.md); the engine's "
-        "splats are about 24 light texels wide, beyond the 'large' row's 8.",
+        "splats are about 24 light texels wide, beyond the 'large' row's 4.",
+        "The diffuse reflection of the differential: α(ω_i, d₂) with ω_i = −d₁ (the incident direction, as the "
+        "author's engine; our default) in every row but 'propagation' (ω_i = d₁, §3.4's d* = α d ᾱ read "
+        "literally), which turns diverging beams into line foci (docs/ldm_indirect.md).",
         "Memory: the caption's 805.5 MB is the LDMs; ours is every allocation (LDMs, photon buffer, "
         "G-buffers).",
     ),

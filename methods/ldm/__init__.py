@@ -61,12 +61,13 @@ Parameter               Default   Paper    Meaning
 ``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                            photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
 ``photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
-``footprint_scale``     8.0       ≈24      (indirect) multiplies the photon differentials before splatting
+``footprint_scale``     2.0       ≈24      (indirect) multiplies the photon differentials before splatting
 ``differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
 ``max_splat_px``        400       400      (indirect) largest splat kept: screen diagonal in pixels
 ``topology_bias``       1.0                (indirect) the paper's a: off-plane cut-off, per footprint size
 ``visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
 ``refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
+``rotation``            incident  (engine) (indirect) differential turned by α(−d₁, d₂), or α(d₁, d₂) (propagation)
 ``splat``               blend     blend    (indirect) additive blending, or float atomics in a compute pass
 ======================  ========  =======  ========================================================
 """
@@ -141,7 +142,7 @@ class LdmParams(ParamsBase):
                            paper="paper")
     photons: int = param(128, "indirect: light raster side R (one photon per texel inside the spot cone)",
                          lo=4, hi=4096, paper="not published (the author's engine: 100)")
-    footprint_scale: float = param(8.0, "indirect: multiplies the photon differentials before splatting",
+    footprint_scale: float = param(2.0, "indirect: multiplies the photon differentials before splatting",
                                    lo=1e-3, hi=1e4, paper="engine: 2000 per far-plane unit, about 24 light texels")
     differential_bias: float = param(1.0, "indirect: a photon whose positional differential has a component "
                                      "above this fraction of the scene's bounding radius is dropped", lo=0.0,
@@ -155,6 +156,11 @@ class LdmParams(ParamsBase):
     refine_hit: bool = param(True, "indirect: move the second hit along the ray onto the tangent plane of the "
                              "camera pixel that sees it (False: the map's texel-centre depth, as the paper)",
                              paper=False)
+    rotation: str = param("incident", "indirect: the diffuse reflection of the directional differential, "
+                          "alpha(w_i, d2) with w_i = -d1 (incident: pointing back to the light, as the author's "
+                          "engine; keeps a diverging beam diverging) or w_i = d1 (propagation: d* = alpha d "
+                          "alpha-bar taking d1 to d2)", choices=("incident", "propagation"),
+                          paper="w_i 'the incoming direction' (engine: incident)")
     splat: str = param("blend", "indirect: additive blending of rasterized quads, or float atomics in a "
                        "compute pass", choices=("blend", "atomic"), paper="blend")
 

@@ -11,7 +11,8 @@ Per frame, after the camera G-buffer and the LDM build of the adapter (stages):
 ``trace``         ``photon_trace.glsl``: flux I·falloff·Ω_texel, ray differential of the texel, transfer
                   to x₁, split into the N map directions in x₁'s hemisphere (weights albedo·cos, see
                   ``estimator``), second hit x₂ by the LDM two-way query, camera visibility (G-buffer),
-                  diffuse reflection of the differential (rotation α(d₁, d₂)), transfer to x₂, store.
+                  diffuse reflection of the differential (the rotation α(ω_i, d₂) taking ω_i = −d₁,
+                  or d₁ with ``rotation = "propagation"``, to d₂), transfer to x₂, store.
                   The photon buffer grows like the LDM pool: the count is read back after the trace; a
                   buffer too small is re-allocated to the count and the trace redone (counted in
                   ``photon_trace_passes``); one more than twice too large is shrunk before the next frame.
@@ -94,7 +95,8 @@ class IndirectLight:
         self.n_stored = 0
         self.splat_prog = self.gpu.program(ldm.shader("photon_splat.glsl"))
         self.splat_cs = self._compute("photon_splat.glsl", {"SPLAT_ATOMIC": 1}) if self.p.splat == "atomic" else None
-        self.trace_defines = {**ldm.ls.defines(), "REFINE_HIT": int(self.p.refine_hit)}
+        self.trace_defines = {**ldm.ls.defines(), "REFINE_HIT": int(self.p.refine_hit),
+                              "ROTATE_INCIDENT": int(self.p.rotation == "incident")}
         self.trace_cs = self.gpu.compute(ldm.shader("photon_trace.glsl"), self.trace_defines)
 
     # ---- buffers ---------------------------------------------------------------------------------

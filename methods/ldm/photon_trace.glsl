@@ -14,7 +14,10 @@
 //      b. project x2 into the camera; discard it unless the G-buffer pixel shows x2's surface (x2 within
 //         vis_tol of the pixel's tangent plane) from the side the photon arrives on; REFINE_HIT = 1: move x2
 //         along d2 onto that plane
-//      c. rotate the directional differential by alpha(d1, d2) (the paper's diffuse reflection)
+//      c. diffuse reflection of the directional differential: rotated by alpha(w_i, d2), the quaternion
+//         taking w_i to d2, with ROTATE_INCIDENT = 1: w_i = -d1 (the author's engine; with the fixed
+//         sign flip of the reversed direction this is a mirror reflection, det -1), else w_i = d1 (a proper
+//         rotation, det +1, which turns one axis of a diverging beam into a converging one: line foci)
 //      d. transfer the differential to x2's tangent plane; drop a photon whose positional differential
 //         has a component above diff_max (the differential bias)
 //      e. store (binding 14), counting with one atomicAdd; beyond `capacity` photons are counted, not stored
@@ -166,7 +169,11 @@ void trace_texel(ivec2 p) {
         x2 = x1 + t2 * d2;
 #endif
         // c. diffuse reflection of the differential, d. transfer to x2
-        vec4 q = quat_between(d1, d2);
+#if ROTATE_INCIDENT
+        vec4 q = quat_between(-d1, d2);   // w_i = -d1, pointing back to the light (the author's engine)
+#else
+        vec4 q = quat_between(d1, d2);    // w_i = d1: d* = alpha d alpha-bar takes d1 to d2
+#endif
         vec3 du = dx1u, dv = dx1v;
         transfer(du, dv, quat_rotate(q, ddu), quat_rotate(q, ddv), d2, n2, t2);
         float m = max(max(max(abs(du.x), abs(du.y)), abs(du.z)), max(max(abs(dv.x), abs(dv.y)), abs(dv.z)));

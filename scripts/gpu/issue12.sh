@@ -36,7 +36,7 @@ if [ "${ISSUE12_DRY:-0}" != 1 ]; then
     step "$TESTS" pytest $PY -m pytest -q -p no:cacheprovider tests/test_ldm_indirect.py
 fi
 
-# 2. stage times, memory, counters at $SIZE: atrium (Fig. 10's maps, R = 100, footprint 2) and cornell
+# 2. stage times, memory, counters at $SIZE: atrium (Fig. 10's maps, R = 100, footprint 1) and cornell
 #    (the adapter's defaults but 512 maps of 200²), blend and atomic splats
 cat > "$W/stages.toml" <<EOF
 [suite]
@@ -56,7 +56,7 @@ methods = ["ldm"]
 directions = $D
 resolution = $RES
 photons = $R_ATR
-footprint_scale = 2.0
+footprint_scale = 1.0
 splat = ["blend", "atomic"]
 
 [[run]]
@@ -146,7 +146,8 @@ for run in ("stages", "fig10"):
             lines.append(f"| {r['scene']} | {r['effect']} | {r['params']} | {r['status']} |")
             continue
         st, c, p, mem = js(r["stage_ms"]), js(r["counters"]), js(r["params"]), js(r["memory"])
-        names = ("directions", "resolution") + (("photons", "footprint_scale", "splat") if r["effect"] == "indirect" else ())
+        names = ("directions", "resolution") + (("photons", "footprint_scale", "rotation", "splat")
+                                                if r["effect"] == "indirect" else ())
         keep = {k: p[k] for k in names if k in p}
         ldm = sum(v for k, v in mem.items() if "ldm." in k) / 2**20
         pho = sum(v for k, v in mem.items() if "photons." in k) / 2**20
@@ -169,17 +170,17 @@ lines += ["blur proxy: Σ|∇L| / Σ|∇L_ref| of the luminance after 4×4 box a
 (out / "issue12.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
 
-# a strip: Fig. 10's blend rows by footprint (small: 1, (a): 2, large: 8), then the reference (downscaled)
+# a strip: Fig. 10's blend rows by footprint and R, then the reference (downscaled)
 try:
     import matplotlib.image as mpimg
     df = pd.read_csv(work / "fig10" / "results.csv")
     rows = [(js(r["params"]), js(r["images"])) for _, r in df[df["effect"] == "indirect"].iterrows()]
-    rows = sorted((p["footprint_scale"], p["photons"], im) for p, im in rows
+    rows = sorted((p["footprint_scale"], p["photons"], p.get("rotation", "incident"), im) for p, im in rows
                   if p.get("splat", "blend") == "blend" and im.get("image"))
-    tiles = [mpimg.imread(work / "fig10" / im["image"])[..., :3] for _, _, im in rows]
-    names = [f"footprint {fs:g}, R = {r}" for fs, r, _ in rows]
+    tiles = [mpimg.imread(work / "fig10" / im["image"])[..., :3] for *_, im in rows]
+    names = [f"footprint {fs:g}, R = {r}, {rot}" for fs, r, rot, _ in rows]
     if rows:
-        tiles.append(mpimg.imread(work / "fig10" / rows[0][2]["reference"])[..., :3])
+        tiles.append(mpimg.imread(work / "fig10" / rows[0][-1]["reference"])[..., :3])
         names.append("reference")
         step = max(1, tiles[0].shape[0] // 300)
         strip = np.concatenate([t[::step, ::step] for t in tiles], 1)
