@@ -83,6 +83,17 @@ def test_rays_against_the_oracle(gpu, cornell, rays_case):
     np.testing.assert_array_equal(got["one_pass"], got["split"])
 
 
+@pytest.mark.parametrize("direction_set,n", [("stacks_slices", 169), ("stacks_slices", 32), ("eqsp", 128)])
+def test_nearest_direction_lookups_equal_the_scan(gpu, cornell, rays_case, direction_set, n):
+    """The O(1) nearest-direction lookups (the (θ, φ) grid of stacks × slices, the cube table of the zonal
+    set) answer every ray as the scan of all directions does."""
+    e, batch, _ = rays_case
+    kw = dict(direction_set=direction_set, directions=n, resolution=32)
+    fast = run(gpu, cornell, e, batch, **kw).arrays["t"]
+    scan = run(gpu, cornell, e, batch, lookup="scan", **kw).arrays["t"]
+    np.testing.assert_array_equal(fast, scan)
+
+
 @pytest.fixture(scope="module")
 def lit(gpu, cornell):
     """One indirect frame of cornell kept open for inspection (range from the CDI, 64² RSM)."""

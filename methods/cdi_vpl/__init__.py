@@ -52,6 +52,7 @@ Parameter          Default         Paper           Meaning
 ``max_list``       32                              register-sort length (longer lists: exact slow path)
 ``cdi``            frame           frame           build the CDI every frame | once in setup (static)
 ``bias``           0.25                            self-intersection bias, in CDI texels
+``lookup``         auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
 ``range``          cdi             cdi             cdi | random | exact (Mitsuba, once in setup)
 ``r_min``          0.01                            random range: lower bound × scene diagonal
 ``r_max``          0.25                            random range: upper bound × scene diagonal
@@ -75,11 +76,11 @@ import numpy as np
 
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
-from methods.directions import ldm_axes, stacks_slices
+from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from methods.layered import bounding_sphere, make_structure
 from methods.ldm import ldm_layers
 
-B_AXES, B_RANGES, B_RAYS, B_HITS = 11, 13, 20, 21
+B_AXES, B_LUT, B_RANGES, B_RAYS, B_HITS = 11, 12, 13, 20, 21
 RAY_BYTES = 48
 
 
@@ -98,6 +99,9 @@ class CdiVplParams(ParamsBase):
     cdi: str = param("frame", "build the CDI every frame, or once in setup (static scene)",
                      choices=("frame", "static"), paper="frame")
     bias: float = param(0.25, "self-intersection bias along the ray, in CDI texels", lo=0.0, hi=64.0)
+    lookup: str = param("auto", "nearest direction of a ray: from the (theta, phi) grid (stacks_slices) or a "
+                        "cube table of candidates (eqsp), or a scan of all directions", choices=("auto", "scan"),
+                        paper="closest matching direction")
     range: str = param("cdi", "VPL ranges from the CDI raycast, random, or exact (Mitsuba, in setup)",
                        choices=("cdi", "random", "exact"), paper="cdi (random: the baseline)")
     r_min: float = param(0.01, "random range: lower bound, x scene diagonal", lo=0.0, hi=10.0)
@@ -145,6 +149,7 @@ class CdiVpl(Method):
         self._out: dict = {}
         self._exact_cache = None
         self._geometry_released = False
+        self._choose_lookup()
         if p.range == "cdi":
             self._cdi()
             gpu.compute(self.shader("trace.glsl"), {**self.cdi_defines(), "CDI_VPL": 1})  # compiled untimed
@@ -168,18 +173,45 @@ class CdiVpl(Method):
         return self.cdi_struct
 
     def cdi_defines(self) -> dict:
-        return self._cdi().defines()
+        d = self._cdi().defines()
+        if self._lookup == "grid":
+            d["CDI_GRID_LOOKUP"] = 1
+        elif self._lookup == "table":
+            d["CDI_TABLE_LOOKUP"] = 1
+        return d
+
+    def _choose_lookup(self):
+        """The nearest-direction lookup (``lookup = "auto"``): the (θ, φ) grid for stacks × slices, a cube
+        table of candidates for the zonal set (the scan where no table of ≤ 4 candidates exists)."""
+        p = self.params
+        self._lookup, self.lut_buf, self.lut_res = "scan", None, 0
+        if p.lookup == "scan":
+            return
+        if p.direction_set == "stacks_slices":
+            self._lookup = "grid"
+            return
+        for res in (128, 256):
+            try:
+                table = nearest_axis_table(self.axes, res)
+            except ValueError:
+                continue
+            self._lookup, self.lut_res = "table", res
+            self.lut_buf = self.res.buffer("cdi.lookup_table", table)
+            return
 
     def bind_cdi(self, cs):
         """CDI uniforms and buffers of a program that includes cdi_trace.glsl."""
         p = self.params
         for name, v in (("cdi_centre", tuple(float(x) for x in self.centre)), ("cdi_radius", float(self.radius)),
                         ("cdi_size", (p.resolution, p.resolution)), ("cdi_dirs", p.directions),
-                        ("cdi_bias", p.bias * self.texel), ("cdi_spread", 1.0 if p.build == "one_pass" else 0.0)):
+                        ("cdi_bias", p.bias * self.texel), ("cdi_spread", 1.0 if p.build == "one_pass" else 0.0),
+                        ("cdi_grid", stacks_slices_shape(p.directions)), ("cdi_lut_res", self.lut_res)):
             if name in cs:
                 cs[name].value = v
         self.cdi_struct.bind()
         self.axes_buf.bind_to_storage_buffer(B_AXES)
+        if self.lut_buf is not None:
+            self.lut_buf.bind_to_storage_buffer(B_LUT)
 
     def _build_cdi(self):
         if self.params.cdi == "frame":

@@ -31,14 +31,64 @@ uniform uint cdi_dirs;
 uniform float cdi_bias;
 uniform float cdi_spread;
 
-// The deep image whose direction is nearest to d; sigma = +1 along v, -1 against it.
+// The deep image whose direction is nearest to d (largest |d · v_k|); sigma = +1 along v, -1 against it.
+//   CDI_GRID_LOOKUP   stacks × slices directions (cdi_grid = (stacks, slices)): the candidates are the 3 × 3
+//                     cells of the (θ, φ) grid around d flipped to the upper hemisphere, and the 2 × 3 cells
+//                     of the two rings above the equator around φ + π (d near the equator: its nearest axis
+//                     can be on the other side); equal to the full scan on 2·10⁶ random directions for every
+//                     shape of 1 to 4096 directions tried (tests/test_cdi_vpl.py checks it on the GPU)
+//   CDI_TABLE_LOOKUP  any set: ≤ 4 candidates per cell of a half cube (methods/directions.py nearest_axis_table)
+//   otherwise         a scan of all cdi_dirs directions
+#if defined(CDI_GRID_LOOKUP)
+uniform ivec2 cdi_grid;
+#elif defined(CDI_TABLE_LOOKUP)
+layout(std430, binding = 12) readonly buffer CdiLut { uvec4 cdi_lut[]; };
+uniform int cdi_lut_res;
+#endif
+void cdi_try(uint k, vec3 d, inout float bc, inout uint best, inout float sigma) {
+    float c = dot(d, cdi_axes[k].v.xyz);
+    if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
+}
 uint cdi_nearest(vec3 d, out float sigma) {
     uint best = 0u;
     float bc = -1.0;
-    for (uint k = 0u; k < cdi_dirs; ++k) {
-        float c = dot(d, cdi_axes[k].v.xyz);
-        if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
+    sigma = 1.0;
+#if defined(CDI_GRID_LOOKUP)
+    const float TWO_PI = 6.28318530717958648;
+    int S = cdi_grid.x, L = cdi_grid.y;
+    vec3 e = d.y < 0.0 ? -d : d;
+    float th = acos(clamp(e.y, -1.0, 1.0));
+    float ph = atan(e.z, e.x);
+    if (ph < 0.0) ph += TWO_PI;
+    int i = clamp(int(floor(th / (0.25 * TWO_PI) * float(S))), 0, S - 1);
+    int j = int(floor(ph / TWO_PI * float(L))) % L;
+    float po = ph + 0.5 * TWO_PI;
+    if (po >= TWO_PI) po -= TWO_PI;
+    int jo = int(floor(po / TWO_PI * float(L))) % L;
+    for (int di = -1; di <= 1; ++di) {
+        int ii = i + di;
+        if (ii < 0 || ii >= S) continue;
+        for (int dj = -1; dj <= 1; ++dj) cdi_try(uint(ii * L + (j + dj + L) % L), d, bc, best, sigma);
     }
+    for (int di = 0; di <= 1; ++di) {
+        int ii = S - 1 - di;
+        if (ii < 0) continue;
+        for (int dj = -1; dj <= 1; ++dj) cdi_try(uint(ii * L + (jo + dj + L) % L), d, bc, best, sigma);
+    }
+#elif defined(CDI_TABLE_LOOKUP)
+    vec3 ad = abs(d);
+    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
+    vec3 e = d[a] >= 0.0 ? d : -d;
+    vec2 uv = vec2(e[(a + 1) % 3], e[(a + 2) % 3]) / e[a];
+    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(cdi_lut_res))), ivec2(0), ivec2(cdi_lut_res - 1));
+    uvec4 cand = cdi_lut[(a * cdi_lut_res + ij.x) * cdi_lut_res + ij.y];
+    for (int s = 0; s < 4; ++s) {
+        if (cand[s] == 0xFFFFFFFFu) break;
+        cdi_try(cand[s], d, bc, best, sigma);
+    }
+#else
+    for (uint k = 0u; k < cdi_dirs; ++k) cdi_try(k, d, bc, best, sigma);
+#endif
     return best;
 }
 
