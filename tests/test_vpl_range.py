@@ -5,7 +5,8 @@ against the closed form (oracle and CDI), the random baseline, the metrics, an e
 Broken on purpose once each (and seen failing): the azimuth step 2π/6 instead of 2π/5 in vpl.glsl fails
 ``test_glsl_rays_equal_numpy``; the reverse walk of cdi_trace.glsl reading t = depth − zx fails
 ``test_box_ranges_against_the_closed_form``; no self-intersection offset (``cdi_spread`` and
-``cdi_bias`` 0) fails it too (self hits at t ≈ 0); ``u`` unscaled in the random range fails
+``cdi_bias`` 0) fails it too (self hits at t ≈ 0), so does the mean of six divided by five;
+``u`` unscaled in the random range fails
 ``test_random_range_is_uniform_in_its_bounds``.
 """
 from __future__ import annotations
