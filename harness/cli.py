@@ -148,7 +148,6 @@ def _reference_args(p):
 
 
 def _reference(args):
-    from references import render_reference
     from .scenes import load_scene
     from .suite import parse_size
 
@@ -156,10 +155,16 @@ def _reference(args):
     w, h = parse_size(args.size)
     check_budget(w, h, _int(args.spp, "--spp", 1, MAX_SPP))
     effect = _effect_from(args)
+    spec = effect.spec
+    if spec.output != "image":
+        raise LdbenchError(f"ldbench reference writes images; effect {effect.name!r} is answered per "
+                           f"{spec.output[:-1]} by its oracle inside `ldbench run`")
     scene = load_scene(args.scene, **_scene_params(args.scene_set))
     for w_ in scene.warnings:
         print(f"warning: {w_}", file=sys.stderr)
-    ref = render_reference(scene, effect, width=w, height=h, spp=args.spp, cache=not args.no_cache)
+    effect.check_scene(scene)
+    ref = spec.reference(scene, effect, width=w, height=h, spp=args.spp, seed=0,
+                         inputs=spec.inputs(scene, w, h, effect.params, 0), cache=not args.no_cache)
     m = ref.meta
     took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "

@@ -293,3 +293,14 @@ def test_compare_checks_the_schema(tmp_path):
     df.drop(columns=["psnr"]).to_csv(tmp_path / "base.csv", index=False)
     rc, _, se = run_cli("compare", str(tmp_path / "base.csv"), str(out))
     assert_one_line_error(rc, se, "no column 'psnr'")
+
+
+def test_reference_of_every_image_effect(tmp_path, capsys):
+    """`ldbench reference` goes through the effect's own reference (oit has no Mitsuba image integrator
+    of the usual kind); per-ray effects are refused with one line."""
+    from harness.cli import main
+
+    assert main(["reference", "teapot", "--effect", "oit", "--size", "16x16", "--out", str(tmp_path / "o.exr")]) == 0
+    assert (tmp_path / "o.exr").exists()
+    assert main(["reference", "cornell", "--effect", "rays", "--size", "16x16"]) == 2
+    assert "per ray" in capsys.readouterr().err
