@@ -57,13 +57,14 @@ class Selection:
     pci_bus_id: str | None
     how: str  # "cuda" | "env" | "default"
     egl_devices: int = 0
+    pci_from: str | None = None  # "uuid" | "drm" (the EGL device's own) | "cuda_visible_devices"
 
     def columns(self) -> dict:
         """``egl_device`` (the index actually used: glcontext's default is 0 when devices exist),
-        ``cuda_device``, ``pci_bus_id``, and ``egl_selection`` (how it was chosen)."""
+        ``cuda_device``, ``pci_bus_id``, ``egl_selection`` (how it was chosen) and ``pci_from``."""
         used = self.egl_device if self.egl_device is not None else (0 if self.egl_devices else None)
         return {"egl_device": used, "cuda_device": self.cuda_device, "pci_bus_id": self.pci_bus_id,
-                "egl_selection": self.how}
+                "egl_selection": self.how, "pci_from": self.pci_from}
 
 
 # ---- querying (ctypes) -------------------------------------------------------------------------------
@@ -194,15 +195,15 @@ def select(devices: list[EglDevice], *, env=None, gpus: list[dict] | None = None
             chosen, how = by_cuda[0], "cuda"
     used = chosen if chosen is not None else 0
     dev = next((d for d in devices if d.index == used), None)
-    pci = None
-    if dev is not None:  # the device's own identity first
-        if dev.uuid:
-            pci = next((g["pci_bus_id"] for g in gpus if g["uuid"].lower() == dev.uuid.lower()), None)
-        if pci is None:
-            pci = pci_of_drm(dev.drm)
-    if pci is None and how == "cuda" and given is not None:  # chosen as the CUDA_VISIBLE_DEVICES GPU
-        pci = next((g["pci_bus_id"] for g in gpus if given in (g["index"], g["uuid"])), None)
-    return Selection(chosen, given, pci, how, len(devices))
+    found = []  # (source, pci bus id): the device's own identity first
+    if dev is not None and dev.uuid:
+        found += [("uuid", g["pci_bus_id"]) for g in gpus if g["uuid"].lower() == dev.uuid.lower()]
+    if dev is not None:
+        found.append(("drm", pci_of_drm(dev.drm)))
+    if how == "cuda" and given is not None:  # chosen as the CUDA_VISIBLE_DEVICES GPU
+        found += [("cuda_visible_devices", g["pci_bus_id"]) for g in gpus if given in (g["index"], g["uuid"])]
+    source, pci = next(((s, p) for s, p in found if p), (None, None))
+    return Selection(chosen, given, pci, how, len(devices), source)
 
 
 def select_device(libegl: str | None = None) -> Selection:

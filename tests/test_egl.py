@@ -29,7 +29,7 @@ def test_cuda_visible_gpu_maps_to_its_egl_device_not_the_same_index():
     assert (sel.egl_device, sel.how, sel.cuda_device) == (0, "cuda", "2")
     assert sel.pci_bus_id == "0000:3a:00.0"  # from the EGL device's own UUID
     assert sel.columns() == {"egl_device": 0, "cuda_device": "2", "pci_bus_id": "0000:3a:00.0",
-                             "egl_selection": "cuda"}
+                             "egl_selection": "cuda", "pci_from": "uuid"}
 
 
 def test_all_gpus_visible_picks_cuda_ordinal_zero():
@@ -43,10 +43,10 @@ def test_pci_from_drm_then_from_cuda_visible_devices():
     seen = []
     sel = select(devices, env={"CUDA_VISIBLE_DEVICES": "1"}, gpus=SMI,
                  pci_of_drm=lambda d: seen.append(d) or ("0000:2a:00.0" if d else None))
-    assert (sel.egl_device, sel.pci_bus_id, seen) == (1, "0000:2a:00.0", ["/dev/dri/card3"])
+    assert (sel.egl_device, sel.pci_bus_id, sel.pci_from, seen) == (1, "0000:2a:00.0", "drm", ["/dev/dri/card3"])
     sel = select(devices, env={"CUDA_VISIBLE_DEVICES": "GPU-00000000-0000-0000-0000-0000000000a1"},
                  gpus=SMI, pci_of_drm=lambda d: None)  # nothing from EGL: the given GPU's (by UUID)
-    assert sel.pci_bus_id == "0000:2a:00.0"
+    assert (sel.pci_bus_id, sel.pci_from) == ("0000:2a:00.0", "cuda_visible_devices")
 
 
 def test_no_nvidia_device_keeps_the_default():
@@ -93,12 +93,13 @@ def test_this_machine_query_and_context(monkeypatch):
     calls = []
     real = moderngl.create_standalone_context
     monkeypatch.setattr(moderngl, "create_standalone_context", lambda **kw: calls.append(kw) or real(**kw))
-    monkeypatch.setattr(egl, "select_device", lambda: Selection(len(devices) - 1, "7", "0000:99:00.0", "cuda", 1))
+    monkeypatch.setattr(egl, "select_device",
+                        lambda: Selection(len(devices) - 1, "7", "0000:99:00.0", "cuda", 1, "uuid"))
     g = gpu_mod.Gpu()
     try:
         assert calls[-1]["device_index"] == len(devices) - 1
         assert g.device_columns == {"egl_device": len(devices) - 1, "cuda_device": "7",
-                                    "pci_bus_id": "0000:99:00.0", "egl_selection": "cuda"}
+                                    "pci_bus_id": "0000:99:00.0", "egl_selection": "cuda", "pci_from": "uuid"}
     finally:
         g.release()
     monkeypatch.setattr(egl, "select_device", lambda: (_ for _ in ()).throw(OSError("broken libEGL")))
