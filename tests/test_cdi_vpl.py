@@ -204,3 +204,18 @@ def test_static_cdi_releases_the_triangles(gpu, cornell):
     assert any(k.startswith("geometry.") for k in a.memory_bytes)
     assert b.counters["cdi_bytes"] <= sum(b.memory_bytes.values()) <= b.counters["cdi_bytes"] + 7 * 4 * len(batch) + 4096
     assert b.counters["max_list_length"] >= 2 and b.counters["overflow"] == 0
+
+
+def test_dispatches_beyond_the_group_limit(gpu, cornell, monkeypatch):
+    """Batches larger than one dispatch can hold (65535 groups) are covered by grid-stride loops: with the
+    limit lowered to 2 groups the raycast and the random ranges give the same answers."""
+    import methods.cdi_vpl as cdi
+
+    e = Effect("vpl_range", rsm=32)
+    batch = e.spec.inputs(cornell, 8, 8, e.params, 0)
+    want = [run(gpu, cornell, e, batch, size=8, range=r).arrays["range"] for r in ("cdi", "random")]
+    monkeypatch.setattr(cdi, "MAX_GROUPS", 2)
+    got = [run(gpu, cornell, e, batch, size=8, range=r).arrays["range"] for r in ("cdi", "random")]
+    assert len(batch) > 2 * 64 * 3
+    for a, b in zip(want, got):
+        np.testing.assert_array_equal(a, b)

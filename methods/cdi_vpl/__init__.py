@@ -82,6 +82,7 @@ from methods.ldm import ldm_layers
 
 B_AXES, B_LUT, B_RANGES, B_RAYS, B_HITS = 11, 12, 13, 20, 21
 RAY_BYTES = 48
+MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
 
 
 @dataclass(frozen=True)
@@ -244,7 +245,7 @@ class CdiVpl(Method):
     def _chunks(self, n_items: int, per_item_bytes: int):
         """Dispatch ranges [a, b) whose ray bindings stay below the SSBO size limit (offsets aligned)."""
         limit = int(self.gpu.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
-        step = max(256, (limit // per_item_bytes) // 256 * 256)
+        step = max(256, min(limit // per_item_bytes, 1 << 30) // 256 * 256)
         return [(a, min(a + step, n_items)) for a in range(0, n_items, step)]
 
     def _dispatch_rays(self, defines: dict, rays_buf, n_items: int, rays_per_item: int, extra=None):
@@ -260,7 +261,7 @@ class CdiVpl(Method):
             if "ranges" in self._out:
                 self._out["ranges"].bind_to_storage_buffer(B_RANGES, offset=a * 4, size=(b - a) * 4)
             cs["n_items"].value = b - a
-            cs.run(-(-(b - a) // 64))
+            cs.run(min(-(-(b - a) // 64), MAX_GROUPS))
         self.gpu.ctx.memory_barrier()
 
     def _vpl_range(self, effect, batch):
@@ -290,7 +291,7 @@ class CdiVpl(Method):
                 cs["r_min"].value = p.r_min * diag
                 cs["r_max"].value = p.r_max * diag
                 self._out["ranges"].bind_to_storage_buffer(B_RANGES)
-                cs.run(-(-n // 64))
+                cs.run(min(-(-n // 64), MAX_GROUPS))
                 gpu.ctx.memory_barrier()
         else:  # exact: Mitsuba once per batch (untimed), then a copy per frame
             if self._exact_cache is None or self._exact_cache[0] is not batch:

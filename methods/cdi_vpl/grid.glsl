@@ -24,11 +24,10 @@ layout(std430, binding = 14) readonly buffer Vpls { Vpl vpls[]; };
 layout(local_size_x = 64) in;
 uniform uint n_vpls;
 void main() {
-    uint j = gl_GlobalInvocationID.x;
-    if (j >= n_vpls) return;
+  for (uint j = gl_GlobalInvocationID.x; j < n_vpls; j += gl_NumWorkGroups.x * 64u) {  // grid-stride
     vec4 pr = vpls[j].pos_range;
     float r = pr.w;
-    if (!(r > 0.0)) return;
+    if (!(r > 0.0)) continue;
     ivec3 lo = grid_cell_of(pr.xyz - r), hi = grid_cell_of(pr.xyz + r);
     for (int z = lo.z; z <= hi.z; ++z)
         for (int y = lo.y; y <= hi.y; ++y)
@@ -46,5 +45,6 @@ void main() {
                 else atomicAdd(grid_overflow[0], 1u);
 #endif
             }
+  }
 }
 #endif

@@ -151,7 +151,7 @@ class VplLighting:
         fill_uint(gpu, self.grid_overflow, 4, 0)
         cs = gpu.compute(self.m.shader("grid.glsl"), {"GRID_COUNT": 1})
         self._grid_uniforms(cs)
-        cs.run(-(-self.n_vpls // 64))
+        cs.run(min(-(-self.n_vpls // 64), 65535))
         gpu.ctx.memory_barrier()
 
     def grid_scan(self):
@@ -166,7 +166,7 @@ class VplLighting:
     def grid_fill(self):
         cs = self.gpu.compute(self.m.shader("grid.glsl"), {"GRID_FILL": 1})
         self._grid_uniforms(cs)
-        cs.run(-(-self.n_vpls // 64))
+        cs.run(min(-(-self.n_vpls // 64), 65535))
         self.gpu.ctx.memory_barrier()
 
     def shade(self, view):

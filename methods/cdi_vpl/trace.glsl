@@ -11,7 +11,8 @@
 #include "cdi_trace.glsl"
 #endif
 layout(local_size_x = 64) in;
-uniform uint n_items;
+uniform uint n_items;      // items of this dispatch; grid-stride loops (a dispatch has at most 65535 groups)
+#define FOR_ITEMS(i) for (uint i = gl_GlobalInvocationID.x; i < n_items; i += gl_NumWorkGroups.x * 64u)
 layout(std430, binding = 13) writeonly buffer VplRangeOut { float vpl_range_out[]; };
 
 #if !defined(CDI_RANDOM)
@@ -30,29 +31,25 @@ float cdi_ray(uint r) {
 uniform uint seed;
 uniform float r_min, r_max;     // world units
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= n_items) return;
-    vpl_range_out[i] = r_min + vpl_hash01(i, seed) * (r_max - r_min);
+    FOR_ITEMS(i) vpl_range_out[i] = r_min + vpl_hash01(i, seed) * (r_max - r_min);
 }
 #elif defined(CDI_VPL)
 uniform float cap;
 uniform int range_max;
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= n_items) return;
-    float acc = 0.0;
-    for (uint k = 0u; k < 6u; ++k) {
-        float t = cdi_ray(6u * i + k);
-        ray_t[6u * i + k] = t;
-        float c = t < cap ? t : cap;
-        acc = range_max != 0 ? max(acc, c) : acc + c;
+    FOR_ITEMS(i) {
+        float acc = 0.0;
+        for (uint k = 0u; k < 6u; ++k) {
+            float t = cdi_ray(6u * i + k);
+            ray_t[6u * i + k] = t;
+            float c = t < cap ? t : cap;
+            acc = range_max != 0 ? max(acc, c) : acc + c;
+        }
+        vpl_range_out[i] = range_max != 0 ? acc : acc / 6.0;
     }
-    vpl_range_out[i] = range_max != 0 ? acc : acc / 6.0;
 }
 #else
 void main() {
-    uint r = gl_GlobalInvocationID.x;
-    if (r >= n_items) return;
-    ray_t[r] = cdi_ray(r);
+    FOR_ITEMS(r) ray_t[r] = cdi_ray(r);
 }
 #endif
