@@ -52,31 +52,32 @@ int sp_bias(ivec2 d) {
 
 void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     mat4 M = ls_layers[k].clip;
-    vec4 row = ls_layers[k].depth_row;
     vec2 hs = vec2(ls_size) * 0.5;
     vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
     vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;   // window coordinates
     vec2 lo = min(w0, min(w1, w2)), hi = max(w0, max(w1, w2));
     if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return;
-    float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
-    float z0 = c0.z, z1 = c1.z, z2 = c2.z;
     const float S = float(SP_ONE);
     ivec2 f0 = ivec2(roundEven(w0 * S)), f1 = ivec2(roundEven(w1 * S)), f2 = ivec2(roundEven(w2 * S));
     ivec2 a = f1 - f0, b = f2 - f0;
     int area = a.x * b.y - a.y * b.x;
     if (area == 0) return;
-    if (area < 0) {   // counter-clockwise
-        ivec2 ti = f1; f1 = f2; f2 = ti;
-        vec2 tw = w1; w1 = w2; w2 = tw;
-        float t = d1; d1 = d2; d2 = t;
-        t = z1; z1 = z2; z2 = t;
-    }
-    ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
-    int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
     ivec2 fmin = min(f0, min(f1, f2)), fmax = max(f0, max(f1, f2));
     // texel centres i * ONE + HALF inside [fmin, fmax] (arithmetic shifts: floor for negatives too)
     ivec2 i0 = max((fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS, ivec2(0));
     ivec2 i1 = min((fmax - SP_HALF) >> LS_SUBPIXEL_BITS, ls_size - 1);
+    if (any(greaterThan(i0, i1))) return;   // no texel centre in the box: most (triangle, layer) pairs
+    if (area < 0) {   // counter-clockwise
+        ivec2 ti = f1; f1 = f2; f2 = ti;
+        vec2 tw = w1; w1 = w2; w2 = tw;
+        vec4 tc = c1; c1 = c2; c2 = tc;
+        vec3 tv = v1; v1 = v2; v2 = tv;
+    }
+    ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
+    int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
+    vec4 row = ls_layers[k].depth_row;
+    float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
+    float z0 = c0.z, z1 = c1.z, z2 = c2.z;
     vec2 A = w1 - w0, B = w2 - w0;
     float af = A.x * B.y - A.y * B.x;
     vec2 dd = vec2(0.0), dz = vec2(0.0);

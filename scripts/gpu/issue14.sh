@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# GPU measurements of issue 14 (fast layered-structure builds; docs/fast_builds.md): aalund2015's Figure 8
+# configuration (512 LDMs of 200², atrium 260k, 800², quadratic d_max 10.32 m) with every build variant —
+# frame time, memory and PSNR (suites/fast-builds.toml) — the builds alone, against triangles (65k … 4M)
+# and against maps (32 … 1024), the fraction of the copy-bandwidth bound they reach, the one-pass raster's
+# coverage against the raster, the splat's tuning, and tests/test_builds.py on this GPU (the splat's
+# fragments identical to this GPU's hardware raster: its fill rule).
+#
+# Usage, from the project root with its Python environment set up:
+#     OUT=/some/dir bash scripts/gpu/issue14.sh
+# Outputs under "$OUT/issue14/": issue14.md (the summary, also printed) and issue14.tar.gz (CSVs, the two
+# figures, the Figure 8 results.csv, logs; < 1 MB). Every step runs under `timeout` (the limits add up to
+# 6 min) and a failing step does not stop the script; the bench parts write their rows as they go.
+# ISSUE14_DRY=1: a CPU-sized dry run (tiny scenes and maps, 32² frame) to test the script on llvmpipe.
+set -u
+O="${OUT:-/tmp/ldbench-gpu}/issue14"
+mkdir -p "$O"
+W="$(mktemp -d "${TMPDIR:-/tmp}/issue14.XXXXXX")"
+R="$W/issue14"
+mkdir -p "$R"
+: > "$R/log.txt"
+export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
+PY="${PYTHON:-python3}"
+LD="$PY -m harness.cli"
+DRY="${ISSUE14_DRY:-0}"
+K=1
+B=""
+SUITE=suites/fast-builds.toml
+RUNARGS=()
+if [ "$DRY" = 1 ]; then
+    K=4
+    B="--dry"
+    sed -e 's/triangles = 260000/triangles = 4000/' -e 's/^directions = 512/directions = 8/' \
+        -e 's/^resolution = 200/resolution = 32/' suites/fast-builds.toml > "$W/fast-builds.toml"
+    SUITE="$W/fast-builds.toml"
+    RUNARGS=(--size 32x32 --spp 4 --warmup 0 --frames 1)
+fi
+step() {  # step SECONDS NAME CMD...: run with a time limit (× K), log, continue on failure
+    local t=$(($1 * K)) name=$2; shift 2
+    echo "== $name: $*" >> "$R/log.txt"
+    local t0=$SECONDS
+    timeout "$t" "$@" > "$R/$name.log" 2>&1
+    local rc=$?
+    echo "   $name: rc=$rc in $((SECONDS - t0)) s (limit $t s)" | tee -a "$R/log.txt"
+}
+
+nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$R/gpu.txt" 2>&1
+step 10 probe $PY -c "from harness.gpu import Gpu; from methods.layered_builds import fill_rule
+g = Gpu(); print(g.info, g.device); print('fill rule', fill_rule(g))"
+# the splat's fragments against this GPU's hardware raster (edge cases: ties on texel centres, snapping)
+step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py
+B14="scripts/gpu/issue14_bench.py"
+step 10 bandwidth $PY "$B14" "$R" bandwidth $B
+# the Figure 8 frame with every variant (ldbench's runner: reference, PSNR, memory, invariants)
+step 100 fig8-frame $LD run "$SUITE" "${RUNARGS[@]}" --out "$W/fig8" --no-progress --no-report
+cp "$W/fig8/results.csv" "$R/fig8-results.csv" 2>/dev/null
+step 20 fig8-builds $PY "$B14" "$R" fig8 $B
+step 20 coverage $PY "$B14" "$R" coverage $B
+step 20 tune $PY "$B14" "$R" tune $B
+step 45 maps $PY "$B14" "$R" maps $B
+step 75 triangles $PY "$B14" "$R" triangles $B
+step 15 figures $PY scripts/gpu/issue14_figures.py "$R" "$W/fig8"
+
+cp "$R/issue14.md" "$O/issue14.md" 2>/dev/null
+tar -czf "$O/issue14.tar.gz" -C "$W" issue14
+echo
+echo "---- tests/test_builds.py on this GPU ----"
+tail -3 "$R/tests.log" 2>/dev/null
+echo "---- summary ----"
+cat "$R/issue14.md" 2>/dev/null || echo "(no summary: see the logs in $O/issue14.tar.gz)"
+rm -rf "$W"
+echo "outputs: $O ($(du -sh "$O" | cut -f1))"
