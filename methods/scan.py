@@ -17,8 +17,10 @@ BLOCK = 1024
 MAX_X = 65535
 
 
-def _groups(nb: int) -> tuple[int, int]:
-    """A 2D dispatch of at least ``nb`` workgroups (x < 65536); extra groups see elements >= n."""
+def groups_2d(nb: int) -> tuple[int, int]:
+    """A 2D dispatch of at least ``nb`` workgroups (x ≤ 65535, GL's guaranteed minimum per dimension);
+    shaders number their group ``gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x`` and skip
+    the extra ones."""
     if nb <= MAX_X:
         return nb, 1
     y = -(-nb // MAX_X)
@@ -55,7 +57,7 @@ class Scan:
             return
         nb = -(-n // BLOCK)
         sums = self._sum_buffer(level, nb)
-        gx, gy = _groups(nb)
+        gx, gy = groups_2d(nb)
         buffer.bind_to_storage_buffer(0)
         sums.bind_to_storage_buffer(1)
         self.blocks["n"].value = n

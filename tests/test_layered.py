@@ -188,3 +188,11 @@ def test_structure_arguments(setup):
     with pytest.raises(LdbenchError, match="set_layers"):
         s.build()
     assert s.defines()["LS_LAYOUT"] == LAYOUT_CODES["linear"]
+
+
+def test_groups_2d_cover_any_count():
+    from methods.scan import groups_2d
+
+    for nb in (1, 65535, 65536, 70493, 10 ** 7):
+        gx, gy = groups_2d(nb)
+        assert gx <= 65535 and gy <= 65535 and gx * gy >= nb and gx * (gy - 1) < nb

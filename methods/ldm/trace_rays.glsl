@@ -15,8 +15,8 @@ uniform float bias;       // world units
 layout(std430, binding = 12) writeonly buffer LdmAngle { float ldm_angle[]; };
 #endif
 
-void main() {
-    uint r = gl_GlobalInvocationID.x;
+void main() {   // a 2D grid of workgroups (methods/scan.py groups_2d): any number of rays
+    uint r = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationID.x;
     if (r >= n_rays) return;
     vec3 o = rays[r].o_tmax.xyz, d = rays[r].d.xyz, n = rays[r].n.xyz;
     float tmax = rays[r].o_tmax.w;
