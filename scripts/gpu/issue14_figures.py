@@ -58,14 +58,21 @@ def fig8_table(run_dir: Path) -> tuple[list[str], pd.DataFrame | None]:
     t["dpsnr"] = t.psnr - ref_psnr
     t = t.sort_values("total_ms")
     dev = f"{df.device.iloc[0]}: {df.gpu_name.iloc[0] or df.gl_renderer.iloc[0]}"
-    lines = [f"## Figure 8 frame (ldbench run suites/fast-builds.toml; {dev})", "",
+    r0 = df.iloc[0]
+    p0 = r0["params"] or {}
+    cfg = (f"{p0.get('directions')} maps of {p0.get('resolution')}², {r0['scene']} {r0['triangles']} triangles, "
+           f"{r0['width']}×{r0['height']}")
+    lines = [f"## Figure 8 frame ({cfg}; ldbench run suites/fast-builds.toml; {dev})", "",
              "Median frame time (ms), the build stages summed, memory of the method, PSNR against the same "
              "Mitsuba reference and its difference to today's build (raster/linked/grow).", "",
              md(t[["variant", "total_ms", "build_ms", "gbuffer_ms", "ao_ms", "memory_mb", "psnr", "dpsnr",
                    "fragments", "large_tris", "status"]]), "", "Stages (ms):", "",
              md(t[["variant", "stages"]]), ""]
     same = t[(t.dpsnr.abs() <= GOAL_DB) & (t.status == "ok")]
-    if len(same) and same.total_ms.iloc[0] <= GOAL_MS:
+    if df.device.iloc[0] == "cpu-software":
+        lines.append("Goal (<= 30 ms at the Figure 8 configuration): timing not measurable here (a software "
+                     "rasterizer: wall clock).")
+    elif len(same) and same.total_ms.iloc[0] <= GOAL_MS:
         b = same.iloc[0]
         lines.append(f"**Goal met** (<= {GOAL_MS:g} ms, |ΔPSNR| <= {GOAL_DB} dB): {b.variant}, "
                      f"{b.total_ms:.2f} ms, PSNR {b.psnr:.2f} dB (Δ {b.dpsnr:+.3f}).")
@@ -133,7 +140,8 @@ def main():
             cols = ["variant", "triangles", "maps", "build_ms", "wall_ms", "stages", "fragments", "large_triangles",
                     "memory_mb", "structure_mb", "bandwidth_fraction", "status"]
             lines += [f"## {title}" + (f" ({cfg})" if x is None else ""), "",
-                      "Median GPU time of one build (ms; timer queries), its stages, the structure's memory, and "
+                      "Median time of one build (ms; GL timer queries on a GPU, wall clock on llvmpipe), its stages, the "
+                      "structure's memory, and "
                       "the fraction of the copy-bandwidth bound: structure bytes / (build time × copy bandwidth).",
                       "", md(s[[c for c in cols if c in s]]), ""]
             if x is not None:
