@@ -381,3 +381,29 @@ def test_largest_splat_kept(gpu):
     assert c["power_splats_clipped"] == pytest.approx(flux[dropped].sum(), rel=0.01)
     kept = 1 - c["power_splats_clipped"] / c["power_stored"]
     assert cut.image.sum() / full.image.sum() == pytest.approx(kept, abs=0.02)
+
+
+def test_stored_photons_lie_on_the_surfaces_the_camera_sees(gpu):
+    """The visibility test (§4.2 step b): every stored photon lies on the tangent plane (within the
+    tolerance) of the surface its camera pixel shows, checked in numpy from the G-buffer. A card above the
+    light hides part of the receiver from the camera: photons landing there are counted hidden (measured
+    163). Without the tangent-plane test none is (they pass the side test: the card's underside faces
+    them), and they are splatted onto the card."""
+    got = {}
+    card = quad((0.25, 0.75, -0.2), (0.65, 0.75, -0.2), (0.65, 0.75, 0.2), (0.25, 0.75, 0.2), "card", (0.5,) * 3)
+    base = plates()
+    scene = Scene("plates_card", list(base.meshes) + [card], base.camera, base.lights)
+    view = View(scene.camera, 48, 48)
+
+    def keep(m):
+        got.update(ph=m.indirect.photon_array(), vp=m.gbuf.view_proj(view), tol=m.params.visibility_bias * m.texel)
+
+    (r,) = render(gpu, scene, 48, directions=64, resolution=64, photons=32, keep=keep)
+    ph, vp = got["ph"], got["vp"]
+    pos, nrm, _ = r.gbuf  # row 0 at the top
+    clip = np.concatenate([ph[:, :3], np.ones((len(ph), 1))], 1) @ vp.T
+    p = np.clip(((clip[:, :2] / clip[:, 3:]) * 0.5 + 0.5) * 48, 0, 47.999).astype(int)
+    g, n = pos[47 - p[:, 1], p[:, 0]], nrm[47 - p[:, 1], p[:, 0], :3]
+    off = np.abs(((ph[:, :3] - g[:, :3]) * n).sum(1))
+    assert r.counters["photons_hidden"] > 100
+    assert (g[:, 3] > 0.5).all() and (off <= got["tol"] * 1.001).all(), (off > got["tol"]).mean()

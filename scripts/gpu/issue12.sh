@@ -113,7 +113,7 @@ def blur_proxy(run_dir, row):
     box averaging (which removes most of the reference's Monte Carlo noise), over blocks the camera fully
     covers. Below 1: smoother than the reference (blurred indirect shadows); banding pushes it up."""
     im = js(row["images"])
-    if not im.get("exr"):
+    if not im.get("exr") or im["exr"] in SHARED:  # two jobs whose truncated labels share one image file
         return float("nan")
     ref_png = im.get("reference", "")
     m, r = rgb(run_dir / im["exr"]), rgb(run_dir / ref_png.replace(".png", ".exr"))
@@ -137,6 +137,8 @@ for run in ("stages", "fig10"):
     if df is None:
         lines += [f"{run}: no results", ""]
         continue
+    exrs = [js(v).get("exr") for v in df["images"]]
+    SHARED = {e for e in exrs if e and exrs.count(e) > 1}
     head = ["scene", "effect", "params", *STAGES, "total ms", "memory MB (LDMs, photons)", "stored photons",
             "splat px", "clipped", "PSNR", "SSIM", "blur proxy", "splat is the bottleneck"]
     lines += [f"## {run}", "", f"device: {df['device'].iloc[0]}, {df['gl_renderer'].iloc[0]}", "",
@@ -165,8 +167,9 @@ for run in ("stages", "fig10"):
                      f"{c.get('splats_clipped', '–')} | {r['psnr']:.2f} | {r['ssim']:.3f} | {blur:.3f} | {verdict} |")
     lines.append("")
 lines += ["blur proxy: Σ|∇L| / Σ|∇L_ref| of the luminance after 4×4 box averaging (below 1: smoother than the "
-          "reference); 'splat is the bottleneck' holds when the splat stage takes at least half the frame and "
-          "more than the light raster and trace together (GPU timer queries)."]
+          "reference; nan where two jobs' truncated image names collide); 'splat is the bottleneck' holds when "
+          "the splat stage takes at least half the frame and more than the light raster and trace together "
+          "(GPU timer queries)."]
 (out / "issue12.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
 
@@ -175,6 +178,8 @@ try:
     import matplotlib.image as mpimg
     df = pd.read_csv(work / "fig10" / "results.csv")
     rows = [(js(r["params"]), js(r["images"])) for _, r in df[df["effect"] == "indirect"].iterrows()]
+    exrs = [im.get("exr") for _, im in rows]
+    rows = [(p, im) for p, im in rows if exrs.count(im.get("exr")) == 1]  # not a shared (overwritten) file
     rows = sorted((p["footprint_scale"], p["photons"], p.get("rotation", "incident"), im) for p, im in rows
                   if p.get("splat", "blend") == "blend" and im.get("image"))
     tiles = [mpimg.imread(work / "fig10" / im["image"])[..., :3] for *_, im in rows]
