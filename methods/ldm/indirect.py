@@ -102,8 +102,10 @@ class IndirectLight:
     # ---- buffers ---------------------------------------------------------------------------------
     def _allocate(self, n: int):
         self.capacity = int(min(max(n, 1), self.max_capacity))
+        if getattr(self, "vao", None) is not None:
+            self.vao.release()  # bound to the old buffer
+        self.vao = None
         self.photons = self.m.res.buffer("photons.buffer", reserve=PHOTON_BYTES * self.capacity)
-        self.vao = None  # bound to the old buffer
 
     def _outputs(self, w: int, h: int):
         if self._size == (w, h):
@@ -326,7 +328,8 @@ class IndirectLight:
         return self.lres.by_buffer()
 
     def release(self):
-        if self.fbo is not None:
-            self.fbo.release()
-            self.fbo = None
+        for obj in (self.fbo, self.vao, getattr(self.lgbuf, "fbo", None)):
+            if obj is not None:
+                obj.release()
+        self.fbo = self.vao = None
         self.lres.release()
