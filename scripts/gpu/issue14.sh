@@ -52,7 +52,7 @@ step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py
 B14="scripts/gpu/issue14_bench.py"
 step 10 bandwidth $PY "$B14" "$R" bandwidth $B
 # the Figure 8 frame with every variant (ldbench's runner: reference, PSNR, memory, invariants)
-step 100 fig8-frame $LD run "$SUITE" "${RUNARGS[@]}" --out "$W/fig8" --no-progress --no-report
+step 100 fig8-frame $LD run "$SUITE" ${RUNARGS[@]+"${RUNARGS[@]}"} --out "$W/fig8" --no-progress --no-report
 cp "$W/fig8/results.csv" "$R/fig8-results.csv" 2>/dev/null
 step 20 fig8-builds $PY "$B14" "$R" fig8 $B
 step 20 coverage $PY "$B14" "$R" coverage $B
@@ -64,6 +64,8 @@ step 15 figures $PY scripts/gpu/issue14_figures.py "$R" "$W/fig8"
 cp "$R/issue14.md" "$O/issue14.md" 2>/dev/null
 tar -czf "$O/issue14.tar.gz" -C "$W" issue14
 echo
+echo "---- GPU and its fill rule ----"
+cat "$R/probe.log" 2>/dev/null
 echo "---- tests/test_builds.py on this GPU ----"
 tail -3 "$R/tests.log" 2>/dev/null
 echo "---- summary ----"
