@@ -159,12 +159,12 @@ def facing_normal(dr, si, ray_d):
     return dr.select(dr.dot(si.n, ray_d) > 0, -si.n, si.n)
 
 
-def direct_light(mi, dr, mscene, si, active):
+def direct_light(mi, dr, mscene, si, active, shadows: bool = True):
     """Σ_lights bsdf.eval(si, ω_l) · (I · falloff / d²) · V: radiance leaving ``si.p`` towards ``-si.wi``.
 
     Uses Mitsuba's own emitter ``sample_direction`` (delta lights: exact), ``twosided`` diffuse BSDF
     ``eval`` (albedo/π · cos, zero when the light is on the other side from ``si.wi``) and a shadow ray
-    ``si.spawn_ray_to(light)`` tested with ``Scene.ray_test``.
+    ``si.spawn_ray_to(light)`` tested with ``Scene.ray_test`` (V = 1 without ``shadows``).
     """
     ctx = mi.BSDFContext()
     bsdf = si.bsdf()
@@ -172,7 +172,7 @@ def direct_light(mi, dr, mscene, si, active):
     for em in mscene.emitters():
         ds, spec = em.sample_direction(si, mi.Point2f(0.5, 0.5), active)
         f = bsdf.eval(ctx, si, si.to_local(ds.d), active)
-        occluded = mscene.ray_test(si.spawn_ray_to(ds.p), active)
+        occluded = mscene.ray_test(si.spawn_ray_to(ds.p), active) if shadows else mi.Bool(False)
         ok = active & ~occluded & (ds.pdf > 0)
         total += dr.select(ok, mi.Color3f(f) * mi.Color3f(spec), 0.0)
     return total

@@ -254,7 +254,8 @@ def random_scene(seed, n_boxes=6, n_tris=12):
 
 @pytest.mark.parametrize("seed,kw", [(0, dict(directions=24, resolution=24)),
                                      (1, dict(directions=54, resolution=32, epsilon=2.0, bias=0.0)),
-                                     (2, dict(directions=6, resolution=16, share_opposite=False, max_crossings=5))])
+                                     (2, dict(directions=6, resolution=16, share_opposite=False, max_crossings=5)),
+                                     (3, dict(directions=150, resolution=32, rotated=True))])
 def test_walk_matches_cpu_dda(gpu, seed, kw):
     """GLSL walk vs the CPU DDA on random boxes and triangles, random rays (origins in free space): the same
     LDI, hits, distances and crossings (float32 vs float64: a boundary tie may differ, ≤ 0.5 %)."""
@@ -274,7 +275,7 @@ def test_walk_matches_cpu_dda(gpu, seed, kw):
         t, st, c = _trace(gpu, m, batch)
         lists = m.ls.lists()
         ldi = st[:, 1] & 0x7FFFFFFF
-        idx, _ = cube_cell(batch.direction, m.k, m.params.share_opposite)
+        idx, _ = cube_cell(batch.direction, m.k, m.params.share_opposite, m.rotation)
         assert (ldi == idx).mean() > 0.998
         bad, hits = 0, 0
         for i in range(N):
@@ -287,7 +288,9 @@ def test_walk_matches_cpu_dda(gpu, seed, kw):
             bad += not same
         assert 0.2 * N < hits < 0.95 * N, hits
         assert bad <= 0.005 * N, bad
-        assert c["crossings_max"] > 4 and c["crossings_mean"] > 1
+        into = _batch(batch.origin[:50], batch.direction[:50], -batch.normal[:50])  # rays into their surface
+        assert np.all(_trace(gpu, m, into)[0] == 0.0)
+        assert c["crossings_max"] > 4 and c["crossings_mean"] > 0.5
         if kw.get("max_crossings"):
             assert c["rays_ended_max_crossings"] > 0 and c["crossings_max"] == kw["max_crossings"]
     finally:

@@ -10,7 +10,11 @@ is antipodally symmetric and an orthographic LDI holds every depth along its axi
 answers both v and −v: **3k² LDIs are stored** (``share_opposite``; the paper stored all 6k², "we
 currently do not exploit this": ``share_opposite = false`` builds them all, for its memory and build
 time). A ray's LDI is the cube cell of its direction (O(1); the angularly nearest direction in 93–94 %
-of directions, never more than 19.4°/15.7°/10.0° away for k = 4/5/8).
+of directions, never more than 19.4°/15.7°/10.0° away for k = 4/5/8). For odd k the paper's
+axis-aligned cube has directions in the planes x = 0, y = 0, z = 0: their LDIs see axis-aligned walls
+edge-on (not at all), and rays grazing such walls miss them (glossy light on Cornell at 150 directions:
+0.82 of the reference, 0.93 rotated; docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
+keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
 farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.ldm.ldm_layers`).
@@ -35,6 +39,7 @@ Parameter               Default      Paper       Meaning
 ======================  ===========  ==========  ===================================================
 ``directions``          150          96/150/384  cube-sampled directions, 6k²
 ``resolution``          128          128, 512    LDI pixels per side
+``rotated``             False        False       rotate the direction cube (CUBE_ROTATION; see below)
 ``share_opposite``      True         False       one LDI answers v and −v (3k² LDIs stored)
 ``build``               peel         peel        peel | single_pass (same structure)
 ``prebuild``            False                    build once in setup (untimed); frames only trace
@@ -43,6 +48,7 @@ Parameter               Default      Paper       Meaning
 ``max_crossings``       0                        pixel crossings per ray before giving up (0: none)
 ``max_layers``          1024                     depth-peeling passes at most (reaching it: degraded)
 ``rays_per_pixel``      0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
+``samples_per_dispatch``  1                      rays per pixel per dispatch of image effects (0: all)
 ``filter_size``         11           11          Gaussian taps of the indirect filter (0 = off; odd)
 ``shadow_size``         1024                     cube shadow-map texels per face (indirect, glossy)
 ``normal_offset``       1.5                      shadow lookup offset along n2, shadow texels
@@ -61,7 +67,7 @@ import numpy as np
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR, read_texture
 from methods.base import Method, ParamsBase, Result, param
-from methods.directions import cube_directions, cube_k, orthonormal_basis
+from methods.directions import CUBE_ROTATION, cube_directions, cube_k
 from methods.gbuffer import mat_bytes
 from methods.ldm import bounding_sphere, ldm_layers
 
@@ -83,6 +89,8 @@ class LdiParams(ParamsBase):
     directions: int = param(150, "cube-sampled directions n = 6k^2 (96, 150, 384 in the paper)", lo=6, hi=6 * 64 * 64,
                             paper="96, 150, 384")
     resolution: int = param(128, "LDI pixels per side", lo=4, hi=4096, paper="128, 512")
+    rotated: bool = param(False, "rotate the direction cube (methods.directions.CUBE_ROTATION): no LDI along an "
+                                 "axis-aligned wall", paper=False)
     share_opposite: bool = param(True, "one LDI answers v and -v (3k^2 stored); False: all 6k^2 as the paper",
                                  paper=False)
     build: str = param("peel", "peel (depth peeling + GPU compaction) | single_pass (shared one-pass arrays)",
@@ -95,6 +103,8 @@ class LdiParams(ParamsBase):
     max_layers: int = param(1024, "depth-peeling passes at most", lo=1, hi=1 << 20)
     rays_per_pixel: int = param(0, "rays per pixel of image effects (0: indirect 8, glossy 16, soft shadows 16)",
                                 lo=0, hi=4096, paper="8, 16, 16")
+    samples_per_dispatch: int = param(1, "rays per pixel traced by one dispatch of an image effect (0: all)",
+                                      lo=0, hi=4096)
     filter_size: int = param(11, "taps of the separable Gaussian on indirect light (0 = off, odd)", lo=0, hi=63,
                              paper=11)
     shadow_size: int = param(1024, "cube shadow-map texels per face", lo=16, hi=8192)
@@ -129,7 +139,8 @@ class Ldi(Method):
         self.setup_scene(gpu, scene)
         self.k = cube_k(p.directions)
         self.centre, self.radius = bounding_sphere(scene)
-        axes = cube_directions(self.k, half=p.share_opposite)
+        self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
+        axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
         clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
         self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
                                      max_layers=p.max_layers, max_list=64, prefix="ldi.ls.")
@@ -152,7 +163,8 @@ class Ldi(Method):
         for name, val in (("ldi_centre", tuple(float(x) for x in self.centre)), ("ldi_radius", float(self.radius)),
                           ("ldi_res", p.resolution), ("ldi_k", self.k), ("ldi_half", int(p.share_opposite)),
                           ("ldi_eps", p.epsilon * self.pixel), ("ldi_bias", p.bias * self.pixel),
-                          ("ldi_max_cross", p.max_crossings)):
+                          ("ldi_max_cross", p.max_crossings),
+                          ("ldi_to_cube", tuple(float(x) for x in self.rotation.reshape(-1)))):  # Rᵀ, column-major
             if name in cs:
                 cs[name].value = val
         self.ls.bind()
@@ -254,25 +266,22 @@ class Ldi(Method):
 
         p, light = self.params, self.scene.lights[0]
         set_spot_uniforms(cs, light)
-        cs["spp"].value = self.spp_for(effect)
-        cs["seed"].value = p.seed
-        cs["eye"].value = tuple(float(x) for x in view.camera.origin)
-        cs["ray_eps"].value = RAY_EPSILON
-        for name, unit in (("g_position", 0), ("g_normal", 1), ("g_albedo", 2)):
-            cs[name].value = unit
+        values = {"spp": self.spp_for(effect), "seed": p.seed, "ray_eps": RAY_EPSILON,
+                  "eye": tuple(float(x) for x in view.camera.origin), "g_position": 0, "g_normal": 1, "g_albedo": 2}
         self.gbuf.bind(0)
         if effect.name == "soft_shadows":
-            cs["light_radius"].value = float(effect.light_radius)
-            cs["shadow_eps"].value = SHADOW_EPSILON
+            values.update(light_radius=float(effect.light_radius), shadow_eps=SHADOW_EPSILON)
         else:
             sm = self._shadow_map()
-            cs["shadow_atlas"].value = 3
             sm["atlas"].use(3)
             cs["face_vp"].write(b"".join(mat_bytes(m) for m in sm["face_vp"]))
-            cs["normal_offset"].value = p.normal_offset * 2.0 / p.shadow_size
-            cs["depth_bias"].value = p.depth_bias * self.scene.diagonal()
+            values.update(shadow_atlas=3, normal_offset=p.normal_offset * 2.0 / p.shadow_size,
+                          depth_bias=p.depth_bias * self.scene.diagonal())
             if effect.name == "glossy_indirect":
-                cs["exponent"].value = float(effect.exponent)
+                values["exponent"] = float(effect.exponent)
+        for name, v in values.items():
+            if name in cs:  # the compiler drops what an effect's variant does not use
+                cs[name].value = v
         self._bind_ldis(cs)
 
     def _image(self, view, effect):
@@ -295,15 +304,23 @@ class Ldi(Method):
         target = self.tmp2 if effect.name == "indirect" else self.out
         with gpu.stage("trace"):
             self._set_gather_uniforms(cs, view, effect)
-            target.bind_to_image(0, read=False, write=True)
-            cs.run((w + 7) // 8, (h + 7) // 8)
-            gpu.ctx.memory_barrier()
+            self._dispatch(cs, target, effect, w, h)
         if effect.name == "indirect":
             self._filter(w, h)
         self._last = ("image", view, effect)
         out = self.out
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
                       counters=self._counters, invariants=self.ls.invariants)
+
+    def _dispatch(self, cs, target, effect, w, h):
+        """The gather pass, ``samples_per_dispatch`` rays per pixel per dispatch (gather.glsl)."""
+        spp, chunk = self.spp_for(effect), self.params.samples_per_dispatch or self.spp_for(effect)
+        target.bind_to_image(0, read=True, write=True)
+        for base in range(0, spp, chunk):
+            cs["sample_base"].value = base
+            cs["sample_count"].value = chunk
+            cs.run((w + 7) // 8, (h + 7) // 8)
+            self.gpu.ctx.memory_barrier()
 
     def _filter(self, w, h):
         """Stage ``filter``: E → separable Gaussian (if on) → × albedo (``blur.glsl``)."""
@@ -334,9 +351,7 @@ class Ldi(Method):
             cs = self._gather_program(effect, stats=True)
             self._set_gather_uniforms(cs, view, effect)
             out.bind_to_storage_buffer(B_STATS)
-            scratch.bind_to_image(0, read=False, write=True)
-            cs.run((w + 7) // 8, (h + 7) // 8)
-            self.gpu.ctx.memory_barrier()
+            self._dispatch(cs, scratch, effect, w, h)
             return np.frombuffer(out.read(), np.uint32).reshape(-1, 4).copy()
         finally:
             out.release()

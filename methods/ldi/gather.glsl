@@ -1,6 +1,13 @@
 // Image effects of the LDI adapter: one invocation per G-buffer pixel x1 (normal n1 facing the camera,
 // albedo a1), N secondary rays traced through the LDIs (ldi_trace.glsl). Random numbers: a PCG hash of
-// (pixel, sample, seed). Secondary rays start at x1 + n1 * (1 + max|x1|) * ray_eps (Mitsuba's offset).
+// (pixel, sample, seed). Secondary rays start at x1 - 16 eps d_cam + eps n1, eps = (1 + max|x1|) * Mitsuba's
+// RayEpsilon: the origin of the references and of the rays effect's batches (nudged towards the camera so
+// that a pixel centre on a crease does not start inside the other wall's plane).
+//
+// The samples of a pixel may be split over several dispatches (samples_per_dispatch): each sample has its own
+// random stream, sums are kept in the output image between dispatches, the last one writes the value.
+// (llvmpipe ends any loop after 65,535 iterations, counted over nested loops: many rays per invocation
+// would silently lose samples there.)
 //
 // EFFECT 1 `indirect` (the paper's diffuse pass): w cosine-distributed about n1; at the hit x2 (normal n2
 //   facing x1, albedo a2, both from the fragment's payload) the spot light's direct light
@@ -18,12 +25,14 @@
 #include "ldi_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) writeonly uniform image2D out_image;
+layout(rgba32f, binding = 0) uniform image2D out_image;   // sums between dispatches, then the value
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
 uniform SpotLight light;
-uniform int spp;
+uniform int spp;            // rays per pixel
+uniform int sample_base;    // this dispatch traces samples [sample_base, sample_base + sample_count)
+uniform int sample_count;
 uniform uint seed;
 uniform vec3 eye;
 uniform float ray_eps;
@@ -41,7 +50,7 @@ uniform float light_radius;
 uniform float shadow_eps;
 #endif
 #if defined(LDI_STATS)
-layout(std430, binding = 12) writeonly buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
+layout(std430, binding = 12) buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
 #endif
 
 uint pcg_hash(uint v) {
@@ -67,9 +76,11 @@ vec3 around(vec3 axis, float cos_t, float phi) {
 }
 
 #if EFFECT != 3
-// Direct light leaving the hit fragment towards the ray's origin (two-sided: n2 faces the origin).
+// Direct light leaving the hit fragment towards the ray's origin (two-sided: n2 faces the origin), shaded
+// at the fragment's own point (on the surface, within a pixel of the ray's approximate hit: a point
+// off the surface would be shadowed by its own surface in the shadow map).
 vec3 hit_radiance(vec3 o, vec3 d, LdiHit hit) {
-    vec3 x2 = o + d * hit.t;
+    vec3 x2 = hit.pos;
     vec3 n2 = ls_unpack_normal(ls_payload(hit.node, uint(LS_PL_NORMAL)));
     if (dot(n2, d) > 0.0) n2 = -n2;
     vec3 irr = spot_irradiance(light, x2, n2);
@@ -88,31 +99,34 @@ void main() {
     vec4 pos = texelFetch(g_position, p, 0);
     if (pos.w < 0.5) { imageStore(out_image, p, vec4(0.0)); return; }
     vec3 x = pos.xyz, n = texelFetch(g_normal, p, 0).xyz;
-    vec3 o = x + n * ((1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))) * ray_eps);
-    uint rng = pcg_hash(uint(p.y * size.x + p.x) ^ pcg_hash(seed));
-    uvec4 st = uvec4(0u);
-    vec3 sum = vec3(0.0);
+    float eps = (1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))) * ray_eps;
+    vec3 o = x - normalize(x - eye) * (16.0 * eps) + n * eps;   // the references' and the rays batch's origin
+    uint pix = uint(p.y * size.x + p.x);
+    vec4 acc = sample_base > 0 ? imageLoad(out_image, p) : vec4(0.0);   // sums of the earlier dispatches
+#if defined(LDI_STATS)
+    uvec4 st = sample_base > 0 ? ldi_stats[pix] : uvec4(0u);
+#endif
 #if EFFECT == 2
     vec3 rdir = reflect(normalize(x - eye), n);
 #endif
 #if EFFECT == 3
     vec3 unshadowed = texelFetch(g_albedo, p, 0).rgb / PI * spot_irradiance(light, x, n);
-    float visible = 0.0;
-    if (any(greaterThan(unshadowed, vec3(0.0)))) {
+    if (any(greaterThan(unshadowed, vec3(0.0))))
 #endif
-    for (int s = 0; s < spp; ++s) {
+    for (int s = sample_base; s < min(sample_base + sample_count, spp); ++s) {
+        uint rng = pcg_hash(pix ^ pcg_hash(seed ^ pcg_hash(uint(s))));
         float u0 = rnd(rng), u1 = rnd(rng);
         float phi = 2.0 * PI * u1;
 #if EFFECT == 1
         vec3 d = around(n, sqrt(1.0 - u0), phi);
         LdiHit hit = ldi_trace(o, d, n, LDI_INF);
-        if (hit.node != LS_END) sum += hit_radiance(o, d, hit);
+        if (hit.node != LS_END) acc.rgb += hit_radiance(o, d, hit);
 #elif EFFECT == 2
         vec3 d = around(rdir, pow(u0, 1.0 / (exponent + 1.0)), phi);
         float c = dot(d, n);
         if (c <= 0.0) continue;
         LdiHit hit = ldi_trace(o, d, n, LDI_INF);
-        if (hit.node != LS_END) sum += (exponent + 2.0) / (exponent + 1.0) * c * hit_radiance(o, d, hit);
+        if (hit.node != LS_END) acc.rgb += (exponent + 2.0) / (exponent + 1.0) * c * hit_radiance(o, d, hit);
 #else
         float z = 1.0 - 2.0 * u0;
         float rr = sqrt(max(0.0, 1.0 - z * z));
@@ -122,23 +136,24 @@ void main() {
         d /= max(dist, 1e-30);
         if (dot(n, d) < 0.0) continue;                          // into the surface: blocked
         LdiHit hit = ldi_trace(o, d, n, dist * (1.0 - shadow_eps));
-        if (hit.node == LS_END) visible += 1.0;
+        if (hit.node == LS_END) acc.r += 1.0;                   // visible samples
 #endif
 #if defined(LDI_STATS)
         st += uvec4(hit.crossings, 0u, hit.ended ? 1u : 0u, 1u);
         st.y = max(st.y, hit.crossings);
 #endif
     }
-#if EFFECT == 3
-    }
-    sum = unshadowed * (visible / float(spp));
-#elif EFFECT == 2
-    sum *= texelFetch(g_albedo, p, 0).rgb / float(spp);
-#else
-    sum /= float(spp);
-#endif
 #if defined(LDI_STATS)
-    ldi_stats[p.y * size.x + p.x] = st;
+    ldi_stats[pix] = st;
 #endif
-    imageStore(out_image, p, vec4(sum, 1.0));
+    if (sample_base + sample_count >= spp) {                     // the last dispatch: the pixel's value
+#if EFFECT == 3
+        acc = vec4(unshadowed * (acc.r / float(spp)), 1.0);
+#elif EFFECT == 2
+        acc = vec4(acc.rgb * texelFetch(g_albedo, p, 0).rgb / float(spp), 1.0);
+#else
+        acc = vec4(acc.rgb / float(spp), 1.0);
+#endif
+    }
+    imageStore(out_image, p, acc);
 }

@@ -5,8 +5,8 @@
 // (centre ldi_centre, radius R) with ldi_res² pixels of side 2R / ldi_res; a fragment's stored depth is
 // dot(p - c, v_k). One LDI answers rays along +v_k and -v_k (ldi_half = 1) or only +v_k.
 //
-// 1. LDI: the cube cell of d (methods/directions.py cube_cell: the major axis, x before y before z on
-//    ties; the square of the face that contains d).
+// 1. LDI: the cube cell of d, in the cube's frame (methods/directions.py cube_cell: the major axis, x
+//    before y before z on ties; the square of the face that contains d).
 // 2. Project the origin o: pixel coordinates f0 = ((dot(o - c, u), dot(o - c, w)) / R * 0.5 + 0.5) * res,
 //    depth z0 = dot(o - c, v); along the ray f(t) = f0 + t g, z(t) = z0 + t dz.
 // 3. Walk the pixels the 2D line crosses (Amanatides-Woo DDA; x steps first when both boundaries are
@@ -38,6 +38,7 @@ uniform int ldi_half;         // 1: one LDI per pair of opposite directions
 uniform float ldi_eps;        // world units
 uniform float ldi_bias;       // world units
 uniform uint ldi_max_cross;   // 0 = no limit
+uniform mat3 ldi_to_cube;     // world -> the direction cube's frame (identity unless `rotated`)
 
 const float LDI_INF = uintBitsToFloat(0x7f800000u);
 
@@ -47,9 +48,11 @@ struct LdiHit {
     uint crossings;   // pixel crossings walked
     uint ldi;         // the LDI that answered
     bool ended;       // stopped by max_crossings
+    vec3 pos;         // the fragment's own point: its pixel centre at its depth (on the surface)
 };
 
-uint ldi_lookup(vec3 d) {
+uint ldi_lookup(vec3 dw) {
+    vec3 d = ldi_to_cube * dw;
     vec3 a = abs(d);
     int ax = (a.x >= a.y && a.x >= a.z) ? 0 : (a.y >= a.z ? 1 : 2);
     float s = d[ax] >= 0.0 ? 1.0 : -1.0;
@@ -112,6 +115,7 @@ LdiHit ldi_trace(vec3 o, vec3 d, vec3 n, float tmax) {
             float t = dz != 0.0 ? (bestD - z0) / dz : t_in;
             h.t = clamp(t, t_in, t_out);
             h.node = best;
+            h.pos = o + (u * (float(px.x) + 0.5 - f.x) + w * (float(px.y) + 0.5 - f.y)) / ppu + v * (bestD - z0);
             return h;
         }
         if (t_out >= t_end) return h;

@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.gpu import GLSL_DIR
+from harness.errors import LdbenchError
 from methods.layered import B_ALBEDO, C_CAPACITY, fill_uint, make_structure
-from methods.linear_arrays import C_COUNTED, C_FILLED, LinearisedArrays
+from methods.linear_arrays import C_COUNTED, C_FILLED, C_OVERFLOW, LinearisedArrays
 
 HERE = Path(__file__).parent
 B_PREV, B_CAND, B_COUNT, B_LOC, B_FRAG, B_PCOUNT, B_VERTS = 12, 13, 14, 15, 16, 17, 18
@@ -73,6 +73,11 @@ class PeeledLayers(LinearisedArrays):
         super().__init__(gpu, geometry, res, layers=layers, width=width, height=height, pool="grow",
                          payload=payload, instanced=instanced, indexed=False, prefix=prefix)
         self.max_layers = int(max_layers)
+        if 8 * self.n_lists > self.ssbo_limit:
+            raise LdbenchError(f"depth peeling {self.layers} LDIs of {self.width}x{self.height} pixels needs "
+                               f"{8 * self.n_lists / 2**20:.0f} MiB per-pixel key arrays, above this GPU's SSBO limit "
+                               f"of {self.ssbo_limit / 2**20:.0f} MiB")
+        self.max_scratch = self.ssbo_limit // 8
         self.peel_layers = 0
         self.truncated = False
         self.scratch_capacity = 0
@@ -93,9 +98,9 @@ class PeeledLayers(LinearisedArrays):
 
     def _grow(self, needed: int):
         """Scratch list of at least ``needed`` entries, its contents kept (grown by 1.5× at least)."""
-        if needed <= self.scratch_capacity:
+        if needed <= self.scratch_capacity or self.scratch_capacity >= self.max_scratch:
             return
-        cap = max(int(needed), self.scratch_capacity * 3 // 2, 1024)
+        cap = min(max(int(needed), self.scratch_capacity * 3 // 2, 1024), self.max_scratch)  # beyond: overflow
         r, p, s = self.res, self.prefix + "peel.", self._scratch
         old = (s.get("loc"), s.get("frag"))
         loc, frag = self.gpu.ctx.buffer(reserve=8 * cap), self.gpu.ctx.buffer(reserve=8 * cap)
@@ -176,9 +181,11 @@ class PeeledLayers(LinearisedArrays):
         canonicalize(self, stage)
 
     def _write_counters(self):
+        """The ``linear`` layout's counters; fragments beyond the arrays (the SSBO limit) are overflow."""
         c = np.zeros(16, np.uint32)
         c[C_CAPACITY] = self.capacity
-        c[C_COUNTED] = c[C_FILLED] = self.total
+        c[C_COUNTED] = c[C_FILLED] = min(self.total, 0xFFFFFFFF)
+        c[C_OVERFLOW] = max(0, self.total - self.capacity)
         self.counters_buf.write(c.tobytes())
 
     def _raster(self, extra: dict, capacity: int, program=None):

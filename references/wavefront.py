@@ -1,0 +1,143 @@
+"""Image references of effects that bring their own Monte Carlo estimator (``glossy_indirect``,
+``soft_shadows``): the wavefront loop, per-pixel statistics and cache of :func:`references.render_reference`,
+with the per-sample estimator given as a function.
+
+:func:`render_estimator` traces the pixel-centre primary rays, keeps the hit pixels and evaluates
+``estimator(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key) -> Color3f`` for all (pixel, sample)
+lanes of a wavefront, where ``lanes`` holds per-lane Dr.Jit arrays: ``p`` (the hit nudged 16 ray-epsilons
+towards the camera, as render_reference does), ``n`` (geometric normal facing the camera), ``albedo``,
+``d`` (the camera ray's direction) and ``direct`` (the unshadowed direct light leaving the hit towards
+the camera, when ``needs_direct``). Random numbers: :func:`references.integrators._rng2` (one PCG32
+stream per pixel, sample index and seed). Mean and variance of the mean as in :mod:`references.render`;
+cached under the same key scheme (:mod:`references.cache`).
+"""
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from harness.errors import LdbenchError
+
+from . import cache as _cache
+from . import integrators as _int
+from .render import BATCH_RAYS, Reference, _progress, _seed_key, _variant_active
+from .variant import choose_variant, mitsuba_version
+
+
+def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator, needs_direct):
+    import drjit as dr
+    import mitsuba as mi
+
+    mscene = _int.build_scene(scene)
+    o, d = _int.primary_rays(scene, width, height)
+    npix = width * height
+    mean = np.zeros((npix, 3), np.float64)
+    var = np.zeros((npix, 3), np.float64)
+    mask = np.zeros(npix, bool)
+    seed_key = dr.opaque(mi.UInt32, _seed_key(seed))
+    chunk = max(1, min(npix, batch_rays))
+    bar = _progress(npix * spp, f"reference {scene.name} {effect.label()}", progress)
+    try:
+        for c0 in range(0, npix, chunk):
+            c1 = min(npix, c0 + chunk)
+            ray, si = _int.trace_primary(mi, dr, mscene, o[c0:c1], d[c0:c1])
+            valid = si.is_valid()
+            per_pixel = {"n": _int.facing_normal(dr, si, ray.d),
+                         "albedo": mi.Color3f(si.bsdf().eval_diffuse_reflectance(si, valid)),
+                         "d": mi.Vector3f(ray.d),
+                         "p": mi.Point3f(si.p) - mi.Vector3f(ray.d) * ((1.0 + dr.max(dr.abs(si.p)))
+                                                                      * mi.math.RayEpsilon * 16)}
+            if needs_direct:
+                per_pixel["direct"] = _int.direct_light(mi, dr, mscene, si, valid, shadows=False)
+            dr.eval(valid, *per_pixel.values())
+            m = _int.np1(valid).astype(bool)
+            mask[c0:c1] = m
+            idx = np.nonzero(m)[0].astype(np.uint32)
+            bar.update((c1 - c0 - len(idx)) * spp)
+            if len(idx) == 0:
+                continue
+            vidx = mi.UInt32(idx)
+            packed = {k: dr.gather(type(v), v, vidx) for k, v in per_pixel.items()}
+            pix = mi.UInt32(idx + np.uint32(c0))
+            dr.eval(*packed.values(), pix)
+            del ray, si, valid, per_pixel
+            nv = len(idx)
+            ns = max(1, min(spp, batch_rays // nv))
+            S1 = np.zeros((nv, 3), np.float64)
+            S2 = np.zeros((nv, 3), np.float64)
+            for s0 in range(0, spp, ns):
+                k = min(ns, spp - s0)
+                i = dr.arange(mi.UInt32, nv * k)
+                kk = dr.opaque(mi.UInt32, k)
+                j = i // kk  # lane → compacted pixel (k consecutive lanes per pixel)
+                s = i - j * kk + dr.opaque(mi.UInt32, s0)
+                lanes = {key: dr.gather(type(v), v, j) for key, v in packed.items()}
+                v = estimator(mi, dr, mscene, scene, effect, lanes, dr.gather(mi.UInt32, pix, j), s, seed_key)
+                comps = [mi.Float64(v[c]) for c in range(3)]
+                dr.eval(comps)
+                for c, x in enumerate(comps):
+                    S1[:, c] += _int.np1(dr.block_sum(x, k))
+                    S2[:, c] += _int.np1(dr.block_sum(x * x, k))
+                del v, comps, lanes, i, j, s
+                bar.update(nv * k)
+            mu = S1 / spp
+            vm = np.maximum(S2 - S1 * mu, 0.0) / (spp * (spp - 1.0)) if spp > 1 else np.full_like(mu, np.inf)
+            gidx = idx.astype(np.int64) + c0
+            mean[gidx], var[gidx] = mu, vm
+    finally:
+        bar.close()
+    H, W = height, width
+    return (mean.reshape(H, W, 3).astype(np.float32), var.reshape(H, W, 3).astype(np.float32), mask.reshape(H, W))
+
+
+def render_estimator(scene, effect, *, width: int, height: int, spp: int, seed: int, estimator, rays_per_sample: int,
+                     needs_direct: bool = False, cache: bool = True, cache_dir=None, progress: bool = True,
+                     batch_rays: int | None = None) -> Reference:
+    """The reference image of ``effect`` from ``estimator`` (module docstring): a
+    :class:`~references.render.Reference` with mean, variance of the mean and mask; cached."""
+    effect.check_scene(scene)
+    for what, v in (("width", width), ("height", height), ("spp", spp)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise LdbenchError(f"reference {what} must be a positive integer, got {v!r}")
+    width, height, spp, seed = int(width), int(height), int(spp), int(seed)
+    variant = choose_variant()
+    batch_rays = int(batch_rays or BATCH_RAYS.get(variant, 1 << 22))
+    with _variant_active(variant):
+        version = mitsuba_version()
+        fields = _cache.key_fields(scene, effect, width, height, spp, seed, version, variant)
+        key = _cache.cache_key(fields)
+        cdir = Path(cache_dir) if cache_dir is not None else _cache.default_cache_dir()
+        if cache:
+            hit = _cache.load(cdir, key, fields)
+            if hit is not None:
+                mean, var, mask, meta = hit
+                meta.update(cached=True, key=key, spp_requested=spp)
+                return Reference(mean, var, mask, meta)
+        t0 = time.perf_counter()
+        try:
+            mean, var, mask = _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator,
+                                      needs_direct)
+        except (RuntimeError, MemoryError) as e:
+            msg = (str(e).strip().splitlines() or [type(e).__name__])[0]
+            raise LdbenchError(f"Mitsuba ({variant}) failed rendering {effect.label()} on {scene.name!r}: "
+                               f"{msg}") from e
+        seconds = time.perf_counter() - t0
+        if not np.all(np.isfinite(mean)):
+            raise LdbenchError(f"the Mitsuba reference of {effect.label()} on {scene.name!r} produced non-finite "
+                               f"values")
+        rays = width * height + int(mask.sum()) * spp * rays_per_sample
+        meta = {"variant": variant, "mitsuba_version": version, "spp": spp, "spp_requested": spp,
+                "seconds": seconds, "key": key, "cached": False, "effect": effect.key(), "seed": seed,
+                "width": width, "height": height, "scene": scene.name, "scene_hash": fields["scene"],
+                "reference_version": _cache.REFERENCE_VERSION,
+                "rays_per_second": rays / seconds if seconds > 0 else math.inf}
+        if cache:
+            try:
+                _cache.store(cdir, key, fields, mean, var, mask, meta)
+            except LdbenchError as e:
+                warnings.warn(f"reference not cached: {e}", RuntimeWarning, stacklevel=2)
+        return Reference(mean, var, mask, meta)
