@@ -205,7 +205,7 @@ class IndirectLight:
                 self.fbo.clear(0.0, 0.0, 0.0, 0.0)
                 if n:
                     if self.vao is None:
-                        self.vao = ctx.vertex_array(prog, [(self.photons, "4f 4f 4f 4f", "p_x", "p_du", "p_dv",
+                        self.vao = ctx.vertex_array(prog, [(self.photons, "4f 4f 4f 3f 4x", "p_x", "p_du", "p_dv",
                                                             "p_n")])
                     ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
                     ctx.enable(ctx.BLEND)

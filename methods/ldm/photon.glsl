@@ -4,8 +4,8 @@
 // A stored photon (binding 14, 64 bytes): x = the second hit x2, D_u x / D_v x = its positional
 // differentials on x2's tangent plane (footprint = the ellipse inscribed in the parallelogram
 // x2 +- D_u x/2 +- D_v x/2), n = the surface normal at x2 (facing the camera), flux = Phi (W, RGB).
-// n_id.w holds texel * N + map (mod 2^32, as float bits): the primary photon's light texel and the map
-// that traced it, for tests that recompute the differential from the geometry.
+// id = texel * N + map (mod 2^32): the primary photon's light texel and the map that traced it, for tests
+// that recompute the differential from the geometry (a uint: float bits could be flushed as denormals).
 #ifndef LDBENCH_PHOTON_GLSL
 #define LDBENCH_PHOTON_GLSL
 
@@ -13,7 +13,8 @@ struct Photon {
     vec4 x_r;    // x2, flux.r
     vec4 du_g;   // D_u x2, flux.g
     vec4 dv_b;   // D_v x2, flux.b
-    vec4 n_id;   // n2, id bits
+    vec3 n;      // n2
+    uint id;
 };
 
 // Igehy 1999 transfer of a ray differential (D x, D d) along direction d by t onto the plane with normal n

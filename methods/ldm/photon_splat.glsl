@@ -26,7 +26,7 @@ uniform float max_splat_px;
 in vec4 p_x;
 in vec4 p_du;
 in vec4 p_dv;
-in vec4 p_n;
+in vec3 p_n;
 out Splat { vec3 x; vec3 du; vec3 dv; vec3 E; mat3 M; } vs;
 void main() {
     vs.x = p_x.xyz;
@@ -120,7 +120,7 @@ void main() {
         vec2 lo, hi;
         if (!splat_corners(x, du, dv, view_proj, image_size, max_splat_px, c, lo, hi)) continue;
         vec3 E = flux / (0.25 * 3.14159265358979323846 * length(cross(du, dv)));
-        mat3 M = filter_matrix(du, dv, normalize(photons[i].n_id.xyz), topology);
+        mat3 M = filter_matrix(du, dv, normalize(photons[i].n), topology);
         vec2 q[4];
         for (int j = 0; j < 4; ++j) q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
         float orient = sign(edge(q[0], q[1], q[3]));   // the quad q0 -> q1 -> q3 -> q2 is convex

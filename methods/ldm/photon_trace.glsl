@@ -192,7 +192,8 @@ void trace_texel(ivec2 p) {
             photons[i].x_r = vec4(x2, flux2.r);
             photons[i].du_g = vec4(du, flux2.g);
             photons[i].dv_b = vec4(dv, flux2.b);
-            photons[i].n_id = vec4(n2, uintBitsToFloat(texel * n_maps + k));
+            photons[i].n = n2;
+            photons[i].id = texel * n_maps + k;
         }
 #endif
     }
