@@ -60,6 +60,9 @@ Parameter               Default   Paper    Meaning
 ``indexed``             True               build from indexed position-only geometry (vertex reuse)
 ``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                            photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
+``map_lookup``          table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
+                                           (methods/directions.py; the true nearest for all but ~1e-5 of
+                                           directions, then the second nearest) or ``scan`` of all N axes
 ``photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
 ``footprint_scale``     2.0       ≈24      (indirect) multiplies the photon differentials before splatting
 ``differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
@@ -81,11 +84,13 @@ import numpy as np
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
-from methods.directions import ldm_axes, orthonormal_basis
+from methods.directions import ldm_axes, nearest_axis_table, orthonormal_basis
 from methods.layered import make_structure
 from methods.linked_list import POLICIES
+from methods.scan import groups_2d
 
-B_AXES, B_ANGLE, B_RAYS, B_HITS = 11, 12, 20, 21
+B_AXES, B_ANGLE, B_LUT, B_RAYS, B_HITS = 11, 12, 13, 20, 21
+LUT_RES = 128
 FAR = 3.0e38
 
 
@@ -163,6 +168,8 @@ class LdmParams(ParamsBase):
                           paper="w_i 'the incoming direction' (engine: incident)")
     splat: str = param("blend", "indirect: additive blending of rasterized quads, or float atomics in a "
                        "compute pass", choices=("blend", "atomic"), paper="blend")
+    map_lookup: str = param("table", "rays: the nearest map by a cube table of candidates, or a scan of all maps",
+                            choices=("table", "scan"))
 
     def __post_init__(self):
         super().__post_init__()
@@ -198,6 +205,7 @@ class Ldm(Method):
         basis = np.zeros((p.directions, 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
         self.axes_buf = self.res.buffer("ldm.axes", basis)
+        self.lut_buf = None  # built by the first `rays` frame, outside its stages (CPU, < 1 s)
         self.texel = 2.0 * self.radius / p.resolution
         self.out = None
         self._out_size = None
@@ -213,6 +221,9 @@ class Ldm(Method):
                 cs[name].value = v
         self.ls.bind()
         self.axes_buf.bind_to_storage_buffer(B_AXES)
+        if self.lut_buf is not None and "ldm_lut_res" in cs:
+            cs["ldm_lut_res"].value = LUT_RES
+            self.lut_buf.bind_to_storage_buffer(B_LUT)
 
     def frame(self, view, effect, inputs=None):
         if effect.name == "rays":
@@ -244,6 +255,12 @@ class Ldm(Method):
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
                       invariants=self.ls.invariants)
 
+    def _rays_defines(self) -> dict:
+        if self.params.map_lookup == "table" and self.lut_buf is None:
+            self.lut_buf = self.res.buffer("ldm.map_table", nearest_axis_table(ldm_axes(self.params.directions),
+                                                                                LUT_RES))
+        return {**self.ls.defines(), **({"LDM_LUT": 1} if self.lut_buf is not None else {})}
+
     def _rays(self, batch):
         if batch is None:
             raise LdbenchError("method 'ldm': the rays effect needs its ray batch")
@@ -252,13 +269,13 @@ class Ldm(Method):
         if getattr(self, "_hits_n", None) != n:
             self.hits = self.res.buffer("ldm.ray_hits", reserve=4 * n)
             self._hits_n = n
-        cs = gpu.compute(self.shader("trace_rays.glsl"), self.ls.defines())
+        cs = gpu.compute(self.shader("trace_rays.glsl"), self._rays_defines())
         cs["n_rays"].value = n
         with gpu.stage("trace"):
             self._bind_maps(cs)
             batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
             self.hits.bind_to_storage_buffer(B_HITS)
-            cs.run(-(-n // 64))
+            cs.run(*groups_2d(-(-n // 64)))
             gpu.ctx.memory_barrier()
         self._batch = batch
         hits = self.hits
@@ -291,13 +308,13 @@ class Ldm(Method):
         batch, n = self._batch, len(self._batch)
         angle = self.gpu.ctx.buffer(reserve=4 * n)
         try:
-            cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self.ls.defines(), "LDM_ANGLE_STATS": 1})
+            cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self._rays_defines(), "LDM_ANGLE_STATS": 1})
             cs["n_rays"].value = n
             self._bind_maps(cs)
             batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
             self.hits.bind_to_storage_buffer(B_HITS)
             angle.bind_to_storage_buffer(B_ANGLE)
-            cs.run(-(-n // 64))
+            cs.run(*groups_2d(-(-n // 64)))
             self.gpu.ctx.memory_barrier()
             return float(np.frombuffer(angle.read(), np.float32).mean())
         finally:
