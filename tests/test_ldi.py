@@ -141,11 +141,19 @@ def _arrays(s):
 
 
 def test_peel_and_single_pass_identical(gpu):
-    """Cornell box with both LDI sets (half and all 6k²): offsets, depth bits and payload words identical;
-    the blocks stand on the floor (coincident faces at equal depth)."""
+    """Cornell box with both LDI sets (half and all 6k²): offsets, depth bits and payload words identical.
+    A second copy of the floor with another albedo lies in the floor's plane: its fragments tie with the
+    floor's at equal depth, and its payload sorts before the floor's although its triangles come later, so
+    both builds must order ties by payload (canon), not by triangle id or by the order of the atomics."""
+    import dataclasses
+
     from harness.scenes import load_scene
 
-    scene = load_scene("cornell")
+    base = load_scene("cornell")
+    floor = next(m for m in base.meshes if m.name == "floor")
+    copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2))  # the same triangles; its
+    # albedo word (RGBA8, blue in bits 16-23) is below the floor's
+    scene = dataclasses.replace(base, meshes=list(base.meshes) + [copy])
     for share in (True, False):
         out = {}
         for build in ("peel", "single_pass"):

@@ -63,7 +63,7 @@ def _grid_rows():
 
 def _build_rows():
     rows = []
-    for n, res, pub in ((96, 128, 1000.0), (384, 512, 23000.0), (96, 512, None), (384, 128, None)):
+    for n, res, pub in ((96, 128, 1000.0), (384, 512, 23000.0)):
         row = {"id": f"build-{n}-{res}", "label": f"build {n} LDIs of {res}² (depth peeling + compaction)",
                "paper_setup": (f"Sponza, {n} LDIs of {res}², CPU compaction: {pub / 1000:.0f} s" if pub
                                else "not published"),
@@ -203,7 +203,10 @@ def premise(df, scale: str = "paper") -> list[dict]:
             continue
         v *= scale_
         timing = col == "total_ms" and r.get("device") == CPU_SOFTWARE
-        verdict = NOT_MEASURABLE if timing else (HOLDS if lo <= v <= hi else FAILS)
+        if scale != "paper":  # the ci scale's LDIs are tiny: a published absolute number does not apply
+            verdict = f"not comparable at scale {scale}"
+        else:
+            verdict = NOT_MEASURABLE if timing else (HOLDS if lo <= v <= hi else FAILS)
         text = {"build-96-128": "the build of 96 LDIs of 128² takes about 1 s (0.5–2 s)",
                 "build-384-512": "the build of 384 LDIs of 512² takes about 23 s (11.5–46 s)",
                 "memory-150-128": "150 LDIs of 128² take 15–60 MB"}[rid]
