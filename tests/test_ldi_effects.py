@@ -2,8 +2,6 @@
 definitions and Mitsuba references (closed forms), and the ``ldi`` adapter against them."""
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 

@@ -58,7 +58,6 @@ Parameter               Default      Paper       Meaning
 """
 from __future__ import annotations
 
-import math
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -295,11 +294,13 @@ class Ldi(Method):
         self._build()
         if self._out_size != (w, h):
             self.out = self.res.texture("output", (w, h), 4, "f4")
+            self.tmp = self.tmp2 = None
+            self._out_size = (w, h)
+        if effect.name == "indirect" and self.tmp is None:  # E and the filter's first pass
             self.tmp = self.res.texture("ldi.filter_tmp", (w, h), 4, "f4")
             self.tmp2 = self.res.texture("ldi.gather", (w, h), 4, "f4")
             for t in (self.tmp, self.tmp2):
                 t.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
-            self._out_size = (w, h)
         cs = self._gather_program(effect)
         target = self.tmp2 if effect.name == "indirect" else self.out
         with gpu.stage("trace"):
