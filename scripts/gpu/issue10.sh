@@ -6,7 +6,7 @@
 # cornell and atrium 260k at 800² (stage times: gbuffer, shadow, peel, scan, scatter, canon, trace,
 # filter; memory; PSNR/SSIM/FLIP against Mitsuba), glossy indirect and soft shadows on atrium.
 #
-# Usage, from the project root with its Python environment set up (no network needed):
+# Usage, from the project root with its Python environment set up (no network needed; $PYTHON, default python3):
 #     OUT=/some/dir bash scripts/gpu/issue10.sh /path/to/scene-mirror      # the mirror holds sibenik/
 # Outputs (Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/issue10/"; the summary also on stdout.
 # Every step runs under `timeout` (the limits add up to 5 min) and a failing step loses only its own rows.
@@ -20,7 +20,7 @@ W="$(mktemp -d "${TMPDIR:-/tmp}/issue10.XXXXXX")"
 export LDBENCH_CACHE="${LDBENCH_CACHE:-$W/cache}"
 export LDBENCH_SCENES="${LDBENCH_SCENES:-$W/scenes}"
 PY="${PYTHON:-python3}"
-LDB="${LDBENCH:-ldbench}"
+LDB="${LDBENCH:-$PY -m harness.cli}"
 DRY="${ISSUE10_DRY:-0}"
 SCALE=paper SIZE=800x800 SPP=1024 ATRIUM=260000 FRAMES="--warmup 2 --frames 5" K=1
 if [ "$DRY" = 1 ]; then SCALE=ci SIZE=32x32 SPP=64 ATRIUM=4000 FRAMES="--warmup 0 --frames 3" K=6; fi
