@@ -84,7 +84,7 @@ def test_structure_matches_cpu_raster(gpu, cls):
         for k in range(2):
             for y in range(LAYER_H):
                 for x in range(LAYER_W):
-                    assert np.allclose(got[k][y][x], exp[k, y, x], atol=1e-5), (k, y, x)
+                    assert np.allclose(got[k][y][x], exp[k, y, x], atol=5e-4), (k, y, x)  # NVIDIA: 1.7e-4 (H200)
         assert st["fragments"] == sum(len(exp[k, y, x]) for k in range(2) for y in range(16) for x in range(16))
         if cls is PeeledLayers:
             assert st["peel_layers"] == st["max_list_length"] == 6 and st["peel_raster_passes"] == 14
