@@ -11,6 +11,12 @@ ao        (1/π)∫ V cos θ dω over the camera-facing hemisphere, V = 1 − ρ
 direct    radiance from the spot light after one diffuse reflection, hard shadows  image       yes
 indirect  radiance after exactly one diffuse bounce of the spot light (LDDE)       image       yes
 rays      hit distance of a harness-built ray batch (diffuse/glossy/shadow/ao)     per ray     shadow rays
+vpl_range range of the VPLs of the spot's reflective shadow map from 6 rays each     per VPL     yes
+oit       front-to-back "over" of every transparent surface (opacity per mesh)     image       no
+glossy_   one bounce of the spot light off a normalized Phong lobe at the visible    image       yes
+indirect  surface
+soft_     direct light of a spherical light of the spot's intensity, soft shadows   image       yes
+shadows
 ========  =======================================================================  ==========  ==============
 
 Each spec module holds the full definition, its parameters, the inputs the harness builds, the
