@@ -21,20 +21,11 @@ layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
 #if defined(LS_EMIT) && LS_LAYOUT == 2
 #define LS_PAIR_WORDS (2 + LS_PAYLOAD)
 layout(std430, binding = 4) writeonly buffer LSPairs { uint ls_pairs[]; };
-uint ls_reserve_pair() {   // next pair slot (aggregated as ll_reserve in linked_list.glsl)
-#if defined(LL_AGGREGATE)
-    uint64_t live = ballotARB(true);
-    uvec2 m = unpackUint2x32(live);
-    uvec2 below = unpackUint2x32(live & gl_SubGroupLtMaskARB);
-    uint total = uint(bitCount(m.x) + bitCount(m.y));
-    uint rank = uint(bitCount(below.x) + bitCount(below.y));
-    uint leader = m.x != 0u ? uint(findLSB(m.x)) : 32u + uint(findLSB(m.y));
-    uint base = 0u;
-    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(la_counters[LA_C_EMITTED], total);
-    return readInvocationARB(base, leader) + rank;
-#else
-    return atomicAdd(la_counters[LA_C_EMITTED], 1u);
-#endif
+#include "atomics.glsl"
+uint ls_reserve_pair() {   // next pair slot
+    uint n;
+    LS_RESERVE(la_counters[LA_C_EMITTED], n)
+    return n;
 }
 #endif
 

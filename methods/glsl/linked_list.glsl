@@ -33,6 +33,8 @@
 #define LL_MAX_RETRIES 65536
 #endif
 
+#include "atomics.glsl"
+
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
 
@@ -174,22 +176,11 @@ void ll_set_payload(uint i, uint w[LS_PAYLOAD]) {
 }
 #endif
 
-// Take the next node index (one atomicAdd; with LL_AGGREGATE one per subgroup: the subgroup's leader
-// adds the number of active invocations, each takes base + its rank; ARB_shader_ballot).
+// Take the next node index.
 uint ll_reserve() {
-#if defined(LL_AGGREGATE)
-    uint64_t live = ballotARB(true);
-    uvec2 m = unpackUint2x32(live);
-    uvec2 below = unpackUint2x32(live & gl_SubGroupLtMaskARB);
-    uint total = uint(bitCount(m.x) + bitCount(m.y));
-    uint rank = uint(bitCount(below.x) + bitCount(below.y));
-    uint leader = m.x != 0u ? uint(findLSB(m.x)) : 32u + uint(findLSB(m.y));
-    uint base = 0u;
-    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[LL_C_NODES], total);
-    return readInvocationARB(base, leader) + rank;
-#else
-    return atomicAdd(ll_counters[LL_C_NODES], 1u);
-#endif
+    uint n;
+    LS_RESERVE(ll_counters[LL_C_NODES], n)
+    return n;
 }
 
 // Allocate a node; LL_EOL when the pool is full. An allocation past the capacity undoes its add and
