@@ -220,6 +220,18 @@ class LayeredStructure:
     def _counters(self) -> np.ndarray:
         return np.frombuffer(self.counters_buf.read(), np.uint32).copy()
 
+    def _stats_pass(self, shader: str, first: int, last: int) -> np.ndarray:
+        """Zero counters ``first … last``, run the statistics ``shader`` over every list, read them back."""
+        c = self._counters()
+        c[first:last + 1] = 0
+        self.counters_buf.write(c.tobytes())
+        cs = self.gpu.compute(GLSL_DIR / shader, self.defines())
+        cs["n_lists"].value = self.n_lists
+        self.bind()
+        cs.run(min(-(-self.n_lists // 64), 8192))
+        self.gpu.ctx.memory_barrier()
+        return self._counters()
+
     def _reset_counters(self, capacity: int):
         c = np.zeros(N_COUNTERS, np.uint32)
         c[C_CAPACITY] = min(int(capacity), 0xFFFFFFFF)

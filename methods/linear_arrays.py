@@ -147,15 +147,7 @@ class LinearisedArrays(LayeredStructure):
         reachable through the offsets: the end of the last list, must equal fragments_stored),
         sort_overflow_lists, and :meth:`~methods.layered.LayeredStructure.build_stats`.
         """
-        c = self._counters()
-        c[C_NONEMPTY:C_UNSORTED + 1] = 0
-        self.counters_buf.write(c.tobytes())
-        cs = self.gpu.compute(GLSL_DIR / "linear_stats.glsl", self.defines())
-        cs["n_lists"].value = self.n_lists
-        self.bind()
-        cs.run(min(-(-self.n_lists // 64), 8192))
-        self.gpu.ctx.memory_barrier()
-        c = self._counters()
+        c = self._stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
         ends = np.frombuffer(self.offsets.read(size=8, offset=4 * (self.n_lists - 1)), np.uint32)
         filled, total = int(ends[0]), int(ends[1])
         overflow = int(c[C_OVERFLOW])

@@ -254,15 +254,7 @@ class LayeredLinkedLists(LayeredStructure):
         by the sort pass); insert_failures (sorted inserts abandoned: lost LL_MAX_RETRIES races or a walk
         past the capacity bound; expected 0); build_passes; pages.
         """
-        c = self._counters()
-        c[C_NONEMPTY:C_LINKED + 1] = 0
-        self.counters_buf.write(c.tobytes())
-        cs = self.gpu.compute(GLSL_DIR / "linked_list_stats.glsl", self.defines())
-        cs["n_lists"].value = self.n_lists
-        self.bind()
-        cs.run(min(-(-self.n_lists // 64), 8192))
-        self.gpu.ctx.memory_barrier()
-        c = self._counters()
+        c = self._stats_pass("linked_list_stats.glsl", C_NONEMPTY, C_LINKED)
         failures, overflow = int(c[C_FAILED]), int(c[C_OVERFLOW])
         nodes = int(c[C_NODES])
         stored = nodes - failures
