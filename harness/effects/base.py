@@ -112,8 +112,6 @@ class ImageEffect(EffectSpec):
     def method_image(self, result, reference):
         """(image, coverage mask): the method's image with its missing pixels (mask False) set to
         ``background``, so that a hole counts as error wherever the reference sees a surface."""
-        from harness import metrics  # noqa: F401  (import cost only when scoring)
-
         img = np.asarray(result.image, np.float32)
         if img.ndim == 2:
             img = img[..., None]
