@@ -197,6 +197,27 @@ class Gpu:
     def resources(self, prefix: str = "") -> Resources:
         return Resources(self.ctx, prefix)
 
+    # ---- read-back -----------------------------------------------------------------------
+    def read(self, buffer, size: int | None = None, offset: int = 0) -> bytes:
+        """``size`` bytes of ``buffer`` from ``offset`` (default: to its end), through a staging buffer.
+
+        Never ``buffer.read()`` on a buffer that shaders keep using: NVIDIA's driver moves a buffer the CPU
+        reads from video to host memory ("Buffer performance warning: ... is being copied/moved from
+        VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe. Measured on an H200
+        (scripts/gpu/issue14_diag.py): the sorted-insert LDM build of Figure 8 went from 108.7 ms to
+        1920 ms after one read of its 64-byte counter buffer. The GPU copies into this staging buffer,
+        which alone the driver may move."""
+        size = buffer.size - offset if size is None else int(size)
+        if size <= 0:
+            return b""
+        st = getattr(self, "_staging", None)
+        if st is None or st.size < size:
+            if st is not None:
+                st.release()
+            st = self._staging = self.ctx.buffer(reserve=max(1 << 12, 1 << (size - 1).bit_length()), dynamic=True)
+        self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
+        return st.read(size=size)
+
     # ---- timing --------------------------------------------------------------------------
     def begin_frame(self):
         self.ctx.finish()
@@ -281,6 +302,9 @@ class Gpu:
             return None
 
     def release(self):
+        if getattr(self, "_staging", None) is not None:
+            self._staging.release()
+            self._staging = None
         for p in self._programs.values():
             p.release()
         self._programs.clear()

@@ -218,7 +218,7 @@ class LayeredStructure:
         ctx.memory_barrier()
 
     def _counters(self) -> np.ndarray:
-        return np.frombuffer(self.counters_buf.read(), np.uint32).copy()
+        return np.frombuffer(self.gpu.read(self.counters_buf), np.uint32).copy()
 
     def _stats_pass(self, shader: str, first: int, last: int) -> np.ndarray:
         """Zero counters ``first … last``, run the statistics ``shader`` over every list, read them back."""

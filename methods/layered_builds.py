@@ -10,8 +10,9 @@ rate (512 layers × 260k triangles: ~88 ms per pass), not by memory.
     snaps it to the hardware's sub-pixel grid and stores every texel centre it covers with the same
     ``ls_store`` as the raster (every layout and pass works unchanged). Coverage follows the hardware's
     fill rule exactly: integer edge functions on ``GL_SUBPIXEL_BITS`` fixed point, samples at texel
-    centres, and ties on an edge resolved by the edge classes this GPU includes, measured once per
-    context by :func:`fill_rule`. A triangle whose longest edge exceeds ``splat_max`` texels in some
+    centres, ties on an edge resolved by the edge classes this GPU includes, and depth on the plane
+    through the snapped or the given vertices as this GPU interpolates, measured once per context by
+    :func:`fill_rule`. A triangle whose longest edge exceeds ``splat_max`` texels in some
     layer is appended by the splat to an index list that one instanced indirect draw gives to the
     hardware in the same pass. Layers must be affine (orthographic maps: LDM, CDI).
 
@@ -41,14 +42,24 @@ CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the i
 _RULES: dict = {}          # id(ctx) -> fill rule
 
 
-def fill_rule(gpu) -> dict:
-    """The hardware's fill rule on this context, measured once: ``{"top", "bottom", "left", "right":
-    bool (a texel centre exactly on such an edge is covered), "subpixel_bits": int}``.
+#: the interpolation probe: window positions (texels of a 4 × 4 target) a fraction of a sub-pixel step off
+#: the grid, and a steep varying (~100 per texel: the snapped and given planes differ by ~0.2)
+_IPROBE_POS = np.array([(0.1 + 0.45 / 256, 0.2 - 0.43 / 256), (3.9 - 0.38 / 256, 0.6 + 0.47 / 256),
+                        (1.3 + 0.49 / 256, 3.8 - 0.44 / 256)])
+_IPROBE_VAL = np.array([0.0, 300.0, -200.0])
 
-    Two counter-clockwise right triangles sharing their diagonal, with edges through texel centres,
-    and the same two clockwise, are rasterized into a 4 × 4 framebuffer (``splat_probe.glsl``). The
-    rule must cover each shared edge exactly once (one of top/bottom, one of left/right) and not depend
-    on the winding; anything else is refused."""
+
+def fill_rule(gpu) -> dict:
+    """The hardware's raster rules on this context, measured once: ``{"top", "bottom", "left", "right":
+    bool (a texel centre exactly on such an edge is covered), "subpixel_bits": int, "snapped_plane": bool
+    (varyings are interpolated on the plane through the snapped vertices, not the given ones)}``.
+
+    Fill rule: two counter-clockwise right triangles sharing their diagonal, with edges through texel
+    centres, and the same two clockwise, are rasterized into a 4 × 4 framebuffer (``splat_probe.glsl``).
+    The rule must cover each shared edge exactly once (one of top/bottom, one of left/right) and not
+    depend on the winding; anything else is refused. Interpolation: one triangle off the sub-pixel grid
+    with a steep varying (:func:`plane_from_probe`). NVIDIA interpolates on the snapped plane, llvmpipe on
+    the given one: the depths of a sliver differ by up to ~1 % between the two."""
     key = id(gpu.ctx)
     if key in _RULES:
         return _RULES[key]
@@ -58,30 +69,56 @@ def fill_rule(gpu) -> dict:
     a = [(1.5, 1.5), (3.5, 1.5), (1.5, 3.5)]
     b = [(3.5, 3.5), (1.5, 3.5), (3.5, 1.5)]
     tris = [a, b, [a[0], a[2], a[1]], [b[0], b[2], b[1]]]  # CCW, CCW, CW, CW
+    bits = int(ctx.info.get("GL_SUBPIXEL_BITS") or 8)
     prog = gpu.program(GLSL_DIR / "splat_probe.glsl")
-    vbo = ctx.buffer(np.array(tris, np.float32).tobytes())
+    fill = np.concatenate([np.array(tris, np.float32).reshape(-1, 2), np.zeros((12, 1), np.float32)], 1)
+    interp = np.concatenate([_IPROBE_POS, _IPROBE_VAL[:, None]], 1).astype(np.float32)
+    vbos = [ctx.buffer(fill.tobytes()), ctx.buffer(interp.tobytes())]
     out = ctx.buffer(reserve=4 * 16)
     fbo = ctx.empty_framebuffer((4, 4))
+    found = []
     try:
-        vao = ctx.vertex_array(prog, [(vbo, "2f", "in_position")])
         prog["probe_size"].value = (4.0, 4.0)
         prog["probe_width"].value = 4
-        fill_uint(gpu, out, 16, 0)
-        out.bind_to_storage_buffer(0)
         fbo.use()
         fbo.viewport = (0, 0, 4, 4)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        vao.render()
-        ctx.memory_barrier()
-        px = np.frombuffer(out.read(), np.uint32).reshape(4, 4)  # [y, x]
-        vao.release()
+        for mode, (vbo, blank) in enumerate(zip(vbos, (0, 0xFFFFFFFF))):
+            vao = ctx.vertex_array(prog, [(vbo, "2f 1f", "in_position", "in_value")])
+            prog["probe_mode"].value = mode
+            fill_uint(gpu, out, 16, blank)
+            out.bind_to_storage_buffer(0)
+            vao.render()
+            ctx.memory_barrier()
+            found.append(np.frombuffer(gpu.read(out), np.uint32).reshape(4, 4).copy())  # [y, x]
+            vao.release()
     finally:
-        for o in (vbo, out, fbo):
+        for o in (*vbos, out, fbo):
             o.release()
-    rule = rule_from_probe(px)
-    rule["subpixel_bits"] = int(ctx.info.get("GL_SUBPIXEL_BITS") or 8)
+    rule = rule_from_probe(found[0])
+    rule["subpixel_bits"] = bits
+    rule["snapped_plane"] = plane_from_probe(found[1].view(np.float32), bits)
     _RULES[key] = rule
     return rule
+
+
+def plane_from_probe(values: np.ndarray, bits: int) -> bool:
+    """Whether the probe triangle's interpolated values (4 × 4, NaN where not covered) lie on the plane
+    through its vertices snapped to ``bits`` of sub-pixel precision (True) or through the given ones; the
+    nearer of the two, refused when neither is near."""
+    y, x = np.nonzero(np.isfinite(values))
+    if len(x) < 3:
+        raise LdbenchError("build 'splat': the interpolation probe covered too few texels")
+    p = np.stack([x + 0.5, y + 0.5], 1)
+    err = []
+    for pos in (_IPROBE_POS, np.round(_IPROBE_POS * 2.0 ** bits) / 2.0 ** bits):
+        m = np.c_[pos, np.ones(3)]
+        coef = np.linalg.solve(m, _IPROBE_VAL)
+        err.append(np.abs(np.c_[p, np.ones(len(p))] @ coef - values[y, x]).max())
+    if min(err) > 0.02:
+        raise LdbenchError(f"build 'splat': this GPU interpolates on neither the given nor the snapped "
+                           f"plane (errors {err[0]:.3g}, {err[1]:.3g}); use build = 'raster'")
+    return bool(err[1] < err[0])
 
 
 def rule_from_probe(px: np.ndarray) -> dict:
@@ -133,7 +170,7 @@ class Splat:
         r = self.rule
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "LS_SUBPIXEL_BITS": r["subpixel_bits"],
                 "SPLAT_TOP": int(r["top"]), "SPLAT_BOTTOM": int(r["bottom"]), "SPLAT_LEFT": int(r["left"]),
-                "SPLAT_RIGHT": int(r["right"])}
+                "SPLAT_RIGHT": int(r["right"]), "SPLAT_SNAPPED_PLANE": int(r["snapped_plane"])}
 
     def _large_vao(self, prog):
         key = id(prog)
@@ -182,7 +219,7 @@ class Splat:
 
     def large_triangles(self) -> int:
         """Triangles the last pass gave to the hardware (a read-back)."""
-        return int(np.frombuffer(self.large.read(size=4), np.uint32)[0]) // 3
+        return int(np.frombuffer(self.s.gpu.read(self.large, 4), np.uint32)[0]) // 3
 
     def release(self):
         for v in self._vaos.values():
@@ -238,5 +275,5 @@ def list_counts(s) -> np.ndarray:
     comparing two builds' counts gives the fragments one misses and adds (the one-pass raster's loss)."""
     if s.layout != "linear":
         raise LdbenchError("list_counts needs the linear layout")
-    off = np.frombuffer(s.offsets.read(size=4 * s.n_lists), np.uint32).astype(np.int64)
+    off = np.frombuffer(s.gpu.read(s.offsets, 4 * s.n_lists), np.uint32).astype(np.int64)
     return np.diff(np.concatenate([[0], np.minimum(off, s.capacity)]))

@@ -104,7 +104,7 @@ class LinearisedArrays(LayeredStructure):
         sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
         if self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
             need = (int(self._counters()[C_EMITTED]) if self.assembly == "sort"
-                    else int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0]))
+                    else int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0]))
             if (need > self.capacity and self.capacity < self.max_capacity) or need < self.capacity // 2:
                 self._allocate(max(need, 1))
         elif self._shrink_to:
@@ -122,7 +122,7 @@ class LinearisedArrays(LayeredStructure):
         with stage("scan"):
             self.scan.run(self.offsets, n + 1)
             if sync:
-                self.total = int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0])
+                self.total = int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0])
                 if self.total > self.capacity or self.total < self.capacity // 2:
                     self._allocate(max(self.total, 1))
         with stage("fill"):
@@ -148,7 +148,7 @@ class LinearisedArrays(LayeredStructure):
         sort_overflow_lists, and :meth:`~methods.layered.LayeredStructure.build_stats`.
         """
         c = self._stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
-        ends = np.frombuffer(self.offsets.read(size=8, offset=4 * (self.n_lists - 1)), np.uint32)
+        ends = np.frombuffer(self.gpu.read(self.offsets, 8, offset=4 * (self.n_lists - 1)), np.uint32)
         filled, total = int(ends[0]), int(ends[1])
         overflow = int(c[C_OVERFLOW])
         stored = min(total, self.capacity)
@@ -171,9 +171,9 @@ class LinearisedArrays(LayeredStructure):
         }
 
     def lists(self, payload: bool = False) -> list:
-        off = np.frombuffer(self.offsets.read(), np.uint32).astype(np.int64)
-        depth = np.frombuffer(self.depth_buf.read(), np.float32)
-        words = (np.frombuffer(self.payload_buf.read(), np.uint32).reshape(-1, len(self.payload))
+        off = np.frombuffer(self.gpu.read(self.offsets), np.uint32).astype(np.int64)
+        depth = np.frombuffer(self.gpu.read(self.depth_buf), np.float32)
+        words = (np.frombuffer(self.gpu.read(self.payload_buf), np.uint32).reshape(-1, len(self.payload))
                  if payload and self.payload_buf is not None else None)
         begin = np.concatenate([[0], off[:-2]])
         end = off[:-1]

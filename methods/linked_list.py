@@ -282,14 +282,14 @@ class LayeredLinkedLists(LayeredStructure):
     def read(self):
         """(heads (layers, H, W) uint32 with row 0 = OpenGL's bottom row, depth (capacity,) f4,
         next (capacity,) u4) — for tests and debugging."""
-        heads = np.frombuffer(self.heads.read(), np.uint32).reshape(self.layers, self.height, self.width)
-        nodes = np.concatenate([np.frombuffer(self.node_pages[p].read(), NODE_DTYPE)
+        heads = np.frombuffer(self.gpu.read(self.heads), np.uint32).reshape(self.layers, self.height, self.width)
+        nodes = np.concatenate([np.frombuffer(self.gpu.read(self.node_pages[p]), NODE_DTYPE)
                                 for p in range(self.pages)])
         return heads, nodes["depth"].copy(), nodes["next"].copy()
 
     def lists(self, payload: bool = False) -> list:
         heads, depth, nxt = self.read()
-        words = (np.frombuffer(self.payload_buf.read(), np.uint32).reshape(-1, len(self.payload))
+        words = (np.frombuffer(self.gpu.read(self.payload_buf), np.uint32).reshape(-1, len(self.payload))
                  if payload and self.payload_buf is not None else None)
         out = []
         for k in range(self.layers):

@@ -112,3 +112,35 @@ def test_a_second_context_released_leaves_the_first_usable(gpu):
     gpu.ctx.finish()
     assert (np.frombuffer(buf.read(), np.uint32) == 7).all()
     buf.release()
+
+
+def test_read_goes_through_staging(gpu):
+    """gpu.read returns the bytes asked for (offset, size, growing staging) and never reads the buffer
+    itself: NVIDIA moves a buffer the CPU reads to host memory (harness/gpu.py Gpu.read)."""
+    data = np.arange(5000, dtype=np.uint32)
+    buf = gpu.ctx.buffer(data.tobytes())
+    direct = []
+    orig = buf.read
+    buf.read = lambda *a, **k: direct.append(1) or orig(*a, **k)
+    try:
+        assert np.array_equal(np.frombuffer(gpu.read(buf, 8, offset=4 * 17), np.uint32), [17, 18])
+        assert np.array_equal(np.frombuffer(gpu.read(buf), np.uint32), data)  # staging grows past 4 KiB
+        assert gpu.read(buf, 0) == b"" and not direct
+    finally:
+        buf.read = orig
+        buf.release()
+
+
+def test_methods_never_read_gpu_buffers_directly():
+    """Every buffer read-back in methods/ goes through gpu.read (textures excepted)."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "methods"
+    bad = []
+    for f in root.rglob("*.py"):
+        for i, line in enumerate(f.read_text().splitlines(), 1):
+            for m in re.finditer(r"([\w\]\)\"]+)\.read\(", line):
+                if m.group(1) not in ("gpu", "self", "tex", "texture") and "open(" not in line:
+                    bad.append(f"{f.relative_to(root)}:{i}: {line.strip()}")
+    assert not bad, "\n".join(bad)

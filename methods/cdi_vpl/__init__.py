@@ -306,9 +306,9 @@ class CdiVpl(Method):
                 gpu.ctx.copy_buffer(self._out["t"], tt)
         ranges, t = self._out["ranges"], self._out["t"]
         has_t = p.range != "random"
-        arrays = {"range": lambda: np.frombuffer(ranges.read(size=4 * n), np.float32).copy()}
+        arrays = {"range": lambda: np.frombuffer(self.gpu.read(ranges, 4 * n), np.float32).copy()}
         if has_t:
-            arrays["t"] = lambda: np.frombuffer(t.read(size=4 * nr), np.float32).copy()
+            arrays["t"] = lambda: np.frombuffer(self.gpu.read(t, 4 * nr), np.float32).copy()
         return Result(arrays=arrays, memory_bytes=self.res.by_buffer(), counters=self._counters,
                       invariants=self._invariants)
 
@@ -325,7 +325,7 @@ class CdiVpl(Method):
         with self.gpu.stage("trace"):
             self._dispatch_rays({"CDI_RAYS": 1}, batch.upload(self.gpu), n, 1)
         t = self._out["t"]
-        return Result(arrays={"t": lambda: np.frombuffer(t.read(size=4 * n), np.float32).copy()},
+        return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(t, 4 * n), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self._invariants)
 
     def _indirect(self, view):

@@ -157,7 +157,7 @@ class VplLighting:
     def grid_scan(self):
         n = self.n_cells
         self.scan.run(self.grid_off, n + 1)
-        self.total = int(np.frombuffer(self.grid_off.read(size=4, offset=4 * n), np.uint32)[0])
+        self.total = int(np.frombuffer(self.gpu.read(self.grid_off, 4, offset=4 * n), np.uint32)[0])
         limit = self.ssbo_limit // 4
         want = min(max(self.total, 1), limit)
         if want > self.grid_cap or want < self.grid_cap // 2:
@@ -241,16 +241,16 @@ class VplLighting:
 
     # ---- counters ----------------------------------------------------------------------------------
     def counters(self) -> dict:
-        v = np.frombuffer(self.vpls.read(), np.float32).reshape(-1, 12)
+        v = np.frombuffer(self.gpu.read(self.vpls), np.float32).reshape(-1, 12)
         live = v[:, 3] > 0
-        off = np.frombuffer(self.grid_off.read(), np.uint32).astype(np.int64)
+        off = np.frombuffer(self.gpu.read(self.grid_off), np.uint32).astype(np.int64)
         lens = np.diff(np.concatenate([[0], off[:self.n_cells]]))
-        overflow = int(np.frombuffer(self.grid_overflow.read(size=4), np.uint32)[0])
+        overflow = int(np.frombuffer(self.gpu.read(self.grid_overflow, 4), np.uint32)[0])
         return {"vpls": int(live.sum()), "vpl_slots": self.n_vpls, "rsm": self.R,
                 "mean_vpl_range": float(v[live, 3].mean()) if live.any() else 0.0,
                 "grid_dims": list(self.dims), "grid_cell": self.cell, "grid_entries": int(self.total),
                 "grid_max_list": int(lens.max()) if len(lens) else 0, "grid_overflow": overflow,
-                "grid_cells_masked": int(np.frombuffer(self.grid_mask.read(), np.uint32).astype(bool).sum())}
+                "grid_cells_masked": int(np.frombuffer(self.gpu.read(self.grid_mask), np.uint32).astype(bool).sum())}
 
     def invariants(self, c: dict) -> list:
         out = []

@@ -8,8 +8,10 @@
 // measured on this context by splat_probe.glsl). With the triangle taken counter-clockwise (GL window
 // coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge
 // going down is a left edge, going up a right edge. Zero-area triangles (after snapping) cover nothing.
-// Depth and clip z are the planes through the three (unsnapped) vertices evaluated at the texel centre,
-// as the hardware interpolates; a sample outside the near/far planes (|z| > 1) is dropped as clipping
+// Depth and clip z are the planes through the three vertices evaluated at the texel centre, as the
+// hardware interpolates: through the snapped vertices with SPLAT_SNAPPED_PLANE (NVIDIA), else through the
+// given ones (llvmpipe); a sliver's depths differ by up to ~1 % between the two. A sample outside the
+// near/far planes (|z| > 1) is dropped as clipping
 // would. Layers must be affine (w = 1, orthographic maps: checked on the host).
 //
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
@@ -19,7 +21,8 @@
 // (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
-// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT.
+// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT,
+// SPLAT_SNAPPED_PLANE (0 or 1).
 #if defined(LL_AGGREGATE)
 #extension GL_ARB_shader_ballot : require
 #extension GL_ARB_gpu_shader_int64 : require
@@ -73,6 +76,9 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
         vec4 tc = c1; c1 = c2; c2 = tc;
         vec3 tv = v1; v1 = v2; v2 = tv;
     }
+#if SPLAT_SNAPPED_PLANE
+    w0 = vec2(f0) / S; w1 = vec2(f1) / S; w2 = vec2(f2) / S;   // exact: |f| < 2^24
+#endif
     ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
     int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
     vec4 row = ls_layers[k].depth_row;

@@ -199,7 +199,7 @@ class Ldi(Method):
             gpu.ctx.memory_barrier()
         self._last = ("rays", batch)
         hits = self.hits
-        return Result(arrays={"t": lambda: np.frombuffer(hits.read(), np.float32).copy()},
+        return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self.ls.invariants)
 
     def ray_stats(self, batch) -> np.ndarray:
@@ -214,7 +214,7 @@ class Ldi(Method):
             out.bind_to_storage_buffer(B_STATS)
             cs.run(-(-n // 64))
             self.gpu.ctx.memory_barrier()
-            return np.frombuffer(out.read(), np.uint32).reshape(n, 2).copy()
+            return np.frombuffer(self.gpu.read(out), np.uint32).reshape(n, 2).copy()
         finally:
             out.release()
 
@@ -353,7 +353,7 @@ class Ldi(Method):
             self._set_gather_uniforms(cs, view, effect)
             out.bind_to_storage_buffer(B_STATS)
             self._dispatch(cs, scratch, effect, w, h)
-            return np.frombuffer(out.read(), np.uint32).reshape(-1, 4).copy()
+            return np.frombuffer(self.gpu.read(out), np.uint32).reshape(-1, 4).copy()
         finally:
             out.release()
             scratch.release()

@@ -143,7 +143,7 @@ class PeeledLayers(LinearisedArrays):
                     s[name].bind_to_storage_buffer(b)
                 self._commit.run(_groups(n))
                 ctx.memory_barrier()
-                c = np.frombuffer(s["counters"].read(), np.uint32).copy()
+                c = np.frombuffer(self.gpu.read(s["counters"]), np.uint32).copy()
                 layer_frags, total = int(c[0]), int(c[1])
                 self._scratch_overflow = int(c[2])
                 if layer_frags == 0:
@@ -159,7 +159,7 @@ class PeeledLayers(LinearisedArrays):
             ctx.copy_buffer(self.offsets, s["count"], 4 * n)
             self.offsets.write(np.zeros(1, np.uint32).tobytes(), offset=4 * n)
             self.scan.run(self.offsets, n + 1)
-            self.total = int(np.frombuffer(self.offsets.read(size=4, offset=4 * n), np.uint32)[0])
+            self.total = int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0])
             if self.total > self.capacity or self.total < self.capacity // 2:
                 self._allocate(max(self.total, 1))
             self._write_counters()

@@ -279,7 +279,7 @@ class Ldm(Method):
             gpu.ctx.memory_barrier()
         self._batch = batch
         hits = self.hits
-        return Result(arrays={"t": lambda: np.frombuffer(hits.read(), np.float32).copy()},
+        return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
                       invariants=self.ls.invariants)
 
@@ -316,7 +316,7 @@ class Ldm(Method):
             angle.bind_to_storage_buffer(B_ANGLE)
             cs.run(*groups_2d(-(-n // 64)))
             self.gpu.ctx.memory_barrier()
-            return float(np.frombuffer(angle.read(), np.float32).mean())
+            return float(np.frombuffer(self.gpu.read(angle), np.float32).mean())
         finally:
             angle.release()
 

@@ -173,7 +173,7 @@ class IndirectLight:
         self.trace_passes = 0
         self._trace_all(view)
         with gpu.stage("trace"):
-            n = int(np.frombuffer(self.count_buf.read(), np.uint32)[0])  # the pool-growth read-back
+            n = int(np.frombuffer(self.gpu.read(self.count_buf), np.uint32)[0])  # the pool-growth read-back
         if n > self.capacity and self.capacity < self.max_capacity:
             self._allocate(n)
             self._trace_all(view)
@@ -249,7 +249,7 @@ class IndirectLight:
             out = self.out
             return lambda: read_texture(out, 3)
         acc, (w, h) = self.accum, self._size
-        return lambda: np.ascontiguousarray(np.frombuffer(acc.read(), np.float32).reshape(h, w, 3)[::-1])
+        return lambda: np.ascontiguousarray(np.frombuffer(self.gpu.read(acc), np.float32).reshape(h, w, 3)[::-1])
 
     # ---- read-back (untimed) ---------------------------------------------------------------------
     def photon_array(self) -> np.ndarray:
@@ -257,7 +257,7 @@ class IndirectLight:
         n = self.n_stored
         if not n:
             return np.zeros((0, 16), np.float32)
-        return np.frombuffer(self.photons.read(size=n * PHOTON_BYTES), np.float32).reshape(n, 16).copy()
+        return np.frombuffer(self.gpu.read(self.photons, n * PHOTON_BYTES), np.float32).reshape(n, 16).copy()
 
     def counters(self) -> dict:
         """Re-trace the last frame's photons with the statistics variant (untimed) and count every fate."""
@@ -282,7 +282,7 @@ class IndirectLight:
                 g = (self.p.photons + 7) // 8
                 cs.run(g, g)
                 self.gpu.ctx.memory_barrier()
-            raw = stats.read()
+            raw = self.gpu.read(stats)
             counts, power = np.frombuffer(raw[:64], np.uint32), np.frombuffer(raw[64:], np.float32)
             for i, name in FATES.items():
                 if name in _COUNT_NAMES:
@@ -296,7 +296,7 @@ class IndirectLight:
                 stats.bind_to_storage_buffer(B_STATS)
                 ss.run(min(-(-self.n_stored // 64), _WORKGROUPS))
                 self.gpu.ctx.memory_barrier()
-            raw = stats.read()
+            raw = self.gpu.read(stats)
             out["splats_clipped"] = int(np.frombuffer(raw[:4], np.uint32)[0])
             out["power_splats_clipped"] = float(np.frombuffer(raw[64:68], np.float32)[0])
             out["splat_pixels"] = float(np.frombuffer(raw[68:72], np.float32)[0])

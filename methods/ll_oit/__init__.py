@@ -126,7 +126,7 @@ class LLOIT(OITMethod):
 
     def _counters(self) -> dict:
         st = self.ls.stats()
-        slow = int(np.frombuffer(self.counters_buf.read(), np.uint32)[0])
+        slow = int(np.frombuffer(self.gpu.read(self.counters_buf), np.uint32)[0])
         return {"fragments": st["fragments"], "fragments_stored": st["fragments_stored"],
                 "overflow": st["overflow"], "depth_complexity_max": st["max_list_length"],
                 "depth_complexity_mean": st["mean_list_length"], "pixels_covered": st["lists_nonempty"],

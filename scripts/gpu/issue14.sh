@@ -10,12 +10,13 @@
 #     OUT=/some/dir bash scripts/gpu/issue14.sh
 # Outputs under "$OUT/issue14/": issue14.md (the summary, also printed) and issue14.tar.gz (CSVs, the two
 # figures, the Figure 8 results.csv, logs; < 1 MB). Every step runs under `timeout` (the limits add up to
-# 6 min) and a failing step does not stop the script; the bench parts write their rows as they go.
+# 7 min) and a failing step does not stop the script; the bench parts write their rows as they go.
 # ISSUE14_DRY=1: a CPU-sized dry run (tiny scenes and maps, 32² frame) to test the script on llvmpipe.
 set -u
 O="${OUT:-/tmp/ldbench-gpu}/issue14"
 mkdir -p "$O"
-W="$(mktemp -d "${TMPDIR:-/tmp}/issue14.XXXXXX")"
+# ISSUE14_WORK: keep the working folder there (not removed), so a caller's time limit loses nothing
+W="${ISSUE14_WORK:-$(mktemp -d "${TMPDIR:-/tmp}/issue14.XXXXXX")}"
 R="$W/issue14"
 mkdir -p "$R"
 : > "$R/log.txt"
@@ -52,13 +53,13 @@ step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py
 B14="scripts/gpu/issue14_bench.py"
 step 10 bandwidth $PY "$B14" "$R" bandwidth $B
 # the Figure 8 frame with every variant (ldbench's runner: reference, PSNR, memory, invariants)
-step 100 fig8-frame $LD run "$SUITE" ${RUNARGS[@]+"${RUNARGS[@]}"} --out "$W/fig8" --no-progress --no-report
+step 150 fig8-frame $LD run "$SUITE" ${RUNARGS[@]+"${RUNARGS[@]}"} --out "$W/fig8" --no-progress --no-report
 cp "$W/fig8/results.csv" "$R/fig8-results.csv" 2>/dev/null
-step 20 fig8-builds $PY "$B14" "$R" fig8 $B
+step 40 fig8-builds $PY "$B14" "$R" fig8 $B
 step 20 coverage $PY "$B14" "$R" coverage $B
-step 20 tune $PY "$B14" "$R" tune $B
-step 45 maps $PY "$B14" "$R" maps $B
-step 75 triangles $PY "$B14" "$R" triangles $B
+step 45 tune $PY "$B14" "$R" tune $B
+step 60 maps $PY "$B14" "$R" maps $B
+step 120 triangles $PY "$B14" "$R" triangles $B
 step 15 figures $PY scripts/gpu/issue14_figures.py "$R" "$W/fig8"
 
 cp "$R/issue14.md" "$O/issue14.md" 2>/dev/null
@@ -70,5 +71,5 @@ echo "---- tests/test_builds.py on this GPU ----"
 tail -3 "$R/tests.log" 2>/dev/null
 echo "---- summary ----"
 cat "$R/issue14.md" 2>/dev/null || echo "(no summary: see the logs in $O/issue14.tar.gz)"
-rm -rf "$W"
+[ -n "${ISSUE14_WORK:-}" ] || rm -rf "$W"
 echo "outputs: $O ($(du -sh "$O" | cut -f1))"

@@ -126,8 +126,9 @@ def main():
     if (d / "bandwidth.csv").exists():
         bwt = pd.read_csv(d / "bandwidth.csv")
         bw = float(bwt.gb_per_s.iloc[0])
-        lines += [f"Copy bandwidth (GL buffer copy of {int(bwt.copy_mb.iloc[0])} MiB): **{bw:.0f} GB/s** "
-                  f"({bwt.renderer.iloc[0]}).", ""]
+        gl = f"; glCopyBufferSubData {bwt.gl_copy_gb_per_s.iloc[0]:.0f} GB/s" if "gl_copy_gb_per_s" in bwt else ""
+        lines += [f"Copy bandwidth (compute-shader copy of {int(bwt.copy_mb.iloc[0])} MiB, the fastest size): "
+                  f"**{bw:.0f} GB/s**{gl} ({bwt.renderer.iloc[0]}).", ""]
     if (d / "builds.csv").exists():
         b = pd.read_csv(d / "builds.csv")
         for sweep, x, title in (("fig8", None, "Build alone at the Figure 8 maps"),
