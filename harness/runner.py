@@ -28,12 +28,16 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .errors import LdbenchError
 from .naming import slug as _slug
 from .rundir import RunDir
 from .checks import camera_sees_geometry, unique_scene_names
 from .suite import Job, Suite, resolve_sizes
+
+if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
+    import pandas as pd
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -152,7 +156,7 @@ def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) ->
 
 
 def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
-             reference_cache: bool = True, executor=None) -> "pandas.DataFrame":
+             reference_cache: bool = True, executor=None) -> "pd.DataFrame":
     """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
 
     ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an

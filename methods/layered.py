@@ -60,6 +60,7 @@ import numpy as np
 
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
+from .directions import orthonormal_basis
 
 PAYLOAD_WORDS = ("normal", "albedo", "material")
 LAYOUT_CODES = {"linked": 1, "linear": 2}
@@ -284,6 +285,24 @@ def bounding_sphere(scene) -> tuple[np.ndarray, float]:
     c = 0.5 * (lo + hi)
     r = float(np.sqrt(((v.astype(np.float64) - c) ** 2).sum(1).max()))
     return c, max(r, 1e-6)
+
+
+def ortho_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
+    """Orthographic layers looking along ``axes`` (N, 3) at the sphere (``centre``, ``radius``): per layer the
+    clip matrix (N, 4, 4; the sphere fills the layer, depth inside the clip volume with a 1 % margin), the
+    depth row (N, 4: distance along the axis from the plane through the centre) and the (u, w, axis)
+    basis. The LDMs of aalund2015, the CDI of archer2019 and the LDIs use them."""
+    axes = np.asarray(axes, np.float64)
+    u, w = orthonormal_basis(axes)
+    n = len(axes)
+    clip = np.zeros((n, 4, 4))
+    zs = 1.0 / (radius * 1.01)  # depth range inside the clip volume with a margin
+    for row, vec, s in ((0, u, 1.0 / radius), (1, w, 1.0 / radius), (2, axes, zs)):
+        clip[:, row, :3] = vec * s
+        clip[:, row, 3] = -(vec @ centre) * s
+    clip[:, 3, 3] = 1.0
+    rows = np.concatenate([axes, -(axes @ centre)[:, None]], axis=1)
+    return clip, rows, (u, w, axes)
 
 
 def fill_uint(gpu, buffer, n: int, value: int):

@@ -12,16 +12,13 @@ threads rarely collide on one list); on a GPU the lost fragments show as the inv
 stored" (every run checks it: the row is ``degraded``).
 """
 from __future__ import annotations
-
 import numpy as np
 import pytest
-
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene
 from methods.directions import stacks_slices
 from methods.gbuffer import SceneGeometry
-from methods.layered import bounding_sphere, make_structure
-from methods.ldm import ldm_layers
+from methods.layered import bounding_sphere, make_structure, ortho_layers
 from methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, cornell_like, expected_lists, layer_transforms
 
@@ -88,7 +85,7 @@ def test_one_pass_matches_the_cpu_raster(gpu, expected, axis, layout):
 def cdi(gpu, scene, res, build, n_dirs=24, size=24, **kw):
     geo = SceneGeometry(gpu, scene, res)
     c, r = bounding_sphere(scene)
-    clip, rows, _ = ldm_layers(stacks_slices(n_dirs), c, r)
+    clip, rows, _ = ortho_layers(stacks_slices(n_dirs), c, r)
     s = make_structure("linear", gpu, geo, res, layers=n_dirs, width=size, build=build,
                        prefix=f"{build}{kw.get('pass_layers', '')}{kw.get('instanced', '')}.", **kw)
     s.set_layers(clip, rows)

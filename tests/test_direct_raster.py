@@ -2,7 +2,6 @@
 square occluder. Camera rays are intersected with the floor analytically, so orientation, camera,
 fall-off, albedo and shadows are all checked."""
 import numpy as np
-import pytest
 
 from harness.effects import Effect
 from harness.scene import Camera, Mesh, Scene, SpotLight

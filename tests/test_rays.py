@@ -101,7 +101,6 @@ def test_batch_definition_and_determinism():
 
 
 def test_glossy_and_shadow_batches():
-    rng = np.random.default_rng(0)
     H = W = 40
     hits = {"mask": np.ones((H, W), bool), "position": np.zeros((H, W, 3), np.float32),
             "normal": np.tile(np.float32([0, 1, 0]), (H, W, 1))}

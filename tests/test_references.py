@@ -15,7 +15,7 @@ from testkit import H_DISK, R_DISK, box, cornell_like, disk, disk_ao_formula, pl
 from testkit import disk_occlusion as _disk_occlusion
 from harness.effects import Effect
 from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene, SpotLight
+from harness.scene import Camera, Scene, SpotLight
 
 references = pytest.importorskip("references")
 from references import (  # noqa: E402

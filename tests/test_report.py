@@ -9,7 +9,6 @@ import subprocess
 import urllib.parse
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from harness import records

@@ -2,7 +2,6 @@
 error before anything renders, never a silent conversion (harness/suite.py, methods/base.py _coerce,
 --set/--spp/--frames/--warmup/--size in harness/cli.py)."""
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 import pytest

@@ -2,7 +2,7 @@
 ``indirect`` and ``rays``.
 
 **CDI** (§3.1): ``directions`` orthographic deep images of ``resolution``² texels over the scene's bounding
-sphere (:func:`methods.ldm.ldm_layers`), directions on the upper hemisphere as ``stacks × slices`` in
+sphere (:func:`methods.layered.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
 spherical coordinates (:func:`methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
 (:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.linear_arrays`). Build
 (stages ``count``, ``scan``, ``fill``, ``sort``), a variant of the shared layered-structure module:
@@ -67,18 +67,14 @@ Parameter          Default         Paper           Meaning
 =================  ==============  ==============  ===========================================================
 """
 from __future__ import annotations
-
 import contextlib
-import math
 from dataclasses import dataclass
-
 import numpy as np
-
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
-from methods.layered import bounding_sphere, make_structure
-from methods.ldm import ldm_layers
+from methods.layered import bounding_sphere, make_structure, ortho_layers
+
 
 B_AXES, B_LUT, B_RANGES, B_RAYS, B_HITS = 11, 12, 13, 20, 21
 RAY_BYTES = 48
@@ -140,7 +136,7 @@ class CdiVpl(Method):
         self.setup_scene(gpu, scene)
         self.centre, self.radius = bounding_sphere(scene)
         self.axes = stacks_slices(p.directions) if p.direction_set == "stacks_slices" else ldm_axes(p.directions)
-        clip, rows, (u, w, v) = ldm_layers(self.axes, self.centre, self.radius)
+        clip, rows, (u, w, v) = ortho_layers(self.axes, self.centre, self.radius)
         self._layers = (clip, rows)
         self._basis = np.zeros((p.directions, 3, 4), np.float32)
         self._basis[:, 0, :3], self._basis[:, 1, :3], self._basis[:, 2, :3] = u, w, v

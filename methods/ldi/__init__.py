@@ -17,7 +17,7 @@ edge-on (not at all), and rays grazing such walls miss them (glossy light on Cor
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
-farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.ldm.ldm_layers`).
+farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.layered.ortho_layers`).
 
 **Build** (:mod:`methods.ldi.peel`): ``build = "peel"``, depth peeling (stages ``peel``, ``scan``,
 ``scatter``, ``canon``) into the ``linear`` layout of :mod:`methods.layered`, compacted by the GPU prefix
@@ -68,7 +68,7 @@ from harness.gpu import GLSL_DIR, read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
 from methods.gbuffer import mat_bytes
-from methods.ldm import bounding_sphere, ldm_layers
+from methods.layered import bounding_sphere, ortho_layers
 
 from .peel import make_ldi_structure
 
@@ -140,7 +140,7 @@ class Ldi(Method):
         self.centre, self.radius = bounding_sphere(scene)
         self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
         axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
-        clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
+        clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
         self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
                                      max_layers=p.max_layers, max_list=64, prefix="ldi.ls.")
         self.ls.set_layers(clip, rows)
@@ -285,7 +285,7 @@ class Ldi(Method):
 
     def _image(self, view, effect):
         effect.check_scene(self.scene)  # the one "needs a light" rule
-        gpu, p = self.gpu, self.params
+        gpu = self.gpu
         w, h = view.width, view.height
         with gpu.stage("gbuffer"):
             self.gbuf.render(view)

@@ -84,38 +84,14 @@ import numpy as np
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
-from methods.directions import ldm_axes, nearest_axis_table, orthonormal_basis
-from methods.layered import make_structure
+from methods.directions import ldm_axes, nearest_axis_table
+from methods.layered import bounding_sphere, make_structure, ortho_layers
 from methods.linked_list import POLICIES
 from methods.scan import groups_2d
 
 B_AXES, B_ANGLE, B_LUT, B_RAYS, B_HITS = 11, 12, 13, 20, 21
 LUT_RES = 128
 FAR = 3.0e38
-
-
-def bounding_sphere(scene) -> tuple[np.ndarray, float]:
-    """(centre, radius): the bounds' centre and the distance to the farthest vertex (float64)."""
-    v, _, _, _ = scene.merged()
-    lo, hi = scene.bounds()
-    c = 0.5 * (lo + hi)
-    r = float(np.sqrt(((v.astype(np.float64) - c) ** 2).sum(1).max()))
-    return c, max(r, 1e-6)
-
-
-def ldm_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
-    """Per-map clip matrices (N, 4, 4), depth rows (N, 4) and the (u, w, v) basis of each axis."""
-    axes = np.asarray(axes, np.float64)
-    u, w = orthonormal_basis(axes)
-    n = len(axes)
-    clip = np.zeros((n, 4, 4))
-    zs = 1.0 / (radius * 1.01)  # depth range inside the clip volume with a margin
-    for row, vec, s in ((0, u, 1.0 / radius), (1, w, 1.0 / radius), (2, axes, zs)):
-        clip[:, row, :3] = vec * s
-        clip[:, row, 3] = -(vec @ centre) * s
-    clip[:, 3, 3] = 1.0
-    rows = np.concatenate([axes, -(axes @ centre)[:, None]], axis=1)
-    return clip, rows, (u, w, axes)
 
 
 @dataclass(frozen=True)
@@ -194,7 +170,7 @@ class Ldm(Method):
         self.setup_scene(gpu, scene)
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
-        clip, rows, (u, w, v) = ldm_layers(axes, self.centre, self.radius)
+        clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
         common = dict(layers=p.directions, width=p.resolution, pool=p.pool, pool_capacity=p.pool_capacity,
                       build=p.build, assembly=p.assembly,
                       max_list=p.max_list, instanced=p.instanced, indexed=p.indexed, prefix="ldm.")

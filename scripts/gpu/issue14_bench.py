@@ -32,7 +32,7 @@ from methods.directions import ldm_axes
 from methods.gbuffer import SceneGeometry
 from methods.layered import make_structure
 from methods.layered_builds import list_counts
-from methods.ldm import bounding_sphere, ldm_layers
+from methods.layered import bounding_sphere, ortho_layers
 
 #: name -> make_structure arguments; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
 #: pool grow with its read-back); every other variant uses the lazy pool (no read-back inside a build).
@@ -141,7 +141,7 @@ def structure_bytes(s, st: dict) -> int:
 
 def measure(gpu, geo, scene_label, maps, res, name, kw, frames, bw, rows: Rows, extra=None):
     centre, radius = bounding_sphere(geo.scene)
-    clip, drows, _ = ldm_layers(ldm_axes(maps), centre, radius)
+    clip, drows, _ = ortho_layers(ldm_axes(maps), centre, radius)
     r = gpu.resources()
     try:
         s = make_structure(kw["layout"], gpu, geo, r, layers=maps, width=res, prefix="b.",
@@ -233,7 +233,7 @@ def main():
         r = gpu.resources()
         geo = SceneGeometry(gpu, load_scene(f"atrium:triangles={n}"), r)
         centre, radius = bounding_sphere(geo.scene)
-        clip, drows, _ = ldm_layers(ldm_axes(maps), centre, radius)
+        clip, drows, _ = ortho_layers(ldm_axes(maps), centre, radius)
         counts = {}
         for name in ("raster", "one_pass", "splat"):
             sr = gpu.resources()  # one structure at a time

@@ -22,7 +22,7 @@ from harness.scenes import load_scene
 from methods.directions import ldm_axes
 from methods.gbuffer import SceneGeometry
 from methods.layered import make_structure
-from methods.ldm import bounding_sphere, ldm_layers
+from methods.layered import bounding_sphere, ortho_layers
 
 DRY = "--dry" in sys.argv
 gpu = Gpu()
@@ -89,7 +89,7 @@ void main() { for (uint i = gl_GlobalInvocationID.x; i < n; i += gl_NumWorkGroup
 
 def series(geo, name, kw, maps, res, n=5, between=None, defines=None):
     centre, radius = bounding_sphere(geo.scene)
-    clip, rows, _ = ldm_layers(ldm_axes(maps), centre, radius)
+    clip, rows, _ = ortho_layers(ldm_axes(maps), centre, radius)
     r = gpu.resources()
     s = make_structure("linked", gpu, geo, r, layers=maps, width=res, prefix="d.", **kw)
     if defines:
