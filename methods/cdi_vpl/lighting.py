@@ -15,7 +15,7 @@ import numpy as np
 from harness.effects.vpl_range import RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera, vpl_directions
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
-from methods.direct_raster import set_spot_uniforms
+from methods.lights import set_spot_uniforms
 from methods.gbuffer import mat_bytes
 from methods.layered import fill_uint
 from methods.scan import Scan

@@ -18,37 +18,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from harness.gpu import GLSL_DIR, read_texture
-from harness.scene import Camera
+from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import mat_bytes
-
-# Cube faces in atlas order: (forward, up), as in the OpenGL cube-map convention.
-CUBE_FACES = (((1, 0, 0), (0, -1, 0)), ((-1, 0, 0), (0, -1, 0)), ((0, 1, 0), (0, 0, 1)),
-              ((0, -1, 0), (0, 0, -1)), ((0, 0, 1), (0, -1, 0)), ((0, 0, -1), (0, -1, 0)))
-
-
-def cube_face_matrices(position, near: float, far: float) -> list[np.ndarray]:
-    """View-projection of the six 90° faces around ``position``."""
-    p = np.asarray(position, np.float64)
-    out = []
-    for fwd, up in CUBE_FACES:
-        cam = Camera(tuple(p), tuple(p + np.array(fwd)), up, 90.0)
-        out.append(cam.projection_matrix(1.0, near, far) @ cam.view_matrix())
-    return out
-
-
-def set_spot_uniforms(prog, light, prefix: str = "light"):
-    """Write a :class:`~harness.scene.SpotLight` into the GLSL ``SpotLight`` struct uniform."""
-    cut, beam = np.radians(light.cutoff_angle), np.radians(light.beam_width)
-    prog[f"{prefix}.position"].value = tuple(light.position)
-    prog[f"{prefix}.axis"].value = tuple(light.direction())
-    prog[f"{prefix}.intensity"].value = tuple(light.intensity)
-    prog[f"{prefix}.cutoff"].value = float(cut)
-    prog[f"{prefix}.cos_cutoff"].value = float(np.cos(cut))
-    prog[f"{prefix}.beam"].value = float(beam)
+from methods.lights import CubeShadowMap, set_spot_uniforms
 
 
 @dataclass(frozen=True)
@@ -71,17 +43,9 @@ class DirectRaster(Method):
         self.light = scene.lights[0]
         self.setup_scene(gpu, scene)
         s = self.params.shadow_size
-        self.shadow_prog = gpu.program(GLSL_DIR / "cube_shadow.glsl")
-        self.shadow_vao = self.geo.vao(self.shadow_prog)
-        self.atlas = self.res.texture("shadow.atlas", (6 * s, s), 1, "f4")
-        self.atlas.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
-        self.atlas_depth = self.res.depth_texture("shadow.depth", (6 * s, s))
-        self.shadow_fbo = gpu.ctx.framebuffer([self.atlas], self.atlas_depth)
-        lo, hi = scene.bounds()
-        far = float(np.linalg.norm(np.maximum(np.abs(hi - self.light.position), np.abs(lo - self.light.position)))) * 1.01
-        self.face_vp = cube_face_matrices(self.light.position, far * 1e-4, far)
+        self.shadow = CubeShadowMap(gpu, self.geo, self.res, scene, self.light, s)
         self.shade = gpu.compute(self.shader("shade.glsl"))
-        self.shade["face_vp"].write(b"".join(mat_bytes(m) for m in self.face_vp))
+        self.shade["face_vp"].write(self.shadow.face_vp_bytes())
         set_spot_uniforms(self.shade, self.light)
         # texel footprint at unit distance for a 90° face: 2/s; offset in world units per unit distance
         self.shade["normal_offset"].value = self.params.normal_offset * 2.0 / s
@@ -92,23 +56,14 @@ class DirectRaster(Method):
         with self.gpu.stage("gbuffer"):
             self.gbuf.render(view)
         with self.gpu.stage("shadow"):
-            self.shadow_fbo.use()
-            self.shadow_fbo.clear(1e30, 1e30, 1e30, 1e30, depth=1.0)
-            ctx.enable(ctx.DEPTH_TEST)
-            ctx.disable(ctx.CULL_FACE)
-            self.shadow_prog["light_pos"].value = tuple(self.light.position)
-            for i, m in enumerate(self.face_vp):
-                self.shadow_fbo.viewport = (i * s, 0, s, s)
-                self.shadow_prog["view_proj"].write(mat_bytes(m))
-                self.shadow_vao.render()
-            ctx.disable(ctx.DEPTH_TEST)
+            self.shadow.render()
         w, h = view.width, view.height
         out = self.res.texture("output", (w, h), 4, "f4") if getattr(self, "_out_size", None) != (w, h) \
             else self.out
         self.out, self._out_size = out, (w, h)
         with self.gpu.stage("shade"):
             self.gbuf.bind(0)
-            self.atlas.use(3)
+            self.shadow.atlas.use(3)
             for name, unit in (("g_position", 0), ("g_normal", 1), ("g_albedo", 2), ("shadow_atlas", 3)):
                 self.shade[name].value = unit
             out.bind_to_image(0, read=False, write=True)

@@ -64,11 +64,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR, read_texture
+from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
-from methods.gbuffer import mat_bytes
 from methods.layered import bounding_sphere, ortho_layers
+from methods.lights import CubeShadowMap, set_spot_uniforms
 
 from .peel import make_ldi_structure
 
@@ -219,37 +219,17 @@ class Ldi(Method):
             out.release()
 
     # ---- image effects --------------------------------------------------------------------------------
-    def _shadow_map(self):
-        """Cube shadow atlas of the spot light (methods/glsl/cube_shadow.glsl, as direct-raster)."""
-        from methods.direct_raster import cube_face_matrices
-
+    def _shadow_map(self) -> CubeShadowMap:
+        """The spot light's cube shadow atlas (methods/lights.py), made at its first use."""
         if self._shadow is None:
-            s, light, gpu = self.params.shadow_size, self.scene.lights[0], self.gpu
-            prog = gpu.program(GLSL_DIR / "cube_shadow.glsl")
-            atlas = self.res.texture("shadow.atlas", (6 * s, s), 1, "f4")
-            atlas.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
-            depth = self.res.depth_texture("shadow.depth", (6 * s, s))
-            lo, hi = self.scene.bounds()
-            pos = np.asarray(light.position, np.float64)
-            far = float(np.linalg.norm(np.maximum(np.abs(hi - pos), np.abs(lo - pos)))) * 1.01
-            self._shadow = {"prog": prog, "vao": self.geo.vao(prog), "atlas": atlas,
-                            "fbo": gpu.ctx.framebuffer([atlas], depth),
-                            "face_vp": cube_face_matrices(light.position, far * 1e-4, far)}
+            self._shadow = CubeShadowMap(self.gpu, self.geo, self.res, self.scene, self.scene.lights[0],
+                                         self.params.shadow_size)
         return self._shadow
 
     def _render_shadow(self):
-        sm, ctx, s = self._shadow_map(), self.gpu.ctx, self.params.shadow_size
+        sm = self._shadow_map()
         with self.gpu.stage("shadow"):
-            sm["fbo"].use()
-            sm["fbo"].clear(1e30, 1e30, 1e30, 1e30, depth=1.0)
-            ctx.enable(ctx.DEPTH_TEST)
-            ctx.disable(ctx.CULL_FACE)
-            sm["prog"]["light_pos"].value = tuple(self.scene.lights[0].position)
-            for i, m in enumerate(sm["face_vp"]):
-                sm["fbo"].viewport = (i * s, 0, s, s)
-                sm["prog"]["view_proj"].write(mat_bytes(m))
-                sm["vao"].render()
-            ctx.disable(ctx.DEPTH_TEST)
+            sm.render()
 
     def spp_for(self, effect) -> int:
         return self.params.rays_per_pixel or DEFAULT_SPP[effect.name]
@@ -261,7 +241,6 @@ class Ldi(Method):
         return self.gpu.compute(self.shader("gather.glsl"), d)
 
     def _set_gather_uniforms(self, cs, view, effect):
-        from methods.direct_raster import set_spot_uniforms
 
         p, light = self.params, self.scene.lights[0]
         set_spot_uniforms(cs, light)
@@ -272,8 +251,8 @@ class Ldi(Method):
             values.update(light_radius=float(effect.light_radius), shadow_eps=SHADOW_EPSILON)
         else:
             sm = self._shadow_map()
-            sm["atlas"].use(3)
-            cs["face_vp"].write(b"".join(mat_bytes(m) for m in sm["face_vp"]))
+            sm.atlas.use(3)
+            cs["face_vp"].write(sm.face_vp_bytes())
             values.update(shadow_atlas=3, normal_offset=p.normal_offset * 2.0 / p.shadow_size,
                           depth_bias=p.depth_bias * self.scene.diagonal())
             if effect.name == "glossy_indirect":

@@ -41,7 +41,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from harness.scene import Camera
 from methods.base import View
-from methods.direct_raster import set_spot_uniforms
+from methods.lights import set_spot_uniforms
 from methods.gbuffer import GBuffer, mat_bytes
 from methods.layered import fill_uint
 
