@@ -1,6 +1,8 @@
 """Shared building blocks of the order-independent-transparency adapters (``ll-oit``, ``depth-peeling``,
 ``dual-depth-peeling``; effect :mod:`harness.effects.oit`).
 
+- :class:`PeelingMethod`: what the two peeling baselines share — an occlusion query per pass, the
+  framebuffers they own per size, the peel program's camera uniforms and the depth-complexity counters.
 - :class:`OITMethod`: the common part of the three adapters — the scene's triangles on the GPU
   (:class:`~methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
   opacity; SSBO binding :data:`B_MATERIALS`, ``oit_material[]`` in ``methods/glsl/oit.glsl``), the camera's
@@ -85,3 +87,40 @@ class OITMethod(Method):
         return Result(image=lambda: rgba()[..., :3].copy(), mask=lambda: rgba()[..., 3] > 0.5,
                       memory_bytes=self.res.by_buffer(), counters=counters,
                       invariants=invariants if callable(invariants) else list(invariants))
+
+
+def complexity_counters(count: np.ndarray) -> dict:
+    """Depth-complexity counters from fragments per pixel: max, mean over covered pixels, total, pixels."""
+    covered = count > 0
+    return {"depth_complexity_max": int(count.max()),
+            "depth_complexity_mean": float(count[covered].mean()) if covered.any() else 0.0,
+            "fragments": int(count.sum()), "pixels_covered": int(covered.sum())}
+
+
+class PeelingMethod(OITMethod):
+    """Base of the depth-peeling adapters: one occlusion query (``self.query``, read after each pass: when
+    a pass reaches no sample, every layer is peeled) and the framebuffers of the current size."""
+
+    def setup(self, gpu, scene):
+        super().setup(gpu, scene)
+        self.query = gpu.ctx.query(samples=True)
+        self._fbos = []
+
+    def own(self, *fbos):
+        """Release the framebuffers of the previous size and keep these."""
+        for f in getattr(self, "_fbos", []):
+            f.release()
+        self._fbos = list(fbos)
+
+    def peel_program(self, view, defines=None):
+        """The adapter's ``peel.glsl`` with the camera's clip transform and depth row set; returns (program,
+        clip, near, far)."""
+        clip, row, near, far = camera_transform(self.geo, view)
+        prog = self.gpu.program(self.shader("peel.glsl"), defines)
+        prog["clip"].write(np.ascontiguousarray(clip.T, np.float32).tobytes())
+        prog["depth_row"].value = tuple(float(x) for x in row)
+        return prog, clip, near, far
+
+    def release(self):
+        self.own()
+        super().release()

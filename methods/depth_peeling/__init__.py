@@ -33,11 +33,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from harness.gpu import read_texture
 from methods.base import ParamsBase, param
-from methods.oit import OITMethod, camera_transform
+from methods.oit import PeelingMethod, complexity_counters
 
 MAX_PASSES = 4096  # safety cap: a scene deeper than this is reported (invariant), never an endless loop
 
@@ -48,22 +46,15 @@ class DepthPeelingParams(ParamsBase):
                             hi=MAX_PASSES)
 
 
-class DepthPeeling(OITMethod):
+class DepthPeeling(PeelingMethod):
     """Front-to-back depth peeling with an occlusion query per pass."""
 
     name = "depth-peeling"
     paper = "yang2010"
     Params = DepthPeelingParams
 
-    def setup(self, gpu, scene):
-        super().setup(gpu, scene)
-        self.query = gpu.ctx.query(samples=True)
-        self._fbos = []
-
     def resize(self, w, h):
         r, ctx = self.res, self.gpu.ctx
-        for f in self._fbos:
-            f.release()
         self.depth = [r.depth_texture(f"oit.dp.depth{i}", (w, h)) for i in range(2)]
         for d in self.depth:
             d.compare_func = ""  # read as plain depth values (moderngl enables shadow comparison by default)
@@ -73,19 +64,16 @@ class DepthPeeling(OITMethod):
         self.peel_fbo = [ctx.framebuffer([self.layer], d) for d in self.depth]
         self.comp_fbo = ctx.framebuffer([self.accum, self.count])
         self.final_fbo = ctx.framebuffer([self.out])
-        self._fbos = [*self.peel_fbo, self.comp_fbo, self.final_fbo]
+        self.own(*self.peel_fbo, self.comp_fbo, self.final_fbo)
 
     def frame(self, view, effect, inputs=None):
         self.check_effect(effect)
         gpu, ctx, p = self.gpu, self.gpu.ctx, self.params
         w, h = view.width, view.height
         self.output(w, h)
-        clip, row, near, far = camera_transform(self.geo, view)
-        peel = gpu.program(self.shader("peel.glsl"))
+        peel, _, near, far = self.peel_program(view)
         comp = gpu.program(self.shader("composite.glsl"))
         final = gpu.program(self.shader("composite.glsl"), {"OIT_FINAL": 1})
-        peel["clip"].write(np.ascontiguousarray(clip.T, np.float32).tobytes())
-        peel["depth_row"].value = tuple(float(x) for x in row)
         peel["depth_map"].value = (float(near), float(1.0 / (far - near)))
         peel["prev_depth"].value = 0
         comp["layer"].value = 1
@@ -145,11 +133,7 @@ class DepthPeeling(OITMethod):
         count = self.count
 
         def counters():
-            c = read_texture(count, 1)[..., 0]
-            covered = c > 0
-            return {"peel_passes": passes, "layers": layers, "depth_complexity_max": int(c.max()),
-                    "depth_complexity_mean": float(c[covered].mean()) if covered.any() else 0.0,
-                    "fragments": int(c.sum()), "pixels_covered": int(covered.sum()),
+            return {"peel_passes": passes, "layers": layers, **complexity_counters(read_texture(count, 1)[..., 0]),
                     "samples_per_pass": samples, "all_layers_peeled": done, "max_layers": p.max_layers}
 
         def invariants(c):
@@ -158,9 +142,3 @@ class DepthPeeling(OITMethod):
             return []
 
         return self.result(counters, invariants)
-
-    def release(self):
-        for f in getattr(self, "_fbos", []):
-            f.release()
-        self._fbos = []
-        super().release()

@@ -35,7 +35,7 @@ import numpy as np
 from harness.effects.oit import BACKGROUND
 from harness.gpu import read_texture
 from methods.base import ParamsBase
-from methods.oit import OITMethod, camera_transform
+from methods.oit import PeelingMethod, complexity_counters
 
 MAX_PASSES = 4096
 FAR = 3.0e38
@@ -46,22 +46,15 @@ class DualDepthPeelingParams(ParamsBase):
     pass
 
 
-class DualDepthPeeling(OITMethod):
+class DualDepthPeeling(PeelingMethod):
     """Bavoil & Myers' dual depth peeling: nearest and farthest layer per geometry pass."""
 
     name = "dual-depth-peeling"
     paper = "yang2010"
     Params = DualDepthPeelingParams
 
-    def setup(self, gpu, scene):
-        super().setup(gpu, scene)
-        self.query = gpu.ctx.query(samples=True)
-        self._fbos = []
-
     def resize(self, w, h):
         r, ctx = self.res, self.gpu.ctx
-        for f in self._fbos:
-            f.release()
         self.depth_init = r.texture("oit.ddp.depth_init", (w, h), 2, "f4")
         self.depth = [r.texture(f"oit.ddp.depth{i}", (w, h), 2, "f4") for i in range(2)]
         self.front = [r.texture(f"oit.ddp.front{i}", (w, h), 4, "f4") for i in range(2)]
@@ -75,7 +68,7 @@ class DualDepthPeeling(OITMethod):
                            "front0": fb([self.front[0]])}
         self.back_fbo = fb([self.back])
         self.final_fbo = fb([self.out])
-        self._fbos = [self.init_fbo, *self.peel_fbo, *self.clear_fbos.values(), self.back_fbo, self.final_fbo]
+        self.own(self.init_fbo, *self.peel_fbo, *self.clear_fbos.values(), self.back_fbo, self.final_fbo)
         self._w, self._h = w, h
 
     def _clear(self, fbo, *rgba):
@@ -88,12 +81,9 @@ class DualDepthPeeling(OITMethod):
         gpu, ctx = self.gpu, self.gpu.ctx
         w, h = view.width, view.height
         self.output(w, h)
-        clip, row, _, _ = camera_transform(self.geo, view)
-        peel = gpu.program(self.shader("peel.glsl"))
+        peel, clip, _, _ = self.peel_program(view)
         blend = gpu.program(self.shader("blend.glsl"))
         final = gpu.program(self.shader("blend.glsl"), {"DDP_FINAL": 1})
-        peel["clip"].write(np.ascontiguousarray(clip.T, np.float32).tobytes())
-        peel["depth_row"].value = tuple(float(x) for x in row)
         peel["depth_prev"].value, peel["front_prev"].value = 0, 1
         blend["back_layer"].value = 2
         final["front"].value, final["back"].value, final["depth_init"].value = 3, 4, 5
@@ -153,12 +143,8 @@ class DualDepthPeeling(OITMethod):
         done = samples[-1] == 0
 
         def counters():
-            c = self._fragment_counts(clip, w, h)
-            covered = c > 0
             return {"peel_passes": passes, "geometry_passes": passes + 1, "samples_per_pass": samples,
-                    "depth_complexity_max": int(c.max()),
-                    "depth_complexity_mean": float(c[covered].mean()) if covered.any() else 0.0,
-                    "fragments": int(c.sum()), "pixels_covered": int(covered.sum()), "all_layers_peeled": done}
+                    **complexity_counters(self._fragment_counts(clip, w, h)), "all_layers_peeled": done}
 
         def invariants(c):
             return [] if done else [f"dual depth peeling stopped at the safety cap of {MAX_PASSES} passes"]
@@ -188,9 +174,3 @@ class DualDepthPeeling(OITMethod):
             vao.release()
             fbo.release()
             tex.release()
-
-    def release(self):
-        for f in getattr(self, "_fbos", []):
-            f.release()
-        self._fbos = []
-        super().release()
