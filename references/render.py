@@ -225,20 +225,32 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
     variant = choose_variant()
     if batch_rays is None:
         batch_rays = BATCH_RAYS.get(variant, 1 << 22)
+    nl = len(scene.lights)
+    per_sample = {"ao": 1, "direct": nl, "indirect": 1 + nl}[effect.name]
+    return cached_render(scene, effect, width, height, spp_eff, spp, seed, variant, cache, cache_dir, per_sample,
+                         lambda: _render(scene, effect, width, height, spp_eff, seed, progress, int(batch_rays)))
+
+
+def cached_render(scene, effect, width: int, height: int, spp: int, spp_requested: int, seed: int, variant: str,
+                  cache: bool, cache_dir, rays_per_sample: int, render) -> Reference:
+    """The cache lookup, ``render()`` → (mean, var, mask) under ``variant`` on a miss, its checks, timing,
+    metadata and storing: what every reference renderer shares (this module and :mod:`references.wavefront`).
+    ``rays_per_sample``: rays per sample of a hit pixel, for ``rays_per_second`` (one primary ray per pixel
+    besides)."""
     with _variant_active(variant):
         version = mitsuba_version()
-        fields = _cache.key_fields(scene, effect, width, height, spp_eff, seed, version, variant)
+        fields = _cache.key_fields(scene, effect, width, height, spp, seed, version, variant)
         key = _cache.cache_key(fields)
         cdir = Path(cache_dir) if cache_dir is not None else _cache.default_cache_dir()
         if cache:
             hit = _cache.load(cdir, key, fields)
             if hit is not None:
                 mean, var, mask, meta = hit
-                meta.update(cached=True, key=key, spp_requested=spp)
+                meta.update(cached=True, key=key, spp_requested=spp_requested)
                 return Reference(mean, var, mask, meta)
         t0 = time.perf_counter()
         try:
-            mean, var, mask = _render(scene, effect, width, height, spp_eff, seed, progress, int(batch_rays))
+            mean, var, mask = render()
         except (RuntimeError, MemoryError) as e:  # Dr.Jit/Mitsuba failures (e.g. out of memory)
             msg = (str(e).strip().splitlines() or [type(e).__name__])[0]
             raise LdbenchError(f"Mitsuba ({variant}) failed rendering {effect.label()} on {scene.name!r}: "
@@ -247,11 +259,9 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
         if not (np.all(np.isfinite(mean))):
             raise LdbenchError(f"the Mitsuba reference of {effect.label()} on {scene.name!r} produced "
                                f"non-finite values")
-        nl = len(scene.lights)
-        per_sample = {"ao": 1, "direct": nl, "indirect": 1 + nl}[effect.name]
-        rays = width * height + int(mask.sum()) * spp_eff * per_sample
+        rays = width * height + int(mask.sum()) * spp * rays_per_sample
         meta = {
-            "variant": variant, "mitsuba_version": version, "spp": spp_eff, "spp_requested": spp,
+            "variant": variant, "mitsuba_version": version, "spp": spp, "spp_requested": spp_requested,
             "seconds": seconds, "key": key, "cached": False, "effect": effect.key(), "seed": seed,
             "width": width, "height": height, "scene": scene.name, "scene_hash": fields["scene"],
             "reference_version": _cache.REFERENCE_VERSION,

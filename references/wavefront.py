@@ -13,19 +13,13 @@ cached under the same key scheme (:mod:`references.cache`).
 """
 from __future__ import annotations
 
-import math
-import time
-import warnings
-from pathlib import Path
-
 import numpy as np
 
 from harness.errors import LdbenchError
 
-from . import cache as _cache
 from . import integrators as _int
-from .render import BATCH_RAYS, Reference, _progress, _seed_key, _variant_active
-from .variant import choose_variant, mitsuba_version
+from .render import BATCH_RAYS, Reference, _progress, _seed_key, cached_render
+from .variant import choose_variant
 
 
 def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator, needs_direct):
@@ -106,38 +100,6 @@ def render_estimator(scene, effect, *, width: int, height: int, spp: int, seed: 
     width, height, spp, seed = int(width), int(height), int(spp), int(seed)
     variant = choose_variant()
     batch_rays = int(batch_rays or BATCH_RAYS.get(variant, 1 << 22))
-    with _variant_active(variant):
-        version = mitsuba_version()
-        fields = _cache.key_fields(scene, effect, width, height, spp, seed, version, variant)
-        key = _cache.cache_key(fields)
-        cdir = Path(cache_dir) if cache_dir is not None else _cache.default_cache_dir()
-        if cache:
-            hit = _cache.load(cdir, key, fields)
-            if hit is not None:
-                mean, var, mask, meta = hit
-                meta.update(cached=True, key=key, spp_requested=spp)
-                return Reference(mean, var, mask, meta)
-        t0 = time.perf_counter()
-        try:
-            mean, var, mask = _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator,
-                                      needs_direct)
-        except (RuntimeError, MemoryError) as e:
-            msg = (str(e).strip().splitlines() or [type(e).__name__])[0]
-            raise LdbenchError(f"Mitsuba ({variant}) failed rendering {effect.label()} on {scene.name!r}: "
-                               f"{msg}") from e
-        seconds = time.perf_counter() - t0
-        if not np.all(np.isfinite(mean)):
-            raise LdbenchError(f"the Mitsuba reference of {effect.label()} on {scene.name!r} produced non-finite "
-                               f"values")
-        rays = width * height + int(mask.sum()) * spp * rays_per_sample
-        meta = {"variant": variant, "mitsuba_version": version, "spp": spp, "spp_requested": spp,
-                "seconds": seconds, "key": key, "cached": False, "effect": effect.key(), "seed": seed,
-                "width": width, "height": height, "scene": scene.name, "scene_hash": fields["scene"],
-                "reference_version": _cache.REFERENCE_VERSION,
-                "rays_per_second": rays / seconds if seconds > 0 else math.inf}
-        if cache:
-            try:
-                _cache.store(cdir, key, fields, mean, var, mask, meta)
-            except LdbenchError as e:
-                warnings.warn(f"reference not cached: {e}", RuntimeWarning, stacklevel=2)
-        return Reference(mean, var, mask, meta)
+    return cached_render(scene, effect, width, height, spp, spp, seed, variant, cache, cache_dir, rays_per_sample,
+                         lambda: _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator,
+                                         needs_direct))
