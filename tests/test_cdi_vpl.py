@@ -84,6 +84,20 @@ def test_rays_against_the_oracle(gpu, cornell, rays_case):
     np.testing.assert_array_equal(got["one_pass"], got["split"])
 
 
+def test_fast_builds_answer_as_the_raster(gpu, cornell, rays_case):
+    """build = splat (the compute splat: the instanced raster's fragments) and assembly = sort (pairs sorted
+    by list) answer every ray as the instanced raster does (depths to float rounding on llvmpipe)."""
+    e, batch, _ = rays_case
+    kw = dict(directions=48, resolution=32)
+    ref = run(gpu, cornell, e, batch, build="instanced", **kw).arrays["t"]
+    for build, assembly in (("splat", "direct"), ("splat", "sort"), ("instanced", "sort")):
+        r = run(gpu, cornell, e, batch, build=build, assembly=assembly, **kw)
+        np.testing.assert_allclose(r.arrays["t"], ref, rtol=2e-5, err_msg=f"{build}/{assembly}")
+        assert r.counters["fragments"] == r.counters["fragments_stored"] and not r.invariants
+        assert (r.counters["build_variant"], r.counters["assembly"]) == ("raster" if build == "instanced"
+                                                                          else build, assembly)
+
+
 @pytest.mark.parametrize("direction_set,n", [("stacks_slices", 169), ("stacks_slices", 32), ("eqsp", 128)])
 def test_nearest_direction_lookups_equal_the_scan(gpu, cornell, rays_case, direction_set, n):
     """The O(1) nearest-direction lookups (the (θ, φ) grid of stacks × slices, the cube table of the zonal

@@ -141,7 +141,8 @@ def _arrays(s):
 
 
 def test_peel_and_single_pass_identical(gpu):
-    """Cornell box with both LDI sets (half and all 6k²): offsets, depth bits and payload words identical.
+    """Cornell box with both LDI sets (half and all 6k²): offsets, depth bits and payload words identical
+    (the compute splat's depths to float rounding: it evaluates its own depth plane).
     A second copy of the floor with another albedo lies in the floor's plane: its fragments tie with the
     floor's at equal depth, and its payload sorts before the floor's although its triangles come later, so
     both builds must order ties by payload (canon), not by triangle id or by the order of the atomics."""
@@ -154,20 +155,41 @@ def test_peel_and_single_pass_identical(gpu):
     copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2))  # the same triangles; its
     # albedo word (RGBA8, blue in bits 16-23) is below the floor's
     scene = dataclasses.replace(base, meshes=list(base.meshes) + [copy])
+    builds = {"peel": {}, "single_pass": dict(build="single_pass"),
+              "splat": dict(build="single_pass", raster="splat"),
+              "splat-sort": dict(build="single_pass", raster="splat", assembly="sort"),
+              "sort": dict(build="single_pass", assembly="sort")}
     for share in (True, False):
         out = {}
-        for build in ("peel", "single_pass"):
-            m = _ldi(gpu, scene, directions=24, resolution=32, build=build, share_opposite=share)
+        for name, kw in builds.items():
+            if not share and name not in ("peel", "single_pass"):
+                continue
+            m = _ldi(gpu, scene, directions=24, resolution=32, share_opposite=share, **kw)
             try:
                 m.ls.build()
-                out[build] = _arrays(m.ls)
+                out[name] = _arrays(m.ls)
+                if "raster" in kw:
+                    assert out[name][3]["build_variant"] == "splat"
             finally:
                 m.release()
-        a, b = out["peel"], out["single_pass"]
-        assert a[3]["fragments"] == b[3]["fragments"] > 10000
-        for x, y in zip(a[:3], b[:3]):
-            assert np.array_equal(x, y)
+        a = out["peel"]
+        for name, b in out.items():
+            assert a[3]["fragments"] == b[3]["fragments"] > 10000, name
+            assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2]), name  # offsets, payload words
+            if name.startswith("splat"):  # its own depth plane: the same depths to float rounding
+                d = np.abs(a[1].view(np.float32) - b[1].view(np.float32))
+                assert d.max() <= (1.5e-6 if gpu.device == "cpu-software" else 5e-4), (name, d.max())  # 1.37e-6
+            else:
+                assert np.array_equal(a[1], b[1]), name
         assert a[3]["lists"] == (12 if share else 24) * 32 * 32 and a[3]["peel_layers"] == a[3]["max_list_length"]
+
+
+def test_fast_build_parameters_need_the_single_pass():
+    from methods.ldi import LdiParams
+
+    with pytest.raises(LdbenchError, match="single_pass"):
+        LdiParams(raster="splat")
+    LdiParams(build="single_pass", raster="splat", assembly="sort")
 
 
 def test_peel_invariants_report_truncation(gpu):

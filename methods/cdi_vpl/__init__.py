@@ -47,7 +47,8 @@ Parameter          Default         Paper           Meaning
 ``directions``     169             169             number of deep images
 ``direction_set``  stacks_slices   stacks_slices   stacks × slices (spherical coordinates) | eqsp (zonal)
 ``resolution``     64              64              texels per side of each deep image
-``build``          one_pass        one_pass        one_pass | brute_force | instanced
+``build``          one_pass        one_pass        one_pass | brute_force | instanced | splat (compute, = instanced)
+``assembly``       direct                          count + fill passes | one pass of pairs sorted by list
 ``pass_directions`` 0                              one_pass: directions per raster pass (0 = all)
 ``max_list``       32                              register-sort length (longer lists: exact slow path)
 ``cdi``            frame           frame           build the CDI every frame | once in setup (static)
@@ -87,9 +88,12 @@ class CdiVplParams(ParamsBase):
     direction_set: str = param("stacks_slices", "stacks x slices in spherical coordinates, or the zonal "
                                "equal-area set", choices=("stacks_slices", "eqsp"), paper="stacks_slices")
     resolution: int = param(64, "texels per side of each deep image", lo=4, hi=4096, paper=64)
-    build: str = param("one_pass", "CDI build: one pass for all directions, one raster per direction, or the "
-                       "per-direction raster as one instanced draw", choices=("one_pass", "brute_force", "instanced"),
+    build: str = param("one_pass", "CDI build: one pass for all directions, one raster per direction, the "
+                       "per-direction raster as one instanced draw, or the compute splat (the instanced raster's "
+                       "fragments; docs/fast_builds.md)", choices=("one_pass", "brute_force", "instanced", "splat"),
                        paper="one_pass (brute_force: the baseline)")
+    assembly: str = param("direct", "count + fill passes, or one pass of (list, depth) pairs sorted by list",
+                          choices=("direct", "sort"))
     pass_directions: int = param(0, "one_pass: directions per raster pass (0 = all in one)", lo=0)
     max_list: int = param(32, "register-array length of the per-pixel sort (longer lists: exact slow path)",
                           lo=1, hi=1024)
@@ -157,10 +161,10 @@ class CdiVpl(Method):
         """The CDI (created at the first use that needs it; a static one is built then, untimed)."""
         if self.cdi_struct is None:
             p = self.params
-            build = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster"}[p.build]
+            build = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster", "splat": "splat"}[p.build]
             s = make_structure(
                 "linear", self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
-                max_list=p.max_list, instanced=p.build == "instanced", prefix="cdi.", build=build,
+                max_list=p.max_list, instanced=p.build == "instanced", prefix="cdi.", build=build, assembly=p.assembly,
                 pass_layers=p.pass_directions, sphere=(self.centre, self.radius))
             s.set_layers(*self._layers)
             self.axes_buf = self.res.buffer("cdi.axes", self._basis)

@@ -42,6 +42,8 @@ Parameter               Default      Paper       Meaning
 ``rotated``             False        False       rotate the direction cube (CUBE_ROTATION; see below)
 ``share_opposite``      True         False       one LDI answers v and −v (3k² LDIs stored)
 ``build``               peel         peel        peel | single_pass (same structure)
+``raster``              hardware                 single_pass: hardware raster | compute splat (same fragments)
+``assembly``            direct                   single_pass: count + fill | one pass of pairs sorted by list
 ``prebuild``            False                    build once in setup (untimed); frames only trace
 ``epsilon``             1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
 ``bias``                0.25                     tangent-plane bias of the self-hit test, LDI pixels
@@ -94,6 +96,10 @@ class LdiParams(ParamsBase):
                                  paper=False)
     build: str = param("peel", "peel (depth peeling + GPU compaction) | single_pass (shared one-pass arrays)",
                        choices=("peel", "single_pass"), paper="peel")
+    raster: str = param("hardware", "single_pass: fragments from the hardware raster or the compute splat (the "
+                        "same fragments; docs/fast_builds.md)", choices=("hardware", "splat"), paper="hardware")
+    assembly: str = param("direct", "single_pass: count + fill passes, or one pass of (list, depth) pairs sorted "
+                          "by list", choices=("direct", "sort"))
     prebuild: bool = param(False, "build once in setup (untimed, the paper's precomputation); frames only trace")
     epsilon: float = param(1.0, "hit tolerance in LDI pixels (world = value * 2R / resolution)", lo=0.0, hi=1e4)
     bias: float = param(0.25, "tangent-plane bias of the self-hit test, LDI pixels", lo=0.0, hi=1e4)
@@ -119,6 +125,9 @@ class LdiParams(ParamsBase):
             raise LdbenchError(f"parameter directions={self.directions}: {e}") from None
         if self.filter_size and self.filter_size % 2 == 0:
             raise LdbenchError(f"parameter filter_size={self.filter_size} must be odd (or 0)")
+        if self.build == "peel" and (self.raster, self.assembly) != ("hardware", "direct"):
+            raise LdbenchError("parameters raster and assembly apply to build = single_pass (depth peeling "
+                               "rasterizes every pass on the hardware)")
 
 
 class Ldi(Method):
@@ -141,8 +150,10 @@ class Ldi(Method):
         self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
         axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
+        fast = {} if p.build == "peel" else {"raster": "splat" if p.raster == "splat" else "raster",
+                                             "assembly": p.assembly}
         self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
-                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.")
+                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.", **fast)
         self.ls.set_layers(clip, rows)
         basis = np.zeros((len(axes), 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v

@@ -229,15 +229,18 @@ class PeeledLayers(LinearisedArrays):
 
 class SinglePassLayers:
     """``build = single_pass``: the shared one-pass linearised arrays plus the ``canon`` stage, so that the
-    result is the peel's structure bit for bit. Everything else is the wrapped structure's."""
+    result is the peel's structure bit for bit. Everything else is the wrapped structure's; ``raster``
+    (its ``build``) and ``assembly`` are the shared structure's (hardware raster or compute splat; count + fill or sorted
+    pairs: docs/fast_builds.md)."""
 
     build_kind = "single_pass"
 
     def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
-                 payload: tuple = PAYLOAD, max_list: int = 64, instanced: bool = True, prefix: str = "ldi."):
+                 payload: tuple = PAYLOAD, max_list: int = 64, instanced: bool = True, prefix: str = "ldi.",
+                 raster: str = "raster", assembly: str = "direct"):
         self._s = make_structure("linear", gpu, geometry, res, layers=layers, width=width, height=height,
                                  payload=payload, max_list=max_list, instanced=instanced, indexed=False,
-                                 prefix=prefix)
+                                 prefix=prefix, build=raster, assembly=assembly)
 
     def __getattr__(self, name):
         return getattr(self._s, name)
@@ -249,7 +252,7 @@ class SinglePassLayers:
 
     def stats(self) -> dict:
         c = self._s.stats()
-        c["build"] = "single_pass"
+        c["build"] = "single_pass"  # the structure's own build variant stays in c["build_variant"]
         return c
 
     def invariants(self, stats: dict) -> list[str]:
