@@ -49,7 +49,12 @@ time) no verdict flipped under this rule: each claim gave its one verdict or ``n
 Quantities
 ----------
 ``time_ms`` ← ``total_ms`` (median frame time; GPU timer queries, or wall clock on a software
-rasterizer), ``memory_mb`` ← ``memory_bytes`` / 2**20, ``psnr`` (dB), ``ssim``, ``flip``, ``relmse``.
+rasterizer), ``memory_mb`` ← ``memory_bytes`` / 2**20, ``psnr`` (dB), ``ssim``, ``flip``, ``relmse``,
+the ray columns ``rays_per_s``, ``oracle_rays_per_s``, ``hit_agreement``, ``dist_err_p95``, and two
+families: ``stage:NAME`` (the median time of a stage, ms, from ``stage_ms``; ``stage:a+b`` sums stages,
+e.g. ``stage:count+fill`` for a build's two passes) and ``counter:NAME`` (a method counter, e.g.
+``counter:fragments``). Stage times get the timing verdicts of ``time_ms``, with the whole frame's
+noise.
 The ratio column is ours / published: on different hardware (and a stand-in scene) it measures the
 machine as much as the method, which is why the verdicts compare rows *within* our run (the paper's
 claims are relative statements) and never our absolute numbers with the published ones.
@@ -75,7 +80,30 @@ QUANTITIES = {
     "ssim": ("ssim", "", True, "SSIM"),
     "flip": ("flip", "", False, "FLIP"),
     "relmse": ("relmse", "", False, "relMSE"),
+    "rays_per_s": ("rays_per_s", "rays/s", True, "rays/s"),
+    "hit_agreement": ("hit_agreement", "", True, "hit agreement"),
+    "dist_err_p95": ("dist_err_p95", "", False, "p95 distance error / diagonal"),
+    "oracle_rays_per_s": ("oracle_rays_per_s", "rays/s", True, "Mitsuba oracle rays/s"),
 }
+FAMILIES = ("stage:", "counter:")
+
+
+def quantity(q: str) -> tuple:
+    """(column, unit, higher is better, label) of a quantity: one of :data:`QUANTITIES`, ``stage:NAME``
+    or ``counter:NAME`` (module docstring)."""
+    if q in QUANTITIES:
+        return QUANTITIES[q]
+    if q.startswith("stage:") and q[6:]:
+        return "stage_ms", "ms", False, f"{q[6:]} stage time"
+    if q.startswith("counter:") and q[8:]:
+        return "counters", "", True, q[8:]
+    raise LdbenchError(f"unknown quantity {q!r} (known: {', '.join(QUANTITIES)}, stage:NAME, counter:NAME)")
+
+
+def row_quantities(row: dict) -> list:
+    """The quantities a published row gives: keys of :data:`QUANTITIES` in that order, then its
+    ``stage:`` and ``counter:`` keys in their own order."""
+    return [q for q in QUANTITIES if q in row] + [k for k in row if k.startswith(FAMILIES)]
 
 HOLDS = "holds"
 FAILS = "does not hold on this machine"
@@ -95,7 +123,11 @@ class Claim:
 
     * ``"less"`` / ``"greater"``: row ``a``'s value is below / above row ``b``'s for every quantity;
     * ``"better"``: ``a`` beats ``b`` on every quantity (lower time/memory/FLIP/relMSE, higher PSNR/SSIM);
-    * ``"ratio"``: a / b of the first quantity lies within ``ratio`` = (lo, hi).
+    * ``"ratio"``: a / b of the first quantity lies within ``ratio`` = (lo, hi);
+    * ``"gap"``: a / b exceeds c / d for every quantity (rows ``c`` and ``d``): "the gap grows".
+
+    ``b_quantity``: compare a's quantity with this quantity of b (e.g. two stages of one row, a = b);
+    default: the same quantity on both sides.
     """
 
     text: str
@@ -106,6 +138,9 @@ class Claim:
     ratio: tuple | None = None
     where: str = ""  # where the paper says it (figure, section)
     published: str = ""  # the published evidence when not a pair of numbers (e.g. "images only")
+    c: str = ""  # kind "gap": the second pair
+    d: str = ""
+    b_quantity: str = ""
 
 
 @dataclass(frozen=True)
@@ -336,8 +371,15 @@ def time_verdict(ra, rb, va: float, vb: float, kind: str = "less"):
 def our_value(r, q: str):
     if r is None:
         return None
-    col = QUANTITIES[q][0]
+    col = quantity(q)[0]
     v = r.get(col)
+    if q.startswith(FAMILIES):
+        from .figures import _as_dict
+
+        d = _as_dict(v) or {}
+        names = q.split(":", 1)[1].split("+")
+        vals = [_float(d.get(n)) for n in names]
+        return None if any(x is None for x in vals) else float(sum(vals))
     try:
         v = float(v)
     except (TypeError, ValueError):
@@ -350,7 +392,7 @@ def our_value(r, q: str):
 def _fmt(v, q=None) -> str:
     if v is None:
         return "–"
-    unit = QUANTITIES[q][1] if q else ""
+    unit = quantity(q)[1] if q else ""
     if q in ("ssim", "flip"):
         s = f"{v:.3f}"
     elif q == "relmse":
@@ -373,7 +415,7 @@ def _ratio(a, b) -> str:
 
 
 def _compare(kind, q, a, b, ratio=None):
-    hib = QUANTITIES[q][2]
+    hib = quantity(q)[2]
     if kind == "less":
         return a < b
     if kind == "greater":
@@ -382,12 +424,16 @@ def _compare(kind, q, a, b, ratio=None):
         return a > b if hib else a < b
     if kind == "ratio":
         return b != 0 and ratio[0] <= a / b <= ratio[1]
+    if kind == "gap":  # a, b: the two ratios
+        return a > b
     raise LdbenchError(f"unknown claim kind {kind!r}")
 
 
 def _side(kind, q, va, vb, ratio=None) -> str:
     if va is None or vb is None:
         return "–"
+    if kind == "gap":
+        return f"{va:.3g}× vs {vb:.3g}×"
     if kind == "ratio":
         return f"{_fmt(va, q)} / {_fmt(vb, q)} = {va / vb:.2f}×" if vb else "–"
     return f"{_fmt(va, q)} vs {_fmt(vb, q)}"
@@ -426,12 +472,12 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
                    + (f", d_max = {fmt_value(d)}{'' if math.isinf(d) else ' m'} ({effect_param(ours, 'falloff', 'step')})"
                       if d is not None else "")
                    + f", {ours.get('width')}×{ours.get('height')}" + (f" [{n} matches]" if n > 1 else ""))
-        qs = [q for q in QUANTITIES if q in pr] or ["time_ms"]
+        qs = row_quantities(pr) or ["time_ms"]
         for q in qs:
             pub = pr.get(q)
             ov = our_value(ours, q)
             rows_out.append({"id": pr["id"], "label": pr["label"], "paper_setup": pr.get("paper_setup", ""),
-                             "ours_config": cfg, "quantity": f"{QUANTITIES[q][3]}" + (f" ({QUANTITIES[q][1]})" if QUANTITIES[q][1] else ""),
+                             "ours_config": cfg, "quantity": f"{quantity(q)[3]}" + (f" ({quantity(q)[1]})" if quantity(q)[1] else ""),
                              "published": _fmt(pub, q) if pub is not None else "not published",
                              "ours": _fmt(ov, q), "ratio": _ratio(ov, pub),
                              "published_value": pub, "ours_value": ov})
@@ -441,12 +487,25 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
         ra, rb = found.get(c.a), found.get(c.b)
         parts, verdicts, pub_parts, timing = [], [], [], set()
         for q in c.quantities:
-            va, vb = our_value(ra, q), our_value(rb, q)
+            qb = c.b_quantity or q
+            va, vb = our_value(ra, q), our_value(rb, qb)
+            pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(qb)
+            timed = [(ra, rb, va, vb)]
+            if c.kind == "gap":  # compare a/b with c/d: the sides become the two ratios
+                rc, rd = found.get(c.c), found.get(c.d)
+                vc, vd = our_value(rc, q), our_value(rd, q)
+                timed.append((rc, rd, vc, vd))
+                va = va / vb if None not in (va, vb) and vb else None
+                vb = vc / vd if None not in (vc, vd) and vd else None
+                pc, pd = pub_rows.get(c.c, {}).get(q), pub_rows.get(c.d, {}).get(q)
+                pa = pa / pb if None not in (pa, pb) and pb else None
+                pb = pc / pd if None not in (pc, pd) and pd else None
             parts.append(_side(c.kind, q, va, vb, c.ratio))
             verdicts.append(None if va is None or vb is None else _compare(c.kind, q, va, vb, c.ratio))
-            if q == "time_ms" and va is not None and vb is not None:
-                timing.add(time_verdict(ra, rb, va, vb, c.kind))
-            pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(q)
+            if q == "time_ms" or q.startswith("stage:"):
+                for r1, r2, v1, v2 in timed:
+                    if None not in (r1, r2, v1, v2):
+                        timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind))
             if pa is not None and pb is not None:
                 pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
         if any(v is None for v in verdicts):

@@ -29,6 +29,10 @@ def test_registry_entries_are_complete():
         assert len(ids) == len(set(ids))
         for c in e.claims:
             assert c.a in ids and c.b in ids, c.text
+            if c.kind == "gap":
+                assert c.c in ids and c.d in ids, c.text
+            for q in (*c.quantities, *([c.b_quantity] if c.b_quantity else [])):
+                R.quantity(q)  # a known quantity (raises otherwise)
         assert {"paper", "ci"} <= set(e.scales)
 
 
@@ -249,3 +253,57 @@ def test_fig8_on_real_scenes_ci_end_to_end(tmp_path, capsys):
     for line in out.splitlines():
         if "resemble the reference better" in line:
             assert line.rstrip().endswith("holds"), line
+
+
+def _staged(method, d, t, stages, counters, iqr=0.1):
+    r = _row(method, d, t, iqr=iqr)
+    r["stage_ms"], r["counters"] = stages, counters
+    return r
+
+
+def test_stage_and_counter_quantities_and_the_new_claim_kinds(tmp_path):
+    """stage:NAME (summed with +) and counter:NAME quantities in rows and claims; a claim between two
+    stages of one row (b_quantity); a "gap" claim (a/b against c/d), with its timing verdict."""
+    from harness.reproduce import Claim, Reproduction
+
+    m = {"scene": "atrium", "effect": "ao"}
+    rows = ({"id": "l1", "label": "ldm 1", "match": {**m, "method": "ldm-ao", "d_max": 1.0},
+             "stage:build": 5.0, "stage:count+fill": 4.0, "counter:fragments": 100},
+            {"id": "h1", "label": "hbao 1", "match": {**m, "method": "hbao", "d_max": 1.0}},
+            {"id": "l2", "label": "ldm 2", "match": {**m, "method": "ldm-ao", "d_max": 2.0}},
+            {"id": "h2", "label": "hbao 2", "match": {**m, "method": "hbao", "d_max": 2.0}})
+    claims = (Claim("build beats trace", "l1", "l1", ("stage:build",), "greater", b_quantity="stage:trace"),
+              Claim("count+fill under build", "l1", "l1", ("stage:count+fill",), "less", b_quantity="stage:build"),
+              Claim("more fragments at 2", "l2", "l1", ("counter:fragments",), "greater"),
+              Claim("the gap grows", "l2", "h2", ("time_ms",), "gap", c="l1", d="h1"),
+              Claim("the gap shrinks", "l1", "h1", ("time_ms",), "gap", c="l2", d="h2"),
+              Claim("noise", "l1", "l1", ("stage:trace",), "greater", b_quantity="stage:build+trace"),
+              Claim("missing stage", "l1", "l1", ("stage:nope",), "greater", b_quantity="stage:build"))
+    e = Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", "suites/aalund2015-fig8.toml", rows, claims)
+    recs = [_staged("ldm-ao", 1.0, 10.0, {"build": 6.0, "count": 1.5, "fill": 2.0, "trace": 3.0},
+                    {"fragments": 1000}),
+            _staged("hbao", 1.0, 5.0, {"ao": 5.0}, {}),
+            _staged("ldm-ao", 2.0, 30.0, {"build": 20.0, "trace": 9.0}, {"fragments": 4000}),
+            _staged("hbao", 2.0, 6.0, {"ao": 6.0}, {})]
+    records.write_results(recs, tmp_path)
+    res = evaluate(e, records.read_results(tmp_path))
+    v = {c["text"]: c for c in res["claims"]}
+    assert v["build beats trace"]["verdict"] == HOLDS and v["build beats trace"]["ours"] == "6.00 ms vs 3.00 ms"
+    assert v["count+fill under build"]["verdict"] == HOLDS and "3.50 ms vs 6.00 ms" in v["count+fill under build"]["ours"]
+    assert v["more fragments at 2"]["verdict"] == HOLDS
+    assert v["the gap grows"]["verdict"] == HOLDS and v["the gap grows"]["ours"] == "5× vs 2×"
+    assert v["the gap shrinks"]["verdict"] == FAILS
+    assert v["noise"]["verdict"] == FAILS  # 3 vs 9 ms, well beyond the 0.1 ms IQR
+    assert v["missing stage"]["verdict"] == NOT_MEASURED
+    got = {(r["id"], r["quantity"]): r for r in res["rows"]}
+    assert got[("l1", "build stage time (ms)")]["ours_value"] == 6.0
+    assert got[("l1", "count+fill stage time (ms)")]["ours_value"] == 3.5
+    assert got[("l1", "count+fill stage time (ms)")]["published"] == "4.00 ms"
+    assert got[("l1", "fragments")]["ours_value"] == 1000
+    # a GPU difference within the timing noise: inconclusive for stage claims as for frame times
+    recs[0]["stage_ms"] = {"build": 3.05, "trace": 3.0}
+    records.write_results(recs, tmp_path)
+    res = evaluate(e, records.read_results(tmp_path))
+    assert {c["text"]: c["verdict"] for c in res["claims"]}["build beats trace"] == INCONCLUSIVE
+    with pytest.raises(R.LdbenchError, match="unknown quantity"):
+        R.quantity("stage")
