@@ -125,6 +125,7 @@ class Resources:
         self.bytes.clear()
 
 
+STAGING_KEEP = 16 << 20  # bytes: read-backs up to this size reuse one staging buffer per context
 _LIVE: list = []  # Gpu instances not yet released, in creation order (one thread uses them)
 
 
@@ -210,6 +211,13 @@ class Gpu:
         size = buffer.size - offset if size is None else int(size)
         if size <= 0:
             return b""
+        if size > STAGING_KEEP:  # a large read (a whole structure, in tests and statistics): a staging
+            st = self.ctx.buffer(reserve=size, dynamic=True)  # buffer of its own, released at once
+            try:
+                self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
+                return st.read(size=size)
+            finally:
+                st.release()
         st = getattr(self, "_staging", None)
         if st is None or st.size < size:
             if st is not None:

@@ -126,6 +126,15 @@ def test_read_goes_through_staging(gpu):
         assert np.array_equal(np.frombuffer(gpu.read(buf, 8, offset=4 * 17), np.uint32), [17, 18])
         assert np.array_equal(np.frombuffer(gpu.read(buf), np.uint32), data)  # staging grows past 4 KiB
         assert gpu.read(buf, 0) == b"" and not direct
+        import harness.gpu as G
+
+        keep, G.STAGING_KEEP = G.STAGING_KEEP, 1024  # a read above the kept size: its own staging buffer
+        try:
+            kept = gpu._staging
+            assert np.array_equal(np.frombuffer(gpu.read(buf, 4000, offset=400), np.uint32), data[100:1100])
+            assert gpu._staging is kept and not direct
+        finally:
+            G.STAGING_KEEP = keep
     finally:
         buf.read = orig
         buf.release()
