@@ -168,6 +168,7 @@ class Gpu:
         self._pending: list = []  # (stage, query or ms) for the current frame
         self._frame_t0 = None
         self._programs: dict = {}
+        self._staging = None  # the kept staging buffer of read()
         _LIVE.append(self)
 
     # ---- shaders -------------------------------------------------------------------------
@@ -211,20 +212,21 @@ class Gpu:
         size = buffer.size - offset if size is None else int(size)
         if size <= 0:
             return b""
+        kept = self._staging
         if size > STAGING_KEEP:  # a large read (a whole structure, in tests and statistics): a staging
-            st = self.ctx.buffer(reserve=size, dynamic=True)  # buffer of its own, released at once
-            try:
-                self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
-                return st.read(size=size)
-            finally:
-                st.release()
-        st = getattr(self, "_staging", None)
-        if st is None or st.size < size:
-            if st is not None:
-                st.release()
+            st = self.ctx.buffer(reserve=size, dynamic=True)  # buffer of its own, released below
+        elif kept is None or kept.size < size:
+            if kept is not None:
+                kept.release()
             st = self._staging = self.ctx.buffer(reserve=max(1 << 12, 1 << (size - 1).bit_length()), dynamic=True)
-        self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
-        return st.read(size=size)
+        else:
+            st = kept
+        try:
+            self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
+            return st.read(size=size)
+        finally:
+            if st is not self._staging:
+                st.release()
 
     # ---- timing --------------------------------------------------------------------------
     def begin_frame(self):
@@ -310,7 +312,7 @@ class Gpu:
             return None
 
     def release(self):
-        if getattr(self, "_staging", None) is not None:
+        if self._staging is not None:
             self._staging.release()
             self._staging = None
         for p in self._programs.values():
