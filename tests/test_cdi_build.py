@@ -12,8 +12,10 @@ threads rarely collide on one list); on a GPU the lost fragments show as the inv
 stored" (every run checks it: the row is ``degraded``).
 """
 from __future__ import annotations
+
 import numpy as np
 import pytest
+
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene
 from methods.directions import stacks_slices

@@ -68,14 +68,16 @@ Parameter          Default         Paper           Meaning
 =================  ==============  ==============  ===========================================================
 """
 from __future__ import annotations
+
 import contextlib
 from dataclasses import dataclass
+
 import numpy as np
+
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from methods.layered import bounding_sphere, make_structure, ortho_layers
-
 
 B_AXES, B_LUT, B_RANGES, B_RAYS, B_HITS = 11, 12, 13, 20, 21
 RAY_BYTES = 48
