@@ -150,10 +150,9 @@ class Ldi(Method):
         self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
         axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        fast = {} if p.build == "peel" else {"raster": "splat" if p.raster == "splat" else "raster",
-                                             "assembly": p.assembly}
         self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
-                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.", **fast)
+                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.", raster=p.raster,
+                                     assembly=p.assembly)
         self.ls.set_layers(clip, rows)
         basis = np.zeros((len(axes), 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v

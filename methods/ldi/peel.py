@@ -229,18 +229,19 @@ class PeeledLayers(LinearisedArrays):
 
 class SinglePassLayers:
     """``build = single_pass``: the shared one-pass linearised arrays plus the ``canon`` stage, so that the
-    result is the peel's structure bit for bit. Everything else is the wrapped structure's; ``raster``
-    (its ``build``) and ``assembly`` are the shared structure's (hardware raster or compute splat; count + fill or sorted
-    pairs: docs/fast_builds.md)."""
+    result is the peel's structure bit for bit. Everything else is the wrapped structure's. ``raster``:
+    ``hardware`` or ``splat`` (the compute splat), ``assembly``: ``direct`` or ``sort`` — the shared
+    structure's fast builds (docs/fast_builds.md)."""
 
     build_kind = "single_pass"
 
     def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
                  payload: tuple = PAYLOAD, max_list: int = 64, instanced: bool = True, prefix: str = "ldi.",
-                 raster: str = "raster", assembly: str = "direct"):
+                 raster: str = "hardware", assembly: str = "direct"):
         self._s = make_structure("linear", gpu, geometry, res, layers=layers, width=width, height=height,
                                  payload=payload, max_list=max_list, instanced=instanced, indexed=False,
-                                 prefix=prefix, build=raster, assembly=assembly)
+                                 prefix=prefix, build="splat" if raster == "splat" else "raster",
+                                 assembly=assembly)
 
     def __getattr__(self, name):
         return getattr(self._s, name)
@@ -263,9 +264,11 @@ class SinglePassLayers:
 
 
 def make_ldi_structure(build: str, gpu, geometry, res, **kw):
-    """The LDI structure of ``build`` (``peel`` | ``single_pass``)."""
+    """The LDI structure of ``build`` (``peel`` | ``single_pass``); each drops the options of the other
+    (``LdiParams`` refuses a peel with a fast-build option)."""
     if build == "peel":
-        kw.pop("max_list", None)
+        for k in ("max_list", "raster", "assembly"):
+            kw.pop(k, None)
         return PeeledLayers(gpu, geometry, res, **kw)
     kw.pop("max_layers", None)
     return SinglePassLayers(gpu, geometry, res, **kw)
