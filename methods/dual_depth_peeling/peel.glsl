@@ -10,18 +10,7 @@
 #include "oit.glsl"
 
 #if defined(VERTEX_SHADER)
-uniform mat4 clip;
-uniform vec4 depth_row;
-in vec3 in_position;
-in float in_material;
-out float v_depth;
-flat out uint v_material;
-void main() {
-    vec4 p = vec4(in_position, 1.0);
-    gl_Position = clip * p;
-    v_depth = dot(depth_row, p);
-    v_material = uint(in_material + 0.5);
-}
+#include "oit_peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 uniform int init;                 // 1: the min-max pass

@@ -11,13 +11,7 @@
 // and return undefined values, which would keep the CAS loop of the sorted insert spinning (llvmpipe runs
 // them to its loop limit). gl_HelperInvocation: GLSL 4.50 / ARB_ES3_1_compatibility.
 #extension GL_ARB_ES3_1_compatibility : enable
-#if defined(LL_AGGREGATE)
-#extension GL_ARB_shader_ballot : require
-#extension GL_ARB_gpu_shader_int64 : require
-#endif
-#define LL_WRITABLE 1
-#define LA_WRITABLE 1
-#include "layered.glsl"
+#include "layered_write.glsl"
 
 #if defined(VERTEX_SHADER)
 uniform int layer_base;

@@ -18,13 +18,7 @@
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE).
 #extension GL_ARB_ES3_1_compatibility : enable
-#if defined(LL_AGGREGATE)
-#extension GL_ARB_shader_ballot : require
-#extension GL_ARB_gpu_shader_int64 : require
-#endif
-#define LL_WRITABLE 1
-#define LA_WRITABLE 1
-#include "layered.glsl"
+#include "layered_write.glsl"
 
 #if defined(VERTEX_SHADER)
 in vec3 in_position;

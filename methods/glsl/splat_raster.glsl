@@ -11,8 +11,8 @@
 // Depth and clip z are the planes through the three vertices evaluated at the texel centre, as the
 // hardware interpolates: through the snapped vertices with SPLAT_SNAPPED_PLANE (NVIDIA), else through the
 // given ones (llvmpipe); a sliver's depths differ by up to ~1 % between the two. A sample outside the
-// near/far planes (|z| > 1) is dropped as clipping
-// would. Layers must be affine (w = 1, orthographic maps: checked on the host).
+// near/far planes (|z| > 1) is dropped as clipping would. Layers must be affine (w = 1, orthographic
+// maps: checked on the host).
 //
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
 // layer), exceeds splat_max texels is left to the hardware: the invocation of its first layer batch
@@ -23,13 +23,7 @@
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT,
 // SPLAT_SNAPPED_PLANE (0 or 1).
-#if defined(LL_AGGREGATE)
-#extension GL_ARB_shader_ballot : require
-#extension GL_ARB_gpu_shader_int64 : require
-#endif
-#define LL_WRITABLE 1
-#define LA_WRITABLE 1
-#include "layered.glsl"
+#include "layered_write.glsl"
 
 layout(local_size_x = 64) in;
 // geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
