@@ -2,6 +2,7 @@
 square occluder. Camera rays are intersected with the floor analytically, so orientation, camera,
 fall-off, albedo and shadows are all checked."""
 import numpy as np
+import pytest
 
 from harness.effects import Effect
 from harness.scene import Camera, Mesh, Scene, SpotLight
@@ -14,12 +15,12 @@ def quad(name, y, half, albedo, flip=False):
     return Mesh(name, v, f, albedo)
 
 
-def scene():
+def scene(occluder_first=False):
     light = SpotLight((0, 3, 0), (0, 0, 0), (10, 8, 6), cutoff_angle=50, beam_width=30)
     cam = Camera((0.3, 7, 5), (0, 0, 0.2), (0, 1, 0), 50)
     # the occluder's winding faces down (away from the camera): two-sidedness is tested too
-    return Scene("plane", [quad("floor", 0, 5, (0.6, 0.5, 0.4)), quad("occ", 1, 0.5, (0.9, 0.9, 0.9), True)],
-                 cam, [light])
+    meshes = [quad("floor", 0, 5, (0.6, 0.5, 0.4)), quad("occ", 1, 0.5, (0.9, 0.9, 0.9), True)]
+    return Scene("plane", meshes[::-1] if occluder_first else meshes, cam, [light])
 
 
 def closed_form(sc, w, h):
@@ -44,8 +45,10 @@ def closed_form(sc, w, h):
     return rad.reshape(h, w, 3), safe.reshape(h, w), p.reshape(h, w, 3), on_floor.reshape(h, w)
 
 
-def test_direct_raster_matches_closed_form(gpu):
-    sc = scene()
+@pytest.mark.parametrize("occluder_first", [False, True], ids=["floor-first", "occluder-first"])
+def test_direct_raster_matches_closed_form(gpu, occluder_first):
+    """Either draw order: the shadow atlas keeps the nearest surface by its depth test, not by the order."""
+    sc = scene(occluder_first)
     w, h = 96, 80
     m = get_method("direct-raster")()
     m.setup(gpu, sc)
