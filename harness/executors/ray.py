@@ -4,34 +4,36 @@
 cluster                ``--address ADDR`` joins a running cluster (``auto``, ``HOST:6379``,
                        ``ray://HOST:10001``); without it a local cluster is started and shut down
                        at the end. A process that already called ``ray.init`` keeps its cluster.
-resources              ``num_gpus=1`` per task when the cluster has GPUs, else ``num_cpus=1`` (a
-                       CPU-only cluster: llvmpipe); ``max_calls=1``: every task is a fresh process,
-                       with fresh GL and Dr.Jit state.
-references             one task per (scene, effect, size, spp, seed) builds the effect's inputs and
+workers                one Ray actor per GPU of the cluster (``num_gpus=1``; on a cluster without
+                       GPUs, one per CPU: llvmpipe), alive for the whole run. Like the serial run's
+                       process, a worker keeps its GL context, compiled shaders and Mitsuba's compiled
+                       kernels from one call to the next; its GPU (``CUDA_VISIBLE_DEVICES``, and the
+                       EGL device chosen from it) is fixed for its life. The driver gives each idle
+                       worker the next call whose inputs exist: references first, then job groups.
+references             one call per (scene, effect, size, spp, seed) builds the effect's inputs and
                        renders (or loads) the reference into the cache (references/cache.py, atomic);
-                       the job tasks that need it take its object ref as an argument, so Ray starts
-                       them once it exists: it is never rendered twice.
-job groups             jobs sharing a reference run in one task (one process start, one context,
-                       shaders compiled once), at most ``group_size`` per task (default: enough tasks
-                       for two per worker).
-images                 a task writes into ``<run>/.stage/<id>/`` when it sees the run directory (a
+                       its job groups are given out once it exists: it is never rendered twice.
+job groups             jobs sharing a reference run in one call, at most ``group_size`` per call
+                       (default: enough calls for two per worker).
+images                 a worker writes into ``<run>/.stage/<id>/`` when it sees the run directory (a
                        shared file system, recognised by a token file), else into a local temporary
                        folder whose files it returns; the driver moves or writes them into place.
-faults                 a task that dies (worker killed, GPU fault, out of memory) or raises is retried
-                       ``retries`` times; a group that still fails is re-run job by job, and a job
-                       that still fails gets the row ``error: <reason>``. The run completes.
-Ctrl-C                 cancels (kills) every task, waits for them to end, and re-raises: the runner
+faults                 a call that raises or whose worker dies (worker killed, GPU fault, out of memory:
+                       Ray restarts the worker, a fresh process on the same GPU) is made again up to
+                       ``retries`` times; a group that still fails is re-run job by job, and a job that
+                       still fails gets the row ``error: <reason>``. The run completes.
+Ctrl-C                 kills every worker, waits for their calls to end, and re-raises: the runner
                        deletes the partial run directory.
-environment            the driver's ``LDBENCH_*`` variables are set in every task (reference cache,
+environment            the driver's ``LDBENCH_*`` variables are set in every worker (reference cache,
                        Mitsuba variant).
 =====================  ==========================================================================
 
 The run directory (lock, partial folder, results, commit) stays with the driver
 (:func:`harness.runner.run_jobs`). Rows come back in suite order, with the local run's schema.
 
-Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a task about to run a job of method
-TARGET (or, with TARGET ``reference``, a reference task) ``exit`` (the worker process dies), ``raise``
-(RuntimeError) or ``sleep`` (ten minutes); with FILE, only while FILE does not exist (the task creates it,
+Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
+TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
+(RuntimeError) or ``sleep`` (ten minutes); with FILE, only while FILE does not exist (the worker creates it,
 writing its pid), so that a retry succeeds.
 """
 from __future__ import annotations
@@ -73,12 +75,12 @@ class TaskSpec:
     git: dict
     out: str  # the driver's partial run directory
     token: str  # content of <out>/.stage/token: seen by the task = shared file system
-    env: tuple = ()  # the driver's LDBENCH_* variables, set in the task before anything reads them
+    env: tuple = ()  # the driver's LDBENCH_* variables, set in each worker before anything reads them
 
 
 def forwarded_env() -> tuple:
     """The driver's ``LDBENCH_*`` variables (reference cache, Mitsuba variant, test faults) as pairs.
-    Set by each task itself: a per-task Ray ``runtime_env`` would double a task's start-up time."""
+    Set by each worker itself: a Ray ``runtime_env`` would double a worker's start-up time."""
     return tuple(sorted((k, v) for k, v in os.environ.items() if k.startswith("LDBENCH_")))
 
 
@@ -103,20 +105,6 @@ def group_jobs(jobs: list, workers: int, group_size: int | None = None) -> list:
         by_key.setdefault(prepare_key(job), []).append((i, job))
     return [(key, items[s:s + group_size]) for key, items in by_key.items()
             for s in range(0, len(items), group_size)]
-
-
-# ---- tasks (run in Ray workers) ---------------------------------------------------------------------
-def _reference_task(scene, key, cache, env=()):
-    """Inputs and reference of one prepare key: (small summary for the driver, Prepared for the jobs)."""
-    from ..runner import prepare
-
-    os.environ.update(dict(env))
-    _inject_fault("reference")
-    try:
-        prep = prepare(scene, key, cache=cache, progress=False)
-    except LdbenchError as e:  # bad input (e.g. the camera sees nothing): returned, never retried
-        return {"error": str(e)}, None
-    return {"meta": dict(getattr(prep.reference, "meta", {}) or {})}, prep
 
 
 def _inject_fault(name: str) -> None:
@@ -158,37 +146,65 @@ def _read_tree(folder: Path) -> dict:
     return {f.relative_to(folder).as_posix(): f.read_bytes() for f in sorted(folder.rglob("*")) if f.is_file()}
 
 
-def _group_task(spec: TaskSpec, prep, jobs: list) -> TaskResult:
-    """Run ``jobs`` (all sharing ``prep``) on a fresh GL context of this worker's GPU."""
-    import socket
+# ---- the worker (a Ray actor: one per GPU, alive for the whole run) ---------------------------------
+class Worker:
+    """One long-lived process per GPU (or per CPU slot on a cluster without GPUs). Like the serial run's
+    process it keeps its GL context, compiled shaders and Mitsuba's compiled kernels from one call to the
+    next; Ray restarts it (a fresh process, same GPU) when it dies."""
 
-    from ..gpu import Gpu
-    from ..runner import RunContext, machine_of, release_inputs, run_job
+    def __init__(self, env=()):
+        os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
+        self.gpu = self.machine = None
+        self.calls = 0
 
-    os.environ.update(dict(spec.env))
-    if prep is None:  # its reference is bad input; the driver stops the run
-        return TaskResult([], error="no reference")
-    stage, shared = _stage_dir(spec)
-    try:
+    def identity(self) -> dict:
+        return {"pid": os.getpid(), "calls": self.calls,
+                "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES")}
+
+    def reference(self, scene, key, cache):
+        """Inputs and reference of one prepare key: (small summary for the driver, Prepared for the jobs)."""
+        from ..runner import prepare
+
+        self.calls += 1
+        _inject_fault("reference")
         try:
-            gpu = Gpu()
-        except LdbenchError as e:
-            return TaskResult([], error=f"{socket.gethostname()}: {e}")
+            prep = prepare(scene, key, cache=cache, progress=False)
+        except LdbenchError as e:  # bad input (e.g. the camera sees nothing): returned, never retried
+            return {"error": str(e)}, None
+        return {"meta": dict(getattr(prep.reference, "meta", {}) or {})}, prep
+
+    def jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
+        """Run ``jobs`` (all sharing ``prep``) on this worker's GL context, opened on its first call."""
+        import socket
+
+        from ..gpu import Gpu
+        from ..runner import RunContext, machine_of, release_inputs, run_job
+
+        self.calls += 1
+        if prep is None:  # its reference is bad input; the driver stops the run
+            return TaskResult([], error="no reference")
+        if self.gpu is None:
+            try:
+                self.gpu = Gpu()
+            except LdbenchError as e:
+                return TaskResult([], error=f"{socket.gethostname()}: {e}")
+            self.machine = machine_of(self.gpu)
+        stage, shared = _stage_dir(spec)
         try:
-            ctx = RunContext(gpu=gpu, machine=machine_of(gpu), git=spec.git, run_id=spec.run_id,
+            ctx = RunContext(gpu=self.gpu, machine=self.machine, git=spec.git, run_id=spec.run_id,
                              suite_name=spec.suite_name, out=stage)
             rows = []
-            for job in jobs:
-                _inject_fault(job.method)
-                rows.append(run_job(ctx, job, prep))
+            try:
+                for job in jobs:
+                    _inject_fault(job.method)
+                    rows.append(run_job(ctx, job, prep))
+            finally:
+                release_inputs([prep])
+            files = None if shared else _read_tree(stage)
         finally:
-            release_inputs([prep])
-            gpu.release()
-        files = None if shared else _read_tree(stage)
-    finally:
-        if not shared:
-            shutil.rmtree(stage, ignore_errors=True)
-    return TaskResult(rows, str(stage) if shared else None, files)
+            if not shared:
+                shutil.rmtree(stage, ignore_errors=True)
+        return TaskResult(rows, str(stage) if shared else None, files)
 
 
 # ---- driver ----------------------------------------------------------------------------------------
@@ -198,15 +214,27 @@ def _cause(e: BaseException) -> BaseException:
 
 
 def _reason(e: BaseException) -> str:
-    """One line: what killed a task."""
+    """One line: what failed a call. A worker whose process ended is reported as such: Ray's own
+    message (ActorDiedError, ActorUnavailableError, depending on timing) is about Ray's state."""
     c = _cause(e)
+    if any(b.__name__ == "RayActorError" for b in type(c).__mro__):
+        return f"worker died: its process ended during the call ({type(c).__name__})"
     lines = [ln.strip() for ln in str(c).splitlines() if ln.strip()]
     text = f"{type(c).__name__}: {lines[0] if lines else ''}".rstrip(": ")
     return text[:300]
 
 
+@dataclass
+class _Work:
+    """One call to a worker: a reference (``items`` None) or a group of jobs sharing ``key``'s reference."""
+
+    key: tuple
+    items: list | None = None
+    tries: int = 0
+
+
 class RayExecutor:
-    """Runs a plan's jobs as Ray tasks (see the module docstring)."""
+    """Runs a plan's jobs on Ray workers (see the module docstring)."""
 
     uses_driver_gpu = False
 
@@ -217,7 +245,8 @@ class RayExecutor:
         if group_size is not None and (not isinstance(group_size, int) or group_size < 1):
             raise LdbenchError(f"group size must be an integer >= 1, got {group_size!r}")
         self.address, self.retries, self.group_size = address, retries, group_size
-        self.stage_in_run_dir = stage_in_run_dir  # False: tasks always return their files (tests)
+        self.stage_in_run_dir = stage_in_run_dir  # False: workers always return their files (tests)
+        self.stats: dict = {}  # of the last run: workers, their processes, calls
         import_ray()  # before anything is written: a missing extra is one line
 
     # -- cluster
@@ -235,107 +264,140 @@ class RayExecutor:
             raise LdbenchError(f"cannot start or join the Ray cluster {where}: {_reason(e)}") from None
         return True
 
-    def _task_options(self, ray) -> tuple[dict, int, str]:
+    @staticmethod
+    def _worker_options(ray) -> tuple[dict, int, str]:
+        """Ray options of a worker, how many (one per GPU, else one per CPU) and of what kind.
+        ``max_restarts=-1``: a worker that dies is restarted; what bounds the attempts is ``retries``."""
         total = ray.cluster_resources()
         gpus = int(total.get("GPU", 0))
-        common = dict(max_calls=1, max_retries=self.retries, retry_exceptions=True)
+        common = dict(max_restarts=-1, max_task_retries=0)
         if gpus:
             return {**common, "num_gpus": 1}, gpus, "GPU"
         return {**common, "num_cpus": 1}, max(1, int(total.get("CPU", 1))), "CPU"
 
     # -- run
     def run(self, plan, out, *, gpu=None, progress: bool = True) -> list[dict]:
+        from collections import deque
+
         from ..runner import _progress, failed_row
 
         ray = import_ray()
         out = Path(out)
         started = self._connect(ray)
-        pending: dict = {}  # object ref -> ("reference", key, None) | ("jobs", key, [(index, job)])
+        workers: list = []
+        running: dict = {}  # object ref -> (worker index, _Work, prep ref of a reference call)
         try:
-            opts, workers, kind = self._task_options(ray)
+            opts, slots, kind = self._worker_options(ray)
             root = out / STAGE
             root.mkdir()
             token = uuid.uuid4().hex
             (root / TOKEN).write_text(token)
-            env = forwarded_env()
             spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out),
-                            token if self.stage_in_run_dir else "", env)
-            ref_task = ray.remote(num_returns=2, **opts)(_reference_task)
-            job_task = ray.remote(**opts)(_group_task)
-
+                            token if self.stage_in_run_dir else "", forwarded_env())
+            keys = plan.keys()
+            groups = group_jobs(plan.jobs, slots, self.group_size)
+            # references first (each unlocks its jobs), then the groups in suite order
+            queue = deque([_Work(k) for k in keys] + [_Work(k, items) for k, items in groups])
+            n = max(1, min(slots, len(queue)))
+            worker_cls = ray.remote(**opts)(Worker)
+            workers = [worker_cls.remote(spec.env) for _ in range(n)]
             scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
-            meta_refs, prep_refs = {}, {}
-            for key in plan.keys():
-                meta_refs[key], prep_refs[key] = ref_task.remote(scenes[key[0]], key, plan.reference_cache, env)
-                pending[meta_refs[key]] = ("reference", key, None)
-            groups = group_jobs(plan.jobs, workers, self.group_size)
-            for key, items in groups:
-                pending[job_task.remote(spec, prep_refs[key], [j for _, j in items])] = ("jobs", key, items)
-            print(f"ldbench: ray: {len(plan.jobs)} jobs in {len(groups)} tasks, {len(meta_refs)} references, "
-                  f"{workers} {kind} workers", file=sys.stderr)
+            print(f"ldbench: ray: {len(plan.jobs)} jobs in {len(groups)} groups, {len(keys)} references, "
+                  f"{n} {kind} workers", file=sys.stderr)
 
             rows: list = [None] * len(plan.jobs)
             metas: dict = {}
+            preps: dict = {}  # key -> prep object ref, once its reference is done
+            ref_failed: dict = {}  # key -> the exception its reference died of
+            idle = list(range(n))
+            calls = 0
             bar = _progress(None, len(plan.jobs), "runs", progress) if progress else None
 
             def settle(items, key, new_rows=None, status=None):
-                for n, (i, job) in enumerate(items):
-                    rows[i] = new_rows[n] if new_rows is not None else failed_row(plan, job, status, metas.get(key))
+                for m, (i, job) in enumerate(items):
+                    rows[i] = new_rows[m] if new_rows is not None else failed_row(plan, job, status, metas.get(key))
                 if bar is not None:
                     bar.update(len(items))
 
-            while pending:
-                done, _ = ray.wait(list(pending), num_returns=1, timeout=1.0)
+            def dispatch():
+                nonlocal calls
+                while idle:
+                    work = next((w for w in queue if w.items is None or w.key in preps), None)
+                    if work is None:
+                        return
+                    queue.remove(work)
+                    w = idle.pop(0)
+                    if work.items is None:
+                        meta, prep = workers[w].reference.options(num_returns=2).remote(
+                            scenes[work.key[0]], work.key, plan.reference_cache)
+                        running[meta] = (w, work, prep)
+                    else:
+                        ref = workers[w].jobs.remote(spec, preps[work.key], [j for _, j in work.items])
+                        running[ref] = (w, work, None)
+                    calls += 1
+
+            def failed(work, e):
+                """A call that raised or whose worker died: again, job by job, or an error row."""
+                if work.tries < self.retries:
+                    queue.appendleft(_Work(work.key, work.items, work.tries + 1))
+                elif work.items is None:  # the reference: its jobs say so
+                    ref_failed[work.key] = e
+                    for w in [w for w in queue if w.key == work.key]:
+                        queue.remove(w)
+                        settle(w.items, w.key, status=f"error: reference task failed: {_reason(e)}")
+                elif len(work.items) > 1:  # find the job that fails, spare the others
+                    print(f"ldbench: ray: a group of {len(work.items)} jobs failed ({_reason(e)}); "
+                          f"running them one by one", file=sys.stderr)
+                    for item in reversed(work.items):
+                        queue.appendleft(_Work(work.key, [item]))
+                else:
+                    t = self.retries + 1
+                    settle(work.items, work.key, status=f"error: {_reason(e)} (task failed {t} time{'s' * (t > 1)})")
+
+            dispatch()
+            while running:
+                done, _ = ray.wait(list(running), num_returns=1, timeout=1.0)
                 for ref in done:
-                    what, key, items = pending.pop(ref)
+                    w, work, prep = running.pop(ref)
+                    idle.append(w)
                     try:
                         value = ray.get(ref)
-                    except Exception as e:  # the task failed after its retries, or its reference did
-                        if what == "reference":
-                            continue  # its jobs say so
-                        ref_error = self._reference_error(ray, meta_refs[key])
-                        if ref_error is None and len(items) > 1:  # find the job that fails, spare the others
-                            print(f"ldbench: ray: a task of {len(items)} jobs failed ({_reason(e)}); "
-                                  f"running them one by one", file=sys.stderr)
-                            for item in items:
-                                pending[job_task.remote(spec, prep_refs[key], [item[1]])] = ("jobs", key, [item])
-                        elif ref_error is not None:
-                            settle(items, key, status=f"error: reference task failed: {_reason(ref_error)}")
-                        else:
-                            n = self.retries + 1
-                            settle(items, key, status=f"error: {_reason(e)} (task failed {n} time{'s' * (n > 1)})")
+                    except Exception as e:  # raised, or the worker died (Ray restarts it)
+                        failed(work, e)
                         continue
-                    if what == "reference":
+                    if work.items is None:
                         if "error" in value:  # bad input, as in a local run: the run stops
                             raise LdbenchError(value["error"])
-                        metas[key] = value["meta"]
+                        metas[work.key], preps[work.key] = value["meta"], prep
                     elif value.error is not None:
-                        settle(items, key, status=f"error: {value.error}")
+                        settle(work.items, work.key, status=f"error: {value.error}")
                     else:
                         self._merge(value, out)
-                        settle(items, key, new_rows=value.rows)
+                        settle(work.items, work.key, new_rows=value.rows)
+                dispatch()
             if bar is not None:
                 bar.close()
+            self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
+                          "processes": self._processes(ray, workers)}
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:
-            self._cancel(ray, pending)
+            self._cancel(ray, workers, running)
+            workers = []
             raise
         finally:
+            for a in workers:
+                ray.kill(a, no_restart=True)
             if started:
                 ray.shutdown()
 
     @staticmethod
-    def _reference_error(ray, meta_ref):
-        """The exception of a reference task that has failed, else None (also while it still runs)."""
-        ready, _ = ray.wait([meta_ref], timeout=0)
-        if not ready:
-            return None
+    def _processes(ray, workers) -> list:
+        """Each worker's process id and GPU, asked at the end (a process that served every call)."""
         try:
-            ray.get(meta_ref)
-        except Exception as e:
-            return e
-        return None
+            return ray.get([a.identity.remote() for a in workers], timeout=30)
+        except Exception:
+            return []
 
     @staticmethod
     def _merge(result: TaskResult, out: Path) -> None:
@@ -360,15 +422,15 @@ class RayExecutor:
             os.replace(tmp, dst)
 
     @staticmethod
-    def _cancel(ray, pending: dict) -> None:
-        """Kill every task still pending or running and wait (bounded) until they have ended, so that
-        none writes into the run directory after the runner deletes it."""
-        refs = list(pending)
-        for r in refs:
+    def _cancel(ray, workers: list, running: dict) -> None:
+        """Kill every worker (and so its running call) and wait (bounded) until the calls have ended, so
+        that none writes into the run directory after the runner deletes it."""
+        for a in workers:
             try:
-                ray.cancel(r, force=True)
+                ray.kill(a, no_restart=True)
             except Exception:
                 pass
+        refs = list(running)
         deadline = time.monotonic() + CANCEL_WAIT_S
         while refs and time.monotonic() < deadline:
             try:
