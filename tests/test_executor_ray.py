@@ -19,7 +19,7 @@ import pytest
 ray = pytest.importorskip("ray", reason="the test extra installs ray (pip install -e '.[test]')")
 
 from harness.executors.check import TIMED, differences, image_files  # noqa: E402
-from harness.executors.ray import RayExecutor, group_jobs  # noqa: E402
+from harness.executors.ray import RayExecutor, cpus_per_gpu, group_jobs  # noqa: E402
 from harness.runner import run_jobs  # noqa: E402
 from harness.suite import suite_from_dict  # noqa: E402
 
@@ -92,6 +92,14 @@ def test_group_jobs_by_reference():
     assert all(len({(j.effect, j.width) for _, j in items}) == 1 for _, items in groups)
     assert [len(items) for _, items in group_jobs(jobs, workers=3)] == [1] * 6
     assert [len(items) for _, items in group_jobs(jobs, workers=8, group_size=4)] == [2, 2, 2]
+
+
+def test_cpus_per_gpu():
+    """A GPU worker gets its GPU's share of its node's cores (Ray sets its OMP_NUM_THREADS from it), the
+    smallest share over the nodes with GPUs, so that every GPU's worker can be placed."""
+    assert cpus_per_gpu([{"CPU": 16.0, "GPU": 1.0}]) == 16
+    assert cpus_per_gpu([{"CPU": 128.0, "GPU": 8.0}, {"CPU": 12.0, "GPU": 2.0}, {"CPU": 64.0}]) == 6
+    assert cpus_per_gpu([{"CPU": 2.0, "GPU": 4.0}]) == 1 and cpus_per_gpu([{"CPU": 8.0}]) == 1
 
 
 def test_dead_worker_marks_its_rows_and_the_run_completes(cluster, serial, tmp_path, monkeypatch):
