@@ -100,6 +100,7 @@ run() {  # run NAME [K]: one `ldbench run` into $W/NAME, wall clock into $W/NAME
     echo "$t0 $t1 $rc ${k:-0}" > "$W/$name.wall"
     log "   $name: rc=$rc (0: all ok, 1: some row not ok, 124: timed out) in $(awk "BEGIN {printf \"%.1f\", $t1 - $t0}") s"
     tail -n 3 "$W/$name.log" >> "$O/log.txt"
+    grep "^ldbench: ray" "$W/$name.log" >> "$O/log.txt"
 }
 
 summary() {
