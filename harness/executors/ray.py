@@ -164,10 +164,11 @@ class Worker:
     def __init__(self, env=()):
         os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
         self.gpu = self.machine = None
-        self.calls = 0
+        self.calls, self.busy_s = 0, 0.0
 
     def identity(self) -> dict:
-        return {"pid": os.getpid(), "calls": self.calls, "omp_threads": os.environ.get("OMP_NUM_THREADS"),
+        return {"pid": os.getpid(), "calls": self.calls, "busy_s": self.busy_s,
+                "omp_threads": os.environ.get("OMP_NUM_THREADS"),
                 "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES")}
 
     def reference(self, scene, key, cache):
@@ -175,23 +176,33 @@ class Worker:
         from ..runner import prepare
 
         self.calls += 1
+        t0 = time.perf_counter()
         _inject_fault("reference")
         try:
             prep = prepare(scene, key, cache=cache, progress=False)
         except LdbenchError as e:  # bad input (e.g. the camera sees nothing): returned, never retried
             return {"error": str(e)}, None
+        finally:
+            self.busy_s += time.perf_counter() - t0
         return {"meta": dict(getattr(prep.reference, "meta", {}) or {})}, prep
 
     def jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
         """Run ``jobs`` (all sharing ``prep``) on this worker's GL context, opened on its first call."""
+        self.calls += 1
+        if prep is None:  # its reference is bad input; the driver stops the run
+            return TaskResult([], error="no reference")
+        t0 = time.perf_counter()
+        try:
+            return self._jobs(spec, prep, jobs)
+        finally:
+            self.busy_s += time.perf_counter() - t0
+
+    def _jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
         import socket
 
         from ..gpu import Gpu
         from ..runner import RunContext, machine_of, release_inputs, run_job
 
-        self.calls += 1
-        if prep is None:  # its reference is bad input; the driver stops the run
-            return TaskResult([], error="no reference")
         if self.gpu is None:
             try:
                 self.gpu = Gpu()
@@ -392,7 +403,7 @@ class RayExecutor:
             print("ldbench: ray: " + "; ".join(
                 f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
                 f"{p['omp_threads']} OpenMP threads): "
-                f"{p['calls']} calls" for p in self.stats["processes"]), file=sys.stderr)
+                f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]), file=sys.stderr)
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:
