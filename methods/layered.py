@@ -305,6 +305,19 @@ def ortho_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
     return clip, rows, (u, w, axes)
 
 
+B_ORTHO_AXES = 11  # methods/glsl/ortho_layers.glsl
+
+
+def bind_ortho_layers(cs, axes_buf, centre, radius: float, resolution: int) -> None:
+    """The uniforms and the axes buffer (the (u, w, v) basis of :func:`ortho_layers`, as vec4 rows) of a
+    program that includes ``ortho_layers.glsl``; a uniform the program does not use is skipped."""
+    for name, v in (("ol_centre", tuple(float(x) for x in centre)), ("ol_radius", float(radius)),
+                    ("ol_size", (int(resolution), int(resolution)))):
+        if name in cs:
+            cs[name].value = v
+    axes_buf.bind_to_storage_buffer(B_ORTHO_AXES)
+
+
 def fill_uint(gpu, buffer, n: int, value: int):
     """``buffer[0 .. n) = value`` on the GPU (``methods/glsl/fill_uint.glsl``)."""
     cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")

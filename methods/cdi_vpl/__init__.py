@@ -77,9 +77,9 @@ import numpy as np
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
-from methods.layered import bounding_sphere, make_structure, ortho_layers
+from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
-B_AXES, B_LUT, B_RANGES, B_RAYS, B_HITS = 11, 12, 13, 20, 21
+B_LUT, B_RANGES, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
 
@@ -205,14 +205,13 @@ class CdiVpl(Method):
     def bind_cdi(self, cs):
         """CDI uniforms and buffers of a program that includes cdi_trace.glsl."""
         p = self.params
-        for name, v in (("cdi_centre", tuple(float(x) for x in self.centre)), ("cdi_radius", float(self.radius)),
-                        ("cdi_size", (p.resolution, p.resolution)), ("cdi_dirs", p.directions),
+        for name, v in (("cdi_dirs", p.directions),
                         ("cdi_bias", p.bias * self.texel), ("cdi_spread", 1.0 if p.build == "one_pass" else 0.0),
                         ("cdi_grid", stacks_slices_shape(p.directions)), ("cdi_lut_res", self.lut_res)):
             if name in cs:
                 cs[name].value = v
         self.cdi_struct.bind()
-        self.axes_buf.bind_to_storage_buffer(B_AXES)
+        bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None:
             self.lut_buf.bind_to_storage_buffer(B_LUT)
 

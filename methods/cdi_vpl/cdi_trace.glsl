@@ -4,7 +4,7 @@
 // reverse order for rays in the matching opposite direction"). The distance is measured along sigma · v_k,
 // the paper's approximation of the ray ("the difference in depth between the fragment and the light").
 //
-// Deep image k: orthographic along v_k over the bounding sphere (cdi_centre, cdi_radius), texel
+// Deep image k: orthographic along v_k over the bounding sphere (ol_centre, ol_radius), texel
 // ((dot(p - c, u), dot(p - c, w)) / radius · ½ + ½) · size, stored depth dot(p - c, v) (methods/ldm
 // ldm_layers). Read through the layered-structure interface (layered.glsl); linear arrays are walked
 // backwards for sigma < 0.
@@ -21,12 +21,8 @@
 #ifndef LDBENCH_CDI_TRACE_GLSL
 #define LDBENCH_CDI_TRACE_GLSL
 #include "layered.glsl"
+#include "ortho_layers.glsl"
 
-struct CdiAxis { vec4 u; vec4 w; vec4 v; };
-layout(std430, binding = 11) readonly buffer CdiAxes { CdiAxis cdi_axes[]; };
-uniform vec3 cdi_centre;
-uniform float cdi_radius;
-uniform ivec2 cdi_size;
 uniform uint cdi_dirs;
 uniform float cdi_bias;
 uniform float cdi_spread;
@@ -46,7 +42,7 @@ layout(std430, binding = 12) readonly buffer CdiLut { uvec4 cdi_lut[]; };
 uniform int cdi_lut_res;
 #endif
 void cdi_try(uint k, vec3 d, inout float bc, inout uint best, inout float sigma) {
-    float c = dot(d, cdi_axes[k].v.xyz);
+    float c = dot(d, ol_axes[k].v.xyz);
     if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
 }
 uint cdi_nearest(vec3 d, out float sigma) {
@@ -94,18 +90,18 @@ uint cdi_nearest(vec3 d, out float sigma) {
 
 // Distance t >= 0 along sigma · v_k from x to the first stored surface beyond x, or -1.0 (none).
 float cdi_trace(uint k, float sigma, vec3 x, vec3 n) {
-    vec3 u = cdi_axes[k].u.xyz, w = cdi_axes[k].w.xyz, v = cdi_axes[k].v.xyz;
-    vec3 r = x - cdi_centre;
-    float texel = 2.0 * cdi_radius / float(cdi_size.x);
-    vec2 f = (vec2(dot(r, u), dot(r, w)) / cdi_radius * 0.5 + 0.5) * vec2(cdi_size);
-    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), cdi_size - 1);
+    vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
+    vec3 r = x - ol_centre;
+    float texel = 2.0 * ol_radius / float(ol_size.x);
+    vec2 f = (vec2(dot(r, u), dot(r, w)) / ol_radius * 0.5 + 0.5) * vec2(ol_size);
+    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ol_size - 1);
     vec2 delta = (vec2(px) + 0.5 - f) * texel;
     float nu = dot(n, u), nw = dot(n, w);
     float cos_t = max(sigma * dot(n, v), 1e-3);
     float thr = (-(delta.x * nu + delta.y * nw) + cdi_spread * 0.5 * texel * (abs(nu) + abs(nw))) / cos_t
                 + cdi_bias;
     float zx = dot(r, v);
-    uint list = ls_list(k, px, cdi_size);
+    uint list = ls_list(k, px, ol_size);
     if (sigma > 0.0) {
         uint bound = ls_bound(), steps = 0u;
         for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {

@@ -2,7 +2,7 @@
 // interface (layered.glsl): the same code reads linked lists and linearised arrays.
 //
 // Map k looks along its axis v_k; (u_k, w_k, v_k) is a right-handed orthonormal basis; the map covers the
-// scene's bounding sphere (centre ldm_centre, radius ldm_radius): texel coordinates are
+// scene's bounding sphere (centre ol_centre, radius ol_radius): texel coordinates are
 // ((dot(p - c, u), dot(p - c, w)) / radius * 0.5 + 0.5) * size, and the stored depth of a fragment is
 // dot(p - c, v). Lists are sorted by ascending depth, so along +v the first hit is the first entry
 // beyond x and along -v it is the last entry before x: one map answers both directions.
@@ -21,28 +21,24 @@
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
 #include "layered.glsl"
+#include "ortho_layers.glsl"
 
-struct LdmAxis { vec4 u; vec4 w; vec4 v; };
-layout(std430, binding = 11) readonly buffer LdmAxes { LdmAxis ldm_axes[]; };
-uniform vec3 ldm_centre;
-uniform float ldm_radius;
-uniform ivec2 ldm_size;
 uniform float ldm_crease;  // world units (0 = no crease rule)
 
 // Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
 // when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
 float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
-    vec3 u = ldm_axes[k].u.xyz, w = ldm_axes[k].w.xyz, v = ldm_axes[k].v.xyz;
-    vec3 r = x - ldm_centre;
+    vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
+    vec3 r = x - ol_centre;
     vec2 st = vec2(dot(r, u), dot(r, w));
     float zx = dot(r, v);
-    vec2 f = (st / ldm_radius * 0.5 + 0.5) * vec2(ldm_size);
-    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ldm_size - 1);
-    vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ldm_radius / vec2(ldm_size));  // x -> texel centre, (u, w)
+    vec2 f = (st / ol_radius * 0.5 + 0.5) * vec2(ol_size);
+    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ol_size - 1);
+    vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ol_radius / vec2(ol_size));  // x -> texel centre, (u, w)
     float cos_t = sigma * dot(n, v);
     float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
     float thr = max(s_self, -ldm_crease) + bias;
-    uint list = ls_list(k, px, ldm_size);
+    uint list = ls_list(k, px, ol_size);
     uint bound = ls_bound(), steps = 0u;
     if (sigma > 0.0) {
         for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
@@ -82,12 +78,12 @@ uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     for (int s = 0; s < 4; ++s) {
         uint k = cand[s];
         if (k == 0xFFFFFFFFu) break;
-        float c = dot(d, ldm_axes[k].v.xyz);
+        float c = dot(d, ol_axes[k].v.xyz);
         if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
     }
 #else
     for (uint k = 0u; k < n_maps; ++k) {
-        float c = dot(d, ldm_axes[k].v.xyz);
+        float c = dot(d, ol_axes[k].v.xyz);
         if (abs(c) > bc) { bc = abs(c); best = k; sigma = c >= 0.0 ? 1.0 : -1.0; }
     }
 #endif

@@ -69,12 +69,12 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
-from methods.layered import bounding_sphere, ortho_layers
+from methods.layered import bind_ortho_layers, bounding_sphere, ortho_layers
 from methods.lights import CubeShadowMap, set_spot_uniforms
 
 from .peel import make_ldi_structure
 
-B_AXES, B_STATS, B_RAYS, B_HITS = 11, 12, 20, 21
+B_STATS, B_RAYS, B_HITS = 12, 20, 21  # 11: the axes (bind_ortho_layers)
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
 RAY_EPSILON, SHADOW_EPSILON = 8.940697e-05, 8.940697e-04  # Mitsuba's float32 RayEpsilon, ShadowEpsilon
@@ -169,15 +169,14 @@ class Ldi(Method):
     # ---- shared uniforms ------------------------------------------------------------------------------
     def _bind_ldis(self, cs):
         p = self.params
-        for name, val in (("ldi_centre", tuple(float(x) for x in self.centre)), ("ldi_radius", float(self.radius)),
-                          ("ldi_res", p.resolution), ("ldi_k", self.k), ("ldi_half", int(p.share_opposite)),
+        for name, val in (("ldi_k", self.k), ("ldi_half", int(p.share_opposite)),
                           ("ldi_eps", p.epsilon * self.pixel), ("ldi_bias", p.bias * self.pixel),
                           ("ldi_max_cross", p.max_crossings),
                           ("ldi_to_cube", tuple(float(x) for x in self.rotation.reshape(-1)))):  # Rᵀ, column-major
             if name in cs:
                 cs[name].value = val
         self.ls.bind()
-        self.axes_buf.bind_to_storage_buffer(B_AXES)
+        bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
 
     def _build(self):
         if not self.params.prebuild:

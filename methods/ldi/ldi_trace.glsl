@@ -2,7 +2,7 @@
 // interface (layered.glsl, LS_LAYOUT 2: compacted per-texel lists sorted by depth).
 //
 // LDI k looks along v_k, (u_k, w_k, v_k) right-handed orthonormal; it covers the scene's bounding sphere
-// (centre ldi_centre, radius R) with ldi_res² pixels of side 2R / ldi_res; a fragment's stored depth is
+// (centre ol_centre, radius R) with ol_size² pixels of side 2R / ol_size; a fragment's stored depth is
 // dot(p - c, v_k). One LDI answers rays along +v_k and -v_k (ldi_half = 1) or only +v_k.
 //
 // 1. LDI: the cube cell of d, in the cube's frame (methods/directions.py cube_cell: the major axis, x
@@ -27,12 +27,8 @@
 #ifndef LDBENCH_LDI_TRACE_GLSL
 #define LDBENCH_LDI_TRACE_GLSL
 #include "layered.glsl"
+#include "ortho_layers.glsl"
 
-struct LdiAxis { vec4 u; vec4 w; vec4 v; };
-layout(std430, binding = 11) readonly buffer LdiAxes { LdiAxis ldi_axes[]; };
-uniform vec3 ldi_centre;
-uniform float ldi_radius;
-uniform int ldi_res;
 uniform int ldi_k;            // squares per cube-face edge: 6k² directions
 uniform int ldi_half;         // 1: one LDI per pair of opposite directions
 uniform float ldi_eps;        // world units
@@ -71,11 +67,11 @@ LdiHit ldi_trace(vec3 o, vec3 d, vec3 n, float tmax) {
     h.t = -1.0; h.node = LS_END; h.crossings = 0u; h.ended = false;
     uint k = ldi_lookup(d);
     h.ldi = k;
-    vec3 u = ldi_axes[k].u.xyz, w = ldi_axes[k].w.xyz, v = ldi_axes[k].v.xyz;
-    float R = ldi_radius;
-    float ppu = float(ldi_res) / (2.0 * R);                   // pixels per world unit
-    vec3 r = o - ldi_centre;
-    vec2 f = vec2(dot(r, u), dot(r, w)) * ppu + 0.5 * float(ldi_res);
+    vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
+    float R = ol_radius;
+    float ppu = float(ol_size.x) / (2.0 * R);                   // pixels per world unit
+    vec3 r = o - ol_centre;
+    vec2 f = vec2(dot(r, u), dot(r, w)) * ppu + 0.5 * float(ol_size.x);
     float z0 = dot(r, v);
     vec2 g = vec2(dot(d, u), dot(d, w)) * ppu;               // pixels per unit of t
     float dz = dot(d, v);
@@ -83,7 +79,7 @@ LdiHit ldi_trace(vec3 o, vec3 d, vec3 n, float tmax) {
     float nv = dot(n, v);
     float b = dot(r, d), c = dot(r, r) - R * R;
     float t_end = min(tmax, -b + sqrt(max(b * b - c, 0.0))); // bounding-sphere exit
-    ivec2 size = ivec2(ldi_res);
+    ivec2 size = ol_size;
     ivec2 px = clamp(ivec2(floor(f)), ivec2(0), size - 1);
     ivec2 stp = ivec2(g.x > 0.0 ? 1 : (g.x < 0.0 ? -1 : 0), g.y > 0.0 ? 1 : (g.y < 0.0 ? -1 : 0));
     vec2 tdelta = vec2(g.x != 0.0 ? 1.0 / abs(g.x) : LDI_INF, g.y != 0.0 ? 1.0 / abs(g.y) : LDI_INF);

@@ -85,11 +85,11 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table
-from methods.layered import bounding_sphere, make_structure, ortho_layers
+from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 from methods.linked_list import POLICIES
 from methods.scan import groups_2d
 
-B_AXES, B_ANGLE, B_LUT, B_RAYS, B_HITS = 11, 12, 13, 20, 21
+B_ANGLE, B_LUT, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 LUT_RES = 128
 FAR = 3.0e38
 
@@ -190,13 +190,11 @@ class Ldm(Method):
 
     def _bind_maps(self, cs):
         p = self.params
-        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel), ("ldm_crease", p.crease * self.texel),
-                        ("ldm_centre", tuple(float(x) for x in self.centre)), ("ldm_radius", float(self.radius)),
-                        ("ldm_size", (p.resolution, p.resolution))):
+        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel), ("ldm_crease", p.crease * self.texel)):
             if name in cs:  # a statistics variant may not use all of them
                 cs[name].value = v
         self.ls.bind()
-        self.axes_buf.bind_to_storage_buffer(B_AXES)
+        bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None and "ldm_lut_res" in cs:
             cs["ldm_lut_res"].value = LUT_RES
             self.lut_buf.bind_to_storage_buffer(B_LUT)

@@ -32,7 +32,7 @@ void main() {
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
     for (uint k = 0u; k < n_maps; ++k) {
-        float c = dot(n, ldm_axes[k].v.xyz);
+        float c = dot(n, ol_axes[k].v.xyz);
         float ct = abs(c);
         if (ct < 1e-6) continue;
         float t = ldm_trace(k, c > 0.0 ? 1.0 : -1.0, x, n, bias);

@@ -120,15 +120,15 @@ void trace_texel(ivec2 p) {
 #endif
     float sum_c = 0.0;
     for (uint k = 0u; k < n_maps; ++k) {
-        float c = abs(dot(n1, ldm_axes[k].v.xyz));
+        float c = abs(dot(n1, ol_axes[k].v.xyz));
         if (c > 1e-6) sum_c += c;
     }
     uint texel = uint(p.y * photons_side + p.x);
     for (uint k = 0u; k < n_maps; ++k) {
-        float c = dot(n1, ldm_axes[k].v.xyz);
+        float c = dot(n1, ol_axes[k].v.xyz);
         if (abs(c) <= 1e-6) continue;
         float sigma = c > 0.0 ? 1.0 : -1.0;
-        vec3 d2 = sigma * ldm_axes[k].v.xyz;
+        vec3 d2 = sigma * ol_axes[k].v.xyz;
         float w = estimator == 0 ? abs(c) / sum_c : 2.0 * abs(c) / float(n_maps);
         vec3 flux2 = flux * alb1 * w;
 #if defined(PHOTON_STATS)
