@@ -155,7 +155,7 @@ for name, r in runs.items():
         ["run", "scene", "method", "effect_params", "params", "status", "psnr", "ssim", "egl_device",
          "cuda_device", "pci_bus_id", "pci_from", "given_pci", "egl_selection", "host"]]
     own = per[per["pci_from"].isin(["uuid", "drm"]) & per["given_pci"].notna()]
-    lines.append(f"  EGL device = the task's GPU (PCI id from the EGL device itself vs nvidia-smi's for "
+    lines.append(f"  EGL device = the worker's GPU (PCI id from the EGL device itself vs nvidia-smi's for "
                  f"CUDA_VISIBLE_DEVICES): {int((own['pci_bus_id'] == own['given_pci']).sum())} of {len(own)} rows; "
                  f"{len(per) - len(own)} rows without an EGL-side PCI id")
     rows.append(per)
