@@ -72,12 +72,7 @@ uint cdi_nearest(vec3 d, out float sigma) {
         for (int dj = -1; dj <= 1; ++dj) cdi_try(uint(ii * L + (jo + dj + L) % L), d, bc, best, sigma);
     }
 #elif defined(CDI_TABLE_LOOKUP)
-    vec3 ad = abs(d);
-    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
-    vec3 e = d[a] >= 0.0 ? d : -d;
-    vec2 uv = vec2(e[(a + 1) % 3], e[(a + 2) % 3]) / e[a];
-    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(cdi_lut_res))), ivec2(0), ivec2(cdi_lut_res - 1));
-    uvec4 cand = cdi_lut[(a * cdi_lut_res + ij.x) * cdi_lut_res + ij.y];
+    uvec4 cand = cdi_lut[ol_table_row(d, cdi_lut_res)];
     for (int s = 0; s < 4; ++s) {
         if (cand[s] == 0xFFFFFFFFu) break;
         cdi_try(cand[s], d, bc, best, sigma);
@@ -91,16 +86,14 @@ uint cdi_nearest(vec3 d, out float sigma) {
 // Distance t >= 0 along sigma · v_k from x to the first stored surface beyond x, or -1.0 (none).
 float cdi_trace(uint k, float sigma, vec3 x, vec3 n) {
     vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
-    vec3 r = x - ol_centre;
     float texel = 2.0 * ol_radius / float(ol_size.x);
-    vec2 f = (vec2(dot(r, u), dot(r, w)) / ol_radius * 0.5 + 0.5) * vec2(ol_size);
-    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ol_size - 1);
-    vec2 delta = (vec2(px) + 0.5 - f) * texel;
+    ivec2 px;
+    vec2 delta;
+    float zx = ol_locate(k, x, px, delta);
     float nu = dot(n, u), nw = dot(n, w);
     float cos_t = max(sigma * dot(n, v), 1e-3);
     float thr = (-(delta.x * nu + delta.y * nw) + cdi_spread * 0.5 * texel * (abs(nu) + abs(nw))) / cos_t
                 + cdi_bias;
-    float zx = dot(r, v);
     uint list = ls_list(k, px, ol_size);
     if (sigma > 0.0) {
         uint bound = ls_bound(), steps = 0u;

@@ -29,12 +29,9 @@ uniform float ldm_crease;  // world units (0 = no crease rule)
 // when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
 float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
     vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
-    vec3 r = x - ol_centre;
-    vec2 st = vec2(dot(r, u), dot(r, w));
-    float zx = dot(r, v);
-    vec2 f = (st / ol_radius * 0.5 + 0.5) * vec2(ol_size);
-    ivec2 px = clamp(ivec2(floor(f)), ivec2(0), ol_size - 1);
-    vec2 delta = (vec2(px) + 0.5 - f) * (2.0 * ol_radius / vec2(ol_size));  // x -> texel centre, (u, w)
+    ivec2 px;
+    vec2 delta;  // x -> texel centre, (u, w)
+    float zx = ol_locate(k, x, px, delta);
     float cos_t = sigma * dot(n, v);
     float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
     float thr = max(s_self, -ldm_crease) + bias;
@@ -57,9 +54,8 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 }
 
 // The map whose axis is closest to direction d (for arbitrary directions); sigma = which side.
-// LDM_LUT: the candidates of d's cell of a half cube (methods/directions.py nearest_axis_table, the
-// cell rule of cube_cell: major axis a, first of x, y, z on ties, the two others in order a+1, a+2);
-// otherwise a scan of all N axes.
+// LDM_LUT: the candidates of d's cell of a half cube (methods/directions.py nearest_axis_table,
+// ol_table_row); otherwise a scan of all N axes.
 #if defined(LDM_LUT)
 layout(std430, binding = 13) readonly buffer LdmLut { uvec4 ldm_lut[]; };
 uniform int ldm_lut_res;
@@ -69,12 +65,7 @@ uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     float bc = -1.0;
     sigma = 1.0;
 #if defined(LDM_LUT)
-    vec3 ad = abs(d);
-    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
-    vec3 e = d[a] >= 0.0 ? d : -d;
-    vec2 uv = vec2(e[(a + 1) % 3], e[(a + 2) % 3]) / e[a];
-    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(ldm_lut_res))), ivec2(0), ivec2(ldm_lut_res - 1));
-    uvec4 cand = ldm_lut[(a * ldm_lut_res + ij.x) * ldm_lut_res + ij.y];
+    uvec4 cand = ldm_lut[ol_table_row(d, ldm_lut_res)];
     for (int s = 0; s < 4; ++s) {
         uint k = cand[s];
         if (k == 0xFFFFFFFFu) break;
