@@ -40,14 +40,15 @@ _SETUP_NOTES = (
     "or brute force (one raster per direction in its own view).",
 )
 
+# What every table of the paper shares: where it was measured, and on what.
+_PAPER = dict(paper="archer2019", hardware="NVIDIA GeForce GTX 1060 (driver 390.25)", resolution="1920x1080",
+              paper_scene="Sponza Atrium (~280k triangles), Rungholt (~7 M)")
+
 TABLE1 = Reproduction(
+    **_PAPER,
     key="archer2019-table1",
-    paper="archer2019",
     title="Time of each step of VPL rendering (Table 1); raycasting ≈ 1 % of the frame",
     source="Table 1 and §4",
-    hardware="NVIDIA GeForce GTX 1060 (driver 390.25)",
-    resolution="1920x1080",
-    paper_scene="Sponza Atrium (~280k triangles), Rungholt (~7 M)",
     suite="suites/archer2019-table1.toml",
     rows=(
         {"id": "atrium", "label": "Table 1 Total, Atrium",
@@ -147,13 +148,10 @@ for scene, sp, name, pub in (("atrium", ATRIUM, "Atrium", (1.5, 1.8, 2.0, 3.2, 4
     ]
 
 TABLE2 = Reproduction(
+    **_PAPER,
     key="archer2019-table2",
-    paper="archer2019",
     title="CDI build time for 8 to 128 directions (Table 2); one pass vs brute force; CDI memory",
     source="Table 2 and §4",
-    hardware="NVIDIA GeForce GTX 1060 (driver 390.25)",
-    resolution="1920x1080",
-    paper_scene="Sponza Atrium (~280k triangles), Rungholt (~7 M)",
     suite="suites/archer2019-table2.toml",
     rows=tuple(_T2_ROWS),
     claims=(
@@ -202,13 +200,10 @@ for R, a, r, rnd in ((256, 0.5, 0.6, 0.04), (512, 1.8, 2.1, 0.14), (1024, 6.0, 6
                      "time_ms": rnd})
 
 TABLE3 = Reproduction(
+    **_PAPER,
     key="archer2019-table3",
-    paper="archer2019",
     title="Raycast time for RSMs of 256² to 2048², against random ranges (Table 3)",
     source="Table 3 and §4",
-    hardware="NVIDIA GeForce GTX 1060 (driver 390.25)",
-    resolution="1920x1080",
-    paper_scene="Sponza Atrium (~280k triangles), Rungholt (~7 M)",
     suite="suites/archer2019-table3.toml",
     rows=tuple(_T3_ROWS),
     claims=(
