@@ -9,6 +9,7 @@ import pytest
 
 from harness.cli import main
 from harness.errors import LdbenchError
+from testkit import read_only_parent
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -168,15 +169,7 @@ def test_out_on_a_file_or_read_only_parent_fails_before_rendering(tmp_path):
     rc, _, se = tiny_run(f, env={"LDBENCH_CACHE": str(cache)})
     assert_one_line_error(rc, se, "not a directory")
     assert f.read_text() == "x"
-    if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses even root
-        parent = Path("/sys/ldbench-no-such-dir")
-        if not Path("/sys").is_dir():
-            pytest.skip("running as root without /sys: no read-only folder to try")
-    else:
-        parent = tmp_path / "ro"
-        parent.mkdir()
-        parent.chmod(0o555)
-    rc, _, se = tiny_run(parent / "run", env={"LDBENCH_CACHE": str(cache)})
+    rc, _, se = tiny_run(read_only_parent(tmp_path) / "run", env={"LDBENCH_CACHE": str(cache)})
     assert_one_line_error(rc, se, "cannot")
     assert not cache.exists()  # nothing was rendered (no reference cached)
 

@@ -10,6 +10,7 @@ import pytest
 
 from harness.errors import LdbenchError
 from harness.rundir import MARKER, RunDir, is_run_dir
+from testkit import read_only_parent
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -101,16 +102,8 @@ def test_refuses_current_directory(tmp_path, monkeypatch):
 
 
 def test_read_only_parent_fails_before_anything(tmp_path):
-    if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses even root
-        parent = Path("/sys/ldbench-no-such-dir")
-        if not Path("/sys").is_dir():
-            pytest.skip("no /sys")
-    else:
-        parent = tmp_path / "ro"
-        parent.mkdir()
-        parent.chmod(0o555)
     with pytest.raises(LdbenchError, match="cannot"):
-        RunDir(parent / "run").open()
+        RunDir(read_only_parent(tmp_path) / "run").open()
 
 
 def test_abort_removes_only_its_partial(tmp_path):

@@ -1,6 +1,8 @@
 """Shared test kit: small scenes built from meshes (plane, disk, box, sphere, a Cornell-like box) and
 closed forms (AO and obscurance of a plane point under a disk), used by the reference and method tests."""
 import math
+import os
+from pathlib import Path
 
 import numpy as np
 
@@ -166,3 +168,18 @@ def expected_lists(with_material: bool = False):
                             break
                 out[k, y, x] = sorted(ds)
     return out
+
+
+def read_only_parent(tmp_path):
+    """A folder in which nothing can be created: a 0o555 folder, or for root (who ignores permission bits)
+    a path under /sys, which refuses even root; skips the test where there is neither."""
+    import pytest
+
+    if os.geteuid() == 0:
+        if not Path("/sys").is_dir():
+            pytest.skip("running as root without /sys: no read-only folder to try")
+        return Path("/sys/ldbench-no-such-dir")
+    parent = tmp_path / "ro"
+    parent.mkdir()
+    parent.chmod(0o555)
+    return parent
