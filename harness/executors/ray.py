@@ -68,14 +68,13 @@ def import_ray():
 
 @dataclass(frozen=True)
 class TaskSpec:
-    """What a job task needs besides its jobs and their prepared inputs."""
+    """What a call that runs jobs needs besides its jobs and their prepared inputs."""
 
     run_id: str
     suite_name: str
     git: dict
     out: str  # the driver's partial run directory
-    token: str  # content of <out>/.stage/token: seen by the task = shared file system
-    env: tuple = ()  # the driver's LDBENCH_* variables, set in each worker before anything reads them
+    token: str  # content of <out>/.stage/token: seen by the worker = shared file system
 
 
 def forwarded_env() -> tuple:
@@ -189,8 +188,6 @@ class Worker:
     def jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
         """Run ``jobs`` (all sharing ``prep``) on this worker's GL context, opened on its first call."""
         self.calls += 1
-        if prep is None:  # its reference is bad input; the driver stops the run
-            return TaskResult([], error="no reference")
         t0 = time.perf_counter()
         try:
             return self._jobs(spec, prep, jobs)
@@ -313,15 +310,15 @@ class RayExecutor:
             root.mkdir()
             token = uuid.uuid4().hex
             (root / TOKEN).write_text(token)
-            spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out),
-                            token if self.stage_in_run_dir else "", forwarded_env())
+            spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "")
             keys = plan.keys()
             groups = group_jobs(plan.jobs, slots, self.group_size)
             # references first (each unlocks its jobs), then the groups in suite order
             queue = deque([_Work(k) for k in keys] + [_Work(k, items) for k, items in groups])
             n = max(1, min(slots, len(queue)))
             worker_cls = ray.remote(**opts)(Worker)
-            workers = [worker_cls.remote(spec.env) for _ in range(n)]
+            env = forwarded_env()
+            workers = [worker_cls.remote(env) for _ in range(n)]
             scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
             print(f"ldbench: ray: {len(plan.jobs)} jobs in {len(groups)} groups, {len(keys)} references, "
                   f"{n} {kind} workers", file=sys.stderr)
@@ -329,7 +326,6 @@ class RayExecutor:
             rows: list = [None] * len(plan.jobs)
             metas: dict = {}
             preps: dict = {}  # key -> prep object ref, once its reference is done
-            ref_failed: dict = {}  # key -> the exception its reference died of
             idle = list(range(n))
             calls = 0
             bar = _progress(None, len(plan.jobs), "runs", progress) if progress else None
@@ -362,7 +358,6 @@ class RayExecutor:
                 if work.tries < self.retries:
                     queue.appendleft(_Work(work.key, work.items, work.tries + 1))
                 elif work.items is None:  # the reference: its jobs say so
-                    ref_failed[work.key] = e
                     for w in [w for w in queue if w.key == work.key]:
                         queue.remove(w)
                         settle(w.items, w.key, status=f"error: reference task failed: {_reason(e)}")
