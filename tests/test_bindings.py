@@ -58,8 +58,10 @@ def test_header_reaches_the_shader(tmp_path, gpu):
 
 @pytest.mark.parametrize("decl, message", [
     # a known block at another number than the table's (a literal, or the wrong name)
-    ("layout(std430, binding = 21) buffer RayBatch { float r[]; };", "RayBatch at binding 21, the table says B_RAYS = 20"),
-    ("layout(std430, binding = B_LDM_LUT) buffer CdiLut { float r[]; };", "CdiLut at binding 13, the table says B_CDI_LUT = 12"),
+    ("layout(std430, binding = 21) buffer RayBatch { float r[]; };",
+     "RayBatch at binding 21, the table says B_RAYS = 20"),
+    ("layout(std430, binding = B_LDM_LUT) buffer CdiLut { float r[]; };",
+     "CdiLut at binding 13, the table says B_CDI_LUT = 12"),
     # two blocks on one binding: the second would read the first's buffer
     ("layout(std430, binding = 5) buffer Foo { float r[]; };\n"
      "layout(std430, binding = 5) buffer Bar { float q[]; };", "share binding 5"),
