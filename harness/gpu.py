@@ -10,7 +10,8 @@ wall clock between two ``ctx.finish()`` calls. The runner brackets whole frames 
 
 Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
 etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
-``methods/glsl/``, and default ``#define``s injected after ``#version``.
+``methods/glsl/``, and default ``#define``s injected after ``#version``, with the binding numbers of
+:mod:`harness.bindings` (``#define B_RAYS 20``...). Every program compiled is checked against that table.
 """
 from __future__ import annotations
 
@@ -21,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import bindings
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 
-GLSL_DIR = Path(__file__).resolve().parent.parent / "methods" / "glsl"
+METHODS_DIR = Path(__file__).resolve().parent.parent / "methods"
+GLSL_DIR = METHODS_DIR / "glsl"
 STAGES = {
     "vertex_shader": "VERTEX_SHADER",
     "geometry_shader": "GEOMETRY_SHADER",
@@ -66,7 +69,19 @@ def shader_source(path, stage_macro: str, defines: dict | None = None, version: 
         if isinstance(v, bool):
             v = int(v)
         header.append(f"#define {k} {v}")
+    header.append(bindings.glsl_header())
     return "\n".join(header) + "\n#line 1\n" + expand_includes(Path(path))
+
+
+def check_bindings(program, path) -> None:
+    """Refuse a program whose buffer bindings disagree with :mod:`harness.bindings` (a block at another
+    number than the table's would read another buffer, silently). Storage blocks the table does not name
+    are refused only in the project's shaders (under methods/)."""
+    strict = Path(path).resolve().is_relative_to(METHODS_DIR)
+    errs = bindings.program_mismatches(program, strict=strict)
+    if errs:
+        program.release()
+        raise LdbenchError(f"shader {Path(path).name}: {errs[0]}" + (f" (+{len(errs) - 1} more)" if errs[1:] else ""))
 
 
 class Resources:
@@ -181,9 +196,11 @@ class Gpu:
                   if re.search(rf"\b{m}\b", text)}
             kw.setdefault("fragment_shader", None)
             try:
-                self._programs[key] = self.ctx.program(varyings=list(varyings), **kw)
+                prog = self.ctx.program(varyings=list(varyings), **kw)
             except Exception as e:
                 raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+            check_bindings(prog, path)
+            self._programs[key] = prog
         return self._programs[key]
 
     def compute(self, path, defines: dict | None = None):
@@ -191,9 +208,11 @@ class Gpu:
         key = ("c", str(path), tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             try:
-                self._programs[key] = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
+                prog = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
             except Exception as e:
                 raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+            check_bindings(prog, path)
+            self._programs[key] = prog
         return self._programs[key]
 
     def resources(self, prefix: str = "") -> Resources:

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
@@ -37,7 +38,7 @@ from .gbuffer import VERTEX_ATTRS
 from .layered import fill_uint
 
 SPLAT_MAX_LIMIT = 64       # texels: keeps the splat's integer edge functions within int32
-B_VERTICES, B_LARGE = 8, 10
+B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -87,7 +88,7 @@ def fill_rule(gpu) -> dict:
             vao = ctx.vertex_array(prog, [(vbo, "2f 1f", "in_position", "in_value")])
             prog["probe_mode"].value = mode
             fill_uint(gpu, out, 16, blank)
-            out.bind_to_storage_buffer(0)
+            out.bind_to_storage_buffer(B.PROBE)
             vao.render()
             ctx.memory_barrier()
             found.append(np.frombuffer(gpu.read(out), np.uint32).reshape(4, 4).copy())  # [y, x]
@@ -198,7 +199,7 @@ class Splat:
                 cs[name].value = v
         s.bind()
         if "albedo" in s.payload:
-            s.geo.albedo.bind_to_storage_buffer(9)
+            s.geo.albedo.bind_to_storage_buffer(B.LS_ALBEDO)
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         self.large.bind_to_storage_buffer(B_LARGE)
         groups = max(1, min(-(-s.geo.triangles // 64), 65535))
@@ -210,7 +211,7 @@ class Splat:
                 prog[name].value = v
         s.bind()
         if "albedo" in s.payload:
-            s.geo.albedo.bind_to_storage_buffer(9)
+            s.geo.albedo.bind_to_storage_buffer(B.LS_ALBEDO)
         s.fbo.use()
         s.fbo.viewport = (0, 0, s.width, s.height)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from testkit import LAYER_H, LAYER_W, box, expected_lists, layer_transforms, plane, quad, quads_scene
+from harness.bindings import B
 from harness.effects import Effect
 from harness.effects.rays import RayBatch
 from harness.errors import LdbenchError
@@ -117,8 +118,8 @@ def test_compaction_against_cumsum(gpu):
         s.offsets.write(np.zeros(1, np.uint32).tobytes(), offset=4 * n)
         Scan(gpu).run(s.offsets, n + 1)
         s._ends["n"].value = n
-        s.offsets.bind_to_storage_buffer(1)
-        s._scratch["count"].bind_to_storage_buffer(14)
+        s.offsets.bind_to_storage_buffer(B.HEADS)
+        s._scratch["count"].bind_to_storage_buffer(B.PEEL_COUNT)
         s._ends.run(20)
         gpu.ctx.memory_barrier()
         off = np.frombuffer(s.offsets.read(size=4 * (n + 1)), np.uint32).astype(np.int64)

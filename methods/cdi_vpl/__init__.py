@@ -74,12 +74,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
-B_LUT, B_RANGES, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
 
@@ -213,7 +213,7 @@ class CdiVpl(Method):
         self.cdi_struct.bind()
         bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None:
-            self.lut_buf.bind_to_storage_buffer(B_LUT)
+            self.lut_buf.bind_to_storage_buffer(B.CDI_LUT)
 
     def _build_cdi(self):
         if self.params.cdi == "frame":
@@ -257,10 +257,10 @@ class CdiVpl(Method):
         hits = self._out["t"]
         for a, b in self._chunks(n_items, RAY_BYTES * rays_per_item):
             k = rays_per_item
-            rays_buf.bind_to_storage_buffer(B_RAYS, offset=a * k * RAY_BYTES, size=(b - a) * k * RAY_BYTES)
-            hits.bind_to_storage_buffer(B_HITS, offset=a * k * 4, size=(b - a) * k * 4)
+            rays_buf.bind_to_storage_buffer(B.RAYS, offset=a * k * RAY_BYTES, size=(b - a) * k * RAY_BYTES)
+            hits.bind_to_storage_buffer(B.HITS, offset=a * k * 4, size=(b - a) * k * 4)
             if "ranges" in self._out:
-                self._out["ranges"].bind_to_storage_buffer(B_RANGES, offset=a * 4, size=(b - a) * 4)
+                self._out["ranges"].bind_to_storage_buffer(B.VPL_RANGES, offset=a * 4, size=(b - a) * 4)
             cs["n_items"].value = b - a
             cs.run(min(-(-(b - a) // 64), MAX_GROUPS))
         self.gpu.ctx.memory_barrier()
@@ -291,7 +291,7 @@ class CdiVpl(Method):
                 cs["seed"].value = int(batch.seed) & 0xFFFFFFFF
                 cs["r_min"].value = p.r_min * diag
                 cs["r_max"].value = p.r_max * diag
-                self._out["ranges"].bind_to_storage_buffer(B_RANGES)
+                self._out["ranges"].bind_to_storage_buffer(B.VPL_RANGES)
                 cs.run(min(-(-n // 64), MAX_GROUPS))
                 gpu.ctx.memory_barrier()
         else:  # exact: Mitsuba once per batch (untimed), then a copy per frame

@@ -13,7 +13,7 @@
 layout(local_size_x = 64) in;
 uniform uint n_items;      // items of this dispatch; grid-stride loops (a dispatch has at most 65535 groups)
 #define FOR_ITEMS(i) for (uint i = gl_GlobalInvocationID.x; i < n_items; i += gl_NumWorkGroups.x * 64u)
-layout(std430, binding = 13) writeonly buffer VplRangeOut { float vpl_range_out[]; };
+layout(std430, binding = B_VPL_RANGES) writeonly buffer VplRangeOut { float vpl_range_out[]; };
 
 #if !defined(CDI_RANDOM)
 float cdi_ray(uint r) {

@@ -11,9 +11,9 @@
 #endif
 layout(local_size_x = 8, local_size_y = 8) in;
 struct Vpl { vec4 pos_range; vec4 normal_area; vec4 flux; };
-layout(std430, binding = 14) writeonly buffer Vpls { Vpl vpls[]; };
+layout(std430, binding = B_VPLS) writeonly buffer Vpls { Vpl vpls[]; };
 #if defined(VPL_RANGE_TABLE)
-layout(std430, binding = 18) readonly buffer VplTable { float vpl_table[]; };
+layout(std430, binding = B_VPL_TABLE) readonly buffer VplTable { float vpl_table[]; };
 #endif
 uniform sampler2D rsm_position;
 uniform sampler2D rsm_normal;

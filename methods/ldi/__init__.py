@@ -65,6 +65,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
@@ -74,7 +75,6 @@ from methods.lights import CubeShadowMap, set_spot_uniforms
 
 from .peel import make_ldi_structure
 
-B_STATS, B_RAYS, B_HITS = 12, 20, 21  # 11: the axes (bind_ortho_layers)
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
 RAY_EPSILON, SHADOW_EPSILON = 8.940697e-05, 8.940697e-04  # Mitsuba's float32 RayEpsilon, ShadowEpsilon
@@ -202,8 +202,8 @@ class Ldi(Method):
         cs["n_rays"].value = n
         with gpu.stage("trace"):
             self._bind_ldis(cs)
-            batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
+            batch.upload(gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
             cs.run(-(-n // 64))
             gpu.ctx.memory_barrier()
         self._last = ("rays", batch)
@@ -219,8 +219,8 @@ class Ldi(Method):
             cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self.ls.defines(), "LDI_STATS": 1})
             cs["n_rays"].value = n
             self._bind_ldis(cs)
-            batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
-            out.bind_to_storage_buffer(B_STATS)
+            batch.upload(self.gpu).bind_to_storage_buffer(B.RAYS)
+            out.bind_to_storage_buffer(B.LDI_STATS)
             cs.run(-(-n // 64))
             self.gpu.ctx.memory_barrier()
             return np.frombuffer(self.gpu.read(out), np.uint32).reshape(n, 2).copy()
@@ -304,7 +304,7 @@ class Ldi(Method):
     def _dispatch(self, cs, target, effect, w, h):
         """The gather pass, ``samples_per_dispatch`` rays per pixel per dispatch (gather.glsl)."""
         spp, chunk = self.spp_for(effect), self.params.samples_per_dispatch or self.spp_for(effect)
-        target.bind_to_image(0, read=True, write=True)
+        target.bind_to_image(B.OUT_IMAGE, read=True, write=True)
         for base in range(0, spp, chunk):
             cs["sample_base"].value = base
             cs["sample_count"].value = chunk
@@ -327,7 +327,7 @@ class Ldi(Method):
                         cs[name].value = unit
                 cs["axis"].value = axis
                 cs["radius"].value = r
-                dst.bind_to_image(0, read=False, write=True)
+                dst.bind_to_image(B.OUT_IMAGE, read=False, write=True)
                 cs.run((w + 7) // 8, (h + 7) // 8)
                 gpu.ctx.memory_barrier()
 
@@ -339,7 +339,7 @@ class Ldi(Method):
         try:
             cs = self._gather_program(effect, stats=True)
             self._set_gather_uniforms(cs, view, effect)
-            out.bind_to_storage_buffer(B_STATS)
+            out.bind_to_storage_buffer(B.LDI_STATS)
             self._dispatch(cs, scratch, effect, w, h)
             return np.frombuffer(self.gpu.read(out), np.uint32).reshape(-1, 4).copy()
         finally:

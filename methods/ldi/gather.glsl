@@ -25,7 +25,7 @@
 #include "ldi_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) uniform image2D out_image;   // sums between dispatches, then the value
+layout(rgba32f, binding = B_OUT_IMAGE) uniform image2D out_image;   // sums between dispatches, then the value
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
@@ -50,7 +50,7 @@ uniform float light_radius;
 uniform float shadow_eps;
 #endif
 #if defined(LDI_STATS)
-layout(std430, binding = 12) buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
+layout(std430, binding = B_LDI_STATS) buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
 #endif
 
 uint pcg_hash(uint v) {

@@ -33,12 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.layered import B_ALBEDO, C_CAPACITY, fill_uint, make_structure
 from methods.linear_arrays import C_COUNTED, C_FILLED, C_OVERFLOW, LinearisedArrays
 
 HERE = Path(__file__).parent
-B_PREV, B_CAND, B_COUNT, B_LOC, B_FRAG, B_PCOUNT, B_VERTS = 12, 13, 14, 15, 16, 17, 18
+B_PREV, B_CAND, B_COUNT, B_LOC, B_FRAG, B_PCOUNT, B_VERTS = (B.PEEL_PREV, B.PEEL_CAND, B.PEEL_COUNT, B.PEEL_LOC,
+                                                              B.PEEL_FRAG, B.PEEL_COUNTERS, B.PEEL_VERTICES)
 NONE = 0xFFFFFFFF
 PAYLOAD = ("normal", "albedo")
 
@@ -198,7 +200,7 @@ class PeeledLayers(LinearisedArrays):
         if key not in self._vaos:
             self._vaos[key] = self.geo.vao(prog)
         prog["ls_size"].value = (self.width, self.height)
-        self.layers_buf.bind_to_storage_buffer(2)
+        self.layers_buf.bind_to_storage_buffer(B.LAYERS)
         self._scratch["prev"].bind_to_storage_buffer(B_PREV)
         self._scratch["cand"].bind_to_storage_buffer(B_CAND)
         self.fbo.use()

@@ -81,6 +81,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
@@ -89,7 +90,6 @@ from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, 
 from methods.linked_list import POLICIES
 from methods.scan import groups_2d
 
-B_ANGLE, B_LUT, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 LUT_RES = 128
 FAR = 3.0e38
 
@@ -197,7 +197,7 @@ class Ldm(Method):
         bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None and "ldm_lut_res" in cs:
             cs["ldm_lut_res"].value = LUT_RES
-            self.lut_buf.bind_to_storage_buffer(B_LUT)
+            self.lut_buf.bind_to_storage_buffer(B.LDM_LUT)
 
     def frame(self, view, effect, inputs=None):
         if effect.name == "rays":
@@ -221,7 +221,7 @@ class Ldm(Method):
         with gpu.stage("ao"):
             self.gbuf.bind(0)
             self._bind_maps(cs)
-            self.out.bind_to_image(0, read=False, write=True)
+            self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             cs.run((w + 7) // 8, (h + 7) // 8)
             gpu.ctx.memory_barrier()  # imageStore results visible to the read-back
         out = self.out
@@ -247,8 +247,8 @@ class Ldm(Method):
         cs["n_rays"].value = n
         with gpu.stage("trace"):
             self._bind_maps(cs)
-            batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
+            batch.upload(gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
             cs.run(*groups_2d(-(-n // 64)))
             gpu.ctx.memory_barrier()
         self._batch = batch
@@ -285,9 +285,9 @@ class Ldm(Method):
             cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self._rays_defines(), "LDM_ANGLE_STATS": 1})
             cs["n_rays"].value = n
             self._bind_maps(cs)
-            batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
-            angle.bind_to_storage_buffer(B_ANGLE)
+            batch.upload(self.gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
+            angle.bind_to_storage_buffer(B.LDM_ANGLE)
             cs.run(*groups_2d(-(-n // 64)))
             self.gpu.ctx.memory_barrier()
             return float(np.frombuffer(self.gpu.read(angle), np.float32).mean())

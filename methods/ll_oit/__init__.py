@@ -46,12 +46,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from methods.base import ParamsBase, param
 from methods.layered import make_structure
 from methods.linked_list import POLICIES
 from methods.oit import OITMethod, camera_transform
-
-B_COUNTERS = 12
 
 
 @dataclass(frozen=True)
@@ -112,7 +111,7 @@ class LLOIT(OITMethod):
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
             self.set_common_uniforms(prog, view)
             self.ls.bind()
-            self.counters_buf.bind_to_storage_buffer(B_COUNTERS)
+            self.counters_buf.bind_to_storage_buffer(B.OIT_COUNTERS)
             vao.render(vertices=3)
         vao.release()
         return self.result(self._counters, self._invariants)
