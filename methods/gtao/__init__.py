@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
@@ -112,7 +113,7 @@ class GTAO(Method):
                  falloff_mode=2 if unbounded else FALLOFF_MODE[effect.falloff],
                  d_max=1.0 if unbounded else float(effect.d_max), g_position=0, g_normal=1)
             self.gbuf.bind(0)
-            self.tex[0].bind_to_image(0, read=False, write=True)
+            self.tex[0].bind_to_image(B.OUT_IMAGE, read=False, write=True)
             pr.run(*groups)
         out = self.tex[0]
         if p.denoise_passes:
@@ -124,7 +125,7 @@ class GTAO(Method):
                     src, dst = self.tex[i % 2], self.tex[1 - i % 2]
                     self.gpu.ctx.memory_barrier()
                     src.use(4)
-                    dst.bind_to_image(0, read=False, write=True)
+                    dst.bind_to_image(B.OUT_IMAGE, read=False, write=True)
                     b.run(*groups)
                     out = dst
         self.gpu.ctx.memory_barrier()

@@ -3,7 +3,7 @@
 // from the centre pixel's tangent plane and tol = distance_to_eye / sharpness (scale-free), so AO is
 // averaged along surfaces and never across depth edges. Background pixels are neither changed nor used.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) writeonly uniform image2D out_ao;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;
 uniform sampler2D in_ao;
 uniform sampler2D g_position;
 uniform sampler2D g_normal;

@@ -17,7 +17,7 @@
 #include "common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) writeonly uniform image2D out_ao;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;
 uniform sampler2D g_position;   // world position, w = 1 where hit
 uniform sampler2D g_normal;     // camera-facing geometric normal (world)
 uniform mat4 view;              // world -> view (rigid)

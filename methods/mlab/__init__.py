@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import ParamsBase, param
@@ -43,7 +44,6 @@ from methods.oit import OITMethod, camera_transform, complexity_counters
 SYNCS = ("auto", "interlock", "spinlock")
 MAX_SPIN = 1 << 16  # lock tries per fragment before it is counted as lost
 INTERLOCK = "GL_ARB_fragment_shader_interlock"
-B_LAYERS, B_KEYS, B_COUNTS, B_LOCKS, B_STATS = 1, 2, 3, 4, 5
 
 
 @dataclass(frozen=True)
@@ -100,8 +100,8 @@ class MLAB(OITMethod):
         geo_vao, full = self.geo.vao(ins), ctx.vertex_array(res, [])
         groups = ((w * h + 63) // 64,)
         self.stats.write(np.zeros(4, np.uint32).tobytes())
-        for buf, b in ((self.layers, B_LAYERS), (self.keys, B_KEYS), (self.counts, B_COUNTS),
-                       (self.locks, B_LOCKS), (self.stats, B_STATS)):
+        for buf, b in ((self.layers, B.MLAB_LAYERS), (self.keys, B.MLAB_KEYS), (self.counts, B.MLAB_COUNTS),
+                       (self.locks, B.MLAB_LOCKS), (self.stats, B.MLAB_STATS)):
             buf.bind_to_storage_buffer(b)
         with gpu.stage("clear"):
             clear["size"].value = (w, h)
@@ -128,9 +128,9 @@ class MLAB(OITMethod):
         def counters():
             cnt = gpu.compute(self.shader("count.glsl"))
             cnt["size"].value = (w, h)
-            self.counts.bind_to_storage_buffer(B_COUNTS)
-            self.locks.bind_to_storage_buffer(B_LOCKS)
-            self.count_img.bind_to_image(0, read=False, write=True)
+            self.counts.bind_to_storage_buffer(B.MLAB_COUNTS)
+            self.locks.bind_to_storage_buffer(B.MLAB_LOCKS)
+            self.count_img.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             cnt.run(*groups)
             ctx.memory_barrier()
             fragments, lost, merges, _ = (int(x) for x in np.frombuffer(gpu.read(self.stats), np.uint32))

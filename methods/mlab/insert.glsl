@@ -20,11 +20,11 @@
 #extension GL_ARB_fragment_shader_interlock : require
 layout(pixel_interlock_ordered) in;
 #endif
-layout(std430, binding = 1) coherent buffer Layers { vec4 layer[]; };      // (C, T) per pixel and slot
-layout(std430, binding = 2) coherent buffer Keys { vec2 key[]; };          // (depth, material as float bits)
-layout(std430, binding = 3) coherent buffer Counts { uint count[]; };      // layers in use per pixel
-layout(std430, binding = 4) coherent buffer Locks { uint lock_word[]; };
-layout(std430, binding = 5) buffer Stats { uint fragments; uint lost; uint merges; uint pad; };
+layout(std430, binding = B_MLAB_LAYERS) coherent buffer MlabLayers { vec4 layer[]; };
+layout(std430, binding = B_MLAB_KEYS) coherent buffer MlabKeys { vec2 key[]; };
+layout(std430, binding = B_MLAB_COUNTS) coherent buffer MlabCounts { uint count[]; };
+layout(std430, binding = B_MLAB_LOCKS) coherent buffer MlabLocks { uint lock_word[]; };
+layout(std430, binding = B_MLAB_STATS) buffer MlabStats { uint fragments; uint lost; uint merges; uint pad; };
 uniform ivec2 size;
 in float v_depth;
 flat in uint v_material;

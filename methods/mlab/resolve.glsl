@@ -6,8 +6,8 @@
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }
 
 #elif defined(FRAGMENT_SHADER)
-layout(std430, binding = 1) readonly buffer Layers { vec4 layer[]; };
-layout(std430, binding = 3) readonly buffer Counts { uint count[]; };
+layout(std430, binding = B_MLAB_LAYERS) readonly buffer MlabLayers { vec4 layer[]; };
+layout(std430, binding = B_MLAB_COUNTS) readonly buffer MlabCounts { uint count[]; };
 uniform ivec2 size;
 uniform vec3 background;
 layout(location = 0) out vec4 out_color;
