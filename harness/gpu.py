@@ -206,7 +206,7 @@ class Gpu:
         Never ``buffer.read()`` on a buffer that shaders keep using: NVIDIA's driver moves a buffer the CPU
         reads from video to host memory ("Buffer performance warning: ... is being copied/moved from
         VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe. Measured on an H200
-        (scripts/gpu/issue14_diag.py): the sorted-insert LDM build of Figure 8 went from 108.7 ms to
+        (scripts/gpu/buffer_placement_diag.py): the sorted-insert LDM build of Figure 8 went from 108.7 ms to
         1920 ms after one read of its 64-byte counter buffer. The GPU copies into this staging buffer,
         which alone the driver may move."""
         size = buffer.size - offset if size is None else int(size)

@@ -3,7 +3,7 @@ buffer that shaders use makes the driver move it from video to host memory, and 
 insert of the linked layout then runs ~18x slower. Also the two copy bandwidths (glCopyBufferSubData
 and a compute-shader copy).
 
-    python scripts/gpu/issue14_diag.py [--dry]
+    python scripts/gpu/buffer_placement_diag.py [--dry]
 
 Prints, per variant, the wall time of consecutive builds (ms; the same structure rebuilt; between two
 builds some variants read a buffer back, directly or through harness.gpu.Gpu.read) and the driver's GL
