@@ -1,4 +1,4 @@
-"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (issue 6).
+"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (docs/nightly.md).
 
 Both arguments are run directories (``results.parquet``, else ``results.csv``) or results files.
 Rows are matched by :data:`DEFAULT_MATCH` (scene and its builder parameters, method, effect and its

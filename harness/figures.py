@@ -180,7 +180,7 @@ def param_label(p: str) -> str:
 
 
 def device_footer(fig, df):
-    """Footer naming the device(s); red warning on a software rasterizer (DESIGN.md)."""
+    """Footer naming the device(s); red warning on a software rasterizer (docs/design.md)."""
     devs = sorted({str(d) for d in df["device"] if d is not None}) or ["unknown"]
     renderers = sorted({str(d) for d in df.get("gl_renderer", []) if d is not None})
     soft = "cpu-software" in devs
