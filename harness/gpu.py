@@ -2,11 +2,8 @@
 
 One :class:`Gpu` wraps one moderngl EGL context (OpenGL >= 4.3, for compute shaders and SSBOs).
 
-Timing protocol (docs/design.md): a method wraps each stage of a frame in ``with gpu.stage("build"):``. On a
-real GPU each stage is a GL timer query (``GL_TIME_ELAPSED``; stages must not nest, as those queries
-cannot); on a software rasterizer (llvmpipe), whose timer queries are meaningless, each stage is
-wall clock between two ``ctx.finish()`` calls. The runner brackets whole frames with
-:meth:`begin_frame` / :meth:`end_frame`, which also measure the frame's wall clock after ``finish()``.
+Stage timing implements the timing protocol of docs/design.md: :meth:`Gpu.stage` (a GL timer query, or
+wall clock on a software rasterizer) and :meth:`begin_frame` / :meth:`end_frame` around whole frames.
 
 Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
 etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
