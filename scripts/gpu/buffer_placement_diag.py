@@ -1,6 +1,6 @@
 """Diagnosis of the buffer placement on NVIDIA (docs/fast_builds.md, "Read-backs"): the CPU reading a
 buffer that shaders use makes the driver move it from video to host memory, and the sorted (CAS)
-insert of the linked layout then runs ~18x slower. Also the two copy bandwidths (glCopyBufferSubData
+insert of the linked layout then runs many times slower (the table in docs/fast_builds.md). Also the two copy bandwidths (glCopyBufferSubData
 and a compute-shader copy).
 
     python scripts/gpu/buffer_placement_diag.py [--dry]

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # GPU measurements of LDM single-bounce indirect light (aalund2015 §4.2, Figure 10), on an NVIDIA
 # GPU, run from the project root with the Python environment set up (about 3 minutes on an H200).
-#   bash scripts/gpu/ldm-indirect-stages.sh                  outputs (CSV, Markdown, PNG; < 5 MB) under $OUT/ldm-indirect-stages
-#   LDBENCH_GPU_DRY=1 bash scripts/gpu/ldm-indirect-stages.sh    every step at tiny sizes (llvmpipe: about 2 minutes)
+#   bash scripts/gpu/ldm-indirect-stages.sh                     outputs (CSV, Markdown, PNG; < 5 MB) under
+#                                                               $OUT/ldm-indirect-stages
+#   LDBENCH_GPU_DRY=1 bash scripts/gpu/ldm-indirect-stages.sh   every step at tiny sizes (llvmpipe: ~2 minutes)
 # Steps: 1. the indirect-light tests on the GPU (real concurrency: photon counts, invariants); 2. stage times
 # (light_raster, trace, splat), memory and counters at 800² on atrium (260k triangles) and cornell, blend
 # and atomic splats; 3. `ldbench reproduce aalund2015-fig10`; 4. summary.md: the tables, the verdict of
