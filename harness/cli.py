@@ -1,4 +1,4 @@
-"""The ``ldbench`` command line (DESIGN.md, "Command line").
+"""The ``ldbench`` command line (docs/design.md, "Command line").
 
 Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).

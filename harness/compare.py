@@ -1,4 +1,4 @@
-"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (issue 6).
+"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (docs/nightly.md).
 
 Both arguments are run directories (``results.parquet``, else ``results.csv``) or results files.
 Rows are matched by :data:`DEFAULT_MATCH` (scene and its builder parameters, method, effect and its
@@ -21,9 +21,9 @@ time (``total_ms``)
     the device is the CPU; :func:`harness.device.timing_fields`) times are not comparable: a warning
     is printed and time checks are skipped; quality is still gated.
     On a software rasterizer (``device = cpu-software``, Mesa llvmpipe) time checks are skipped as
-    well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, and two identical
-    runs on a 2-core CI machine differ by up to ~50 % in their median (measured), far beyond the
-    within-run spread the test sees; the CPU nightly gates quality, the GPU nightly gates time.
+    well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, which move between
+    identical runs far beyond the within-run spread the test sees (measured in docs/nightly.md); the
+    CPU nightly gates quality, the GPU nightly gates time.
 
 quality (``psnr``, ``ssim``)
     A regression is a drop beyond ``max(tolerance, what the references' own Monte Carlo noise can

@@ -2,11 +2,8 @@
 
 One :class:`Gpu` wraps one moderngl EGL context (OpenGL >= 4.3, for compute shaders and SSBOs).
 
-Timing protocol (DESIGN.md): a method wraps each stage of a frame in ``with gpu.stage("build"):``. On a
-real GPU each stage is a GL timer query (``GL_TIME_ELAPSED``; stages must not nest, as those queries
-cannot); on a software rasterizer (llvmpipe), whose timer queries are meaningless, each stage is
-wall clock between two ``ctx.finish()`` calls. The runner brackets whole frames with
-:meth:`begin_frame` / :meth:`end_frame`, which also measure the frame's wall clock after ``finish()``.
+Stage timing implements the timing protocol of docs/design.md: :meth:`Gpu.stage` (a GL timer query, or
+wall clock on a software rasterizer) and :meth:`begin_frame` / :meth:`end_frame` around whole frames.
 
 Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
 etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
@@ -224,10 +221,9 @@ class Gpu:
 
         Never ``buffer.read()`` on a buffer that shaders keep using: NVIDIA's driver moves a buffer the CPU
         reads from video to host memory ("Buffer performance warning: ... is being copied/moved from
-        VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe. Measured on an H200
-        (scripts/gpu/issue14_diag.py): the sorted-insert LDM build of Figure 8 went from 108.7 ms to
-        1920 ms after one read of its 64-byte counter buffer. The GPU copies into this staging buffer,
-        which alone the driver may move."""
+        VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe (measured in
+        docs/fast_builds.md, "Read-backs"). The GPU copies into this staging buffer, which alone the
+        driver may move."""
         size = buffer.size - offset if size is None else int(size)
         if size <= 0:
             return b""

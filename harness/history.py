@@ -1,4 +1,4 @@
-"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (issue 6).
+"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (docs/nightly.md).
 
 Storage
     ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`harness.records.machine_key`

@@ -1,6 +1,6 @@
 """Result records: machine and commit metadata, result rows, ``results.parquet`` + ``results.csv``.
 
-One row per (suite, scene, method, effect, params) (DESIGN.md, "Records and reports"). The columns
+One row per (suite, scene, method, effect, params) (docs/design.md, "Records and reports"). The columns
 are :data:`COLUMNS`, each with a type in :data:`COLUMN_TYPES`:
 
 * ``str``, ``int``, ``float``, ``bool`` scalars (missing values: None, NaN for floats);

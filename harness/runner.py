@@ -1,11 +1,8 @@
 """Run a suite: for each job, set the method up, render warm-up and measured frames, score the last
 frame against the reference with its effect's metrics, and write records and images.
 
-Timing protocol (docs/design.md): upload and compilation (``setup``, and the upload of the effect's
-inputs) are outside the timed region; then ``warmup`` frames, then ``frames`` measured frames, each
-stage timed by :meth:`harness.gpu.Gpu.stage` and each frame by wall clock after ``finish()``. Raw samples
-are kept; median and IQR are reported. ``total_ms`` is the sum of a frame's stage times (GPU timer
-queries on a GPU, wall clock on llvmpipe); ``wall_ms`` is the frame's wall clock.
+Frames are timed by the timing protocol of docs/design.md (``setup`` and input uploads untimed, then
+``warmup`` and ``frames`` measured frames, stages by :meth:`harness.gpu.Gpu.stage`).
 
 Per (scene, effect, size, spp, seed) the harness builds the effect's inputs and its reference once
 (:class:`Prepared`) and hands the same objects to every method. A method's result is checked against

@@ -1,7 +1,7 @@
 """The scene model shared by the GPU methods and the Mitsuba references.
 
 A :class:`Scene` is triangle meshes with Lambertian albedo, one camera and spot/point lights, in the
-conventions of DESIGN.md: right-handed, y up, metres; triangles counter-clockwise from the front but
+conventions of docs/design.md: right-handed, y up, metres; triangles counter-clockwise from the front but
 treated as two-sided everywhere; camera = look-at + vertical field of view; image row 0 at the top.
 The *same* triangles go to the GPU and to Mitsuba, so analytic shapes are tessellated by the builders.
 

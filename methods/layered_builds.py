@@ -1,8 +1,8 @@
 """Fast builds of the layered structures: the compute splat, the sort assembly and the hardware fill rule.
 
 Variants of the one build stage of :mod:`methods.layered` (docs/fast_builds.md). The hardware raster of
-every triangle in every layer is the reference build; on an H200 it is bound by the rasterizer's triangle
-rate (512 layers × 260k triangles: ~88 ms per pass), not by memory.
+every triangle in every layer is the reference build; it is bound by the rasterizer's triangle rate, not
+by memory (measured in docs/fast_builds.md).
 
 ``build = "splat"`` (:class:`Splat`)
     A compute-shader rasterizer for small triangles (``methods/glsl/splat_raster.glsl``): one invocation

@@ -2,7 +2,7 @@
 
 Everything here runs under the Mitsuba variant set by the caller (:func:`references.choose_variant`).
 
-Scene (DESIGN.md, "Scenes"): one ``mi.Mesh`` per :class:`harness.scene.Mesh` (the very same float32
+Scene (docs/design.md, "Scenes"): one ``mi.Mesh`` per :class:`harness.scene.Mesh` (the very same float32
 triangles, no vertex normals, so Mitsuba's shading normal is the geometric face normal), BSDF
 ``twosided(diffuse(albedo))``; a spot light is Mitsuba's ``spot`` (``to_world = look_at(position,
 target, up)``, ``intensity`` RGB in W/sr, ``cutoff_angle``, ``beam_width``), a point light

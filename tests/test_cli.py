@@ -132,7 +132,7 @@ def test_set_overrides_suite_params(tmp_path):
     assert_one_line_error(rc, se, "directions")
 
 
-# ---- issue 17: users' files, bad input --------------------------------------------------------------
+# ---- users' files, bad input ---------------------------------------------------------------------
 TINY = ("--spp", "4", "--frames", "1", "--warmup", "0", "--no-progress", "--no-report")
 
 

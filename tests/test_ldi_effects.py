@@ -124,7 +124,7 @@ def test_glossy_matches_reference(gpu, mitsuba, exponent, bias, psnr):
 
 
 def test_indirect_on_cornell(gpu, mitsuba):
-    """Issue 10: ``indirect`` on cornell against Mitsuba's (1024 samples, 64²), 150 LDIs of 128². Measured on
+    """``indirect`` on cornell against Mitsuba's (1024 samples, 64²), 150 LDIs of 128². Measured on
     llvmpipe: the paper's 8 rays per pixel with the 11×11 Gaussian 25.22 dB; without the filter 15.13 dB;
     256 rays per pixel unfiltered 28.48 dB at 0.962 of the reference's mean (the LDIs' bias: rays that
     slip through steep surfaces between pixel samples, creases)."""

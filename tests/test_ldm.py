@@ -205,7 +205,7 @@ def test_error_falls_with_directions(gpu, references, effect):
 
 
 def test_cornell_against_mitsuba(gpu):
-    """Issue 3 on the built-in `cornell` against a 1024-spp reference (classic AO): PSNR rises with the
+    """LDM AO on the built-in `cornell` against a 1024-spp reference (classic AO): PSNR rises with the
     number of directions, and 512 directions with 256² LDMs reach ≥ 31.5 dB at 256² (31.78 dB measured)."""
     from harness import metrics
     from harness.scenes import load_scene
@@ -275,10 +275,10 @@ def test_rays_identical_over_layouts_and_inserts(gpu):
 
 
 def test_rays_accuracy_cli(tmp_path):
-    """Issue 9's acceptance run, from the command line: cornell, 128², 4 diffuse rays per pixel, 512 LDMs
-    of 256². Measured on llvmpipe: hit agreement 0.9767, p95 distance error 5.35 % of the diagonal,
+    """The rays acceptance run (docs/rays.md), from the command line: cornell, 128², 4 diffuse rays per
+    pixel, 512 LDMs of 256². Measured on llvmpipe: hit agreement 0.9767, p95 distance error 5.35 % of the diagonal,
     self-hit rate 0.26 %. The direction snap alone costs most of it: Mitsuba tracing the same rays along
-    their maps' axes instead gets 0.9824 and 5.04 % against the exact answers (docs/ldm.md)."""
+    their maps' axes instead gets 0.9824 and 5.04 % against the exact answers (docs/rays.md)."""
     from harness.cli import main
     from harness.records import read_results
 

@@ -115,7 +115,7 @@ def test_transparent_dragon_not_fetched_is_one_line(tmp_path, monkeypatch):
 
 
 def test_yang2010_published_numbers_and_rows():
-    """Table 1 and §4.1.3 of shared/papers/yang2010.md; every row is produced by the suite at both scales."""
+    """Table 1 and §4.1.3 of yang2010 (docs/oit.md); every row is produced by the suite at both scales."""
     from harness.reproduce import registry, scale_match, scale_suite, suite_file
     from harness.suite import load_suite
 

@@ -12,8 +12,7 @@ currently do not exploit this": ``share_opposite = false`` builds them all, for 
 time). A ray's LDI is the cube cell of its direction (O(1); the angularly nearest direction in 93–94 %
 of directions, never more than 19.4°/15.7°/10.0° away for k = 4/5/8). For odd k the paper's
 axis-aligned cube has directions in the planes x = 0, y = 0, z = 0: their LDIs see axis-aligned walls
-edge-on (not at all), and rays grazing such walls miss them (glossy light on Cornell at 150 directions:
-0.82 of the reference, 0.93 rotated; docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
+edge-on (not at all), and rays grazing such walls miss them (measured in docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =

@@ -32,7 +32,7 @@ x's depth; along +v_i the first hit is the next entry beyond x, along −v_i the
 surface x itself is in the list: entries closer than the receiver plane's crossing of the texel's
 column, plus ``bias`` texels, are skipped (see the GLSL).
 
-AO (aalund2015 eq. 2 with DESIGN.md's definition): for the camera-facing normal n, each map gives the
+AO (aalund2015 eq. 2 with docs/design.md's definition): for the camera-facing normal n, each map gives the
 direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with the effect's fall-off (no hit:
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.

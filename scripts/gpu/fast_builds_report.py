@@ -1,10 +1,10 @@
-"""Issue 14 report (scripts/gpu/issue14.sh; docs/fast_builds.md): the CSVs of issue14_bench.py and the
+"""Fast-build report (scripts/gpu/fast-builds.sh; docs/fast_builds.md): the CSVs of fast_builds_bench.py and the
 Figure 8 suite run (suites/fast-builds.toml) into two figures and one Markdown summary.
 
-    python scripts/gpu/issue14_figures.py DIR [FIG8_RUN_DIR]
+    python scripts/gpu/fast_builds_report.py DIR [FIG8_RUN_DIR]
 
 DIR holds builds.csv, bandwidth.csv, coverage.csv (any may be missing); FIG8_RUN_DIR is an `ldbench run`
-folder. Writes DIR/issue14.md, DIR/builds-vs-triangles.png, DIR/builds-vs-maps.png; prints the Markdown.
+folder. Writes DIR/summary.md, DIR/builds-vs-triangles.png, DIR/builds-vs-maps.png; prints the Markdown.
 """
 from __future__ import annotations
 
@@ -115,7 +115,7 @@ def sweep_figure(b: pd.DataFrame, sweep: str, x: str, out: Path, title: str):
 
 def main():
     d = Path(sys.argv[1])
-    lines = ["# Issue 14: fast layered-structure builds", ""]
+    lines = ["# Fast layered-structure builds", ""]
     if len(sys.argv) > 2 and Path(sys.argv[2]).is_dir():
         try:
             fl, _ = fig8_table(Path(sys.argv[2]))
@@ -154,7 +154,7 @@ def main():
         lines += ["## Coverage of the one-pass raster against the raster", "",
                   "Per list, fragments the build misses (fewer than the raster's) and adds (more).", "", md(c), ""]
     text = "\n".join(lines) + "\n"
-    (d / "issue14.md").write_text(text)
+    (d / "summary.md").write_text(text)
     print(text)
 
 

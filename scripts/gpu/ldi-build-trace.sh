@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GPU measurements of issue 10 (niessner2010, the ldi adapter): Table 1 on Sibenik (rays/s of diffuse, glossy
+# GPU measurements of niessner2010 (the ldi adapter): Table 1 on Sibenik (rays/s of diffuse, glossy
 # and soft-shadow rays, 512² and 128² LDIs, 96/150/384 LDIs) with hit agreement, p95 distance error and
 # Mitsuba's rays/s on the same rays; the build (depth peeling + GPU compaction) and memory rows; the
 # premise check (LDI rays >= 2x the oracle at >= 0.95 hit agreement, diffuse, 128²); indirect light on
@@ -7,21 +7,21 @@
 # filter; memory; PSNR/SSIM/FLIP against Mitsuba), glossy indirect and soft shadows on atrium.
 #
 # Usage, from the project root with its Python environment set up (no network needed; $PYTHON, default python3):
-#     OUT=/some/dir bash scripts/gpu/issue10.sh /path/to/scene-mirror      # the mirror holds sibenik/
-# Outputs (Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/issue10/"; the summary also on stdout.
+#     OUT=/some/dir bash scripts/gpu/ldi-build-trace.sh /path/to/scene-mirror      # the mirror holds sibenik/
+# Outputs (Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/ldi-build-trace/"; the summary also on stdout.
 # Every step runs under `timeout` (the limits add up to 5 min) and a failing step loses only its own rows.
-# ISSUE10_DRY=1: a CPU-sized dry run (scale "ci", 32² images, small atrium) to test the script on llvmpipe.
+# LDBENCH_GPU_DRY=1: a CPU-sized dry run (scale "ci", 32² images, small atrium) to test the script on llvmpipe.
 set -u
 MIRROR="${1:-}"
-O="${OUT:-/tmp/ldbench-gpu}/issue10"
+O="${OUT:-/tmp/ldbench-gpu}/ldi-build-trace"
 mkdir -p "$O"
 : > "$O/log.txt"
-W="$(mktemp -d "${TMPDIR:-/tmp}/issue10.XXXXXX")"
+W="$(mktemp -d "${TMPDIR:-/tmp}/ldi-build-trace.XXXXXX")"
 export LDBENCH_CACHE="${LDBENCH_CACHE:-$W/cache}"
 export LDBENCH_SCENES="${LDBENCH_SCENES:-$W/scenes}"
 PY="${PYTHON:-python3}"
 LDB="${LDBENCH:-$PY -m harness.cli}"
-DRY="${ISSUE10_DRY:-0}"
+DRY="${LDBENCH_GPU_DRY:-0}"
 SCALE=paper SIZE=800x800 SPP=1024 ATRIUM=260000 FRAMES="--warmup 2 --frames 5" K=1
 if [ "$DRY" = 1 ]; then SCALE=ci SIZE=32x32 SPP=64 ATRIUM=4000 FRAMES="--warmup 0 --frames 3" K=6; fi
 step() {  # step SECONDS NAME CMD...: run with a time limit (x K), log, continue on failure

@@ -1,49 +1,50 @@
 #!/usr/bin/env bash
-# GPU measurement of issue 16: the Ray executor over all GPUs of one machine against a serial run of the
+# GPU measurement of the Ray executor over all GPUs of one machine against a serial run of the
 # same suite (default suites/aalund2015-ao.toml at the paper's scale: 90 jobs, 18 references).
 #
 # Usage, from the project root with its Python environment set up:
-#     OUT=/some/dir bash scripts/gpu/issue16.sh [STEP ...]
+#     OUT=/some/dir bash scripts/gpu/ray-executor-speedup.sh [STEP ...]
 # STEPs (default: serial ray summary):
-#     serial      ldbench run SUITE                          (reports/issue16/serial, its own reference cache)
-#     ray         ldbench run SUITE --executor ray           over all GPUs (reports/issue16/ray-N)
-#     ray:K       the same on the first K GPUs only          (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
-#     summary     speed-up against the GPU count, equality of every row's metrics and images with the serial
-#                 run (harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
-#                 -> "$OUT/issue16/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
-# The runs stay in reports/issue16/ (ignored by git), so steps can be split over several calls of one warm
-# machine, e.g. `... issue16.sh serial` then `... issue16.sh ray summary`.
+#     serial   ldbench run SUITE                 (reports/ray-executor-speedup/serial, its own reference cache)
+#     ray      ldbench run SUITE --executor ray  over all GPUs (reports/ray-executor-speedup/ray-N)
+#     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
+#     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
+#              run (harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
+#              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
+# The runs stay in reports/ray-executor-speedup/ (ignored by git), so steps can be split over several
+# commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
 # Each run renders its own references (a fresh cache per run): the Ray run gets no head start from the serial
 # one, and equal images prove that references too are the same on every GPU.
 #
-# Environment: ISSUE16_SUITE (suite file), ISSUE16_ARGS (extra `ldbench run` arguments; if the paper scale
-# does not fit, "--size 400x400 --spp 256"), ISSUE16_TIMEOUT (seconds per run, default 270: two runs and the
-# summary fit in one 10-minute command), PYTHON (default python3).
-# ISSUE16_DRY=1: a CPU dry run (aalund2015-ao-ci.toml at 32x32, a local Ray cluster of CPU workers) to test
+# Environment: LDBENCH_GPU_SUITE (suite file), LDBENCH_GPU_RUN_ARGS (extra `ldbench run` arguments; if the
+# paper scale does not fit, "--size 400x400 --spp 256"), LDBENCH_GPU_RUN_TIMEOUT (seconds per run, default
+# 270: two runs and the summary fit in 10 minutes), PYTHON (default python3).
+# LDBENCH_GPU_DRY=1: a CPU dry run (aalund2015-ao-ci.toml at 32x32, a local Ray cluster of CPU workers) to test
 # this script on llvmpipe.
 #
-# Ray on the offline GPU machine (it has no Ray; its Python is 3.12): slim wheels, Ray's 31 MiB Java jar
-# removed (the Python API does not use it):
-#     bash scripts/gpu/issue16.sh bundle     # here: .raywhl/ = ray 2.60.0 cp312 (jar removed) + jsonschema,
-#                                            # jsonschema-specifications, referencing, rpds-py: 43.9 MiB
-#     call 1, carry [".raywhl"]:             bash scripts/gpu/issue16.sh install   # -> .raysite/
-#     call 2, the usual carry, while the machine is still warm (.raysite/ stays, being ignored):
-#                                            OUT=$OUT bash scripts/gpu/issue16.sh
+# Ray on a GPU machine without network access and without Ray (Python 3.12): slim wheels, Ray's 31 MiB
+# Java jar removed (the Python API does not use it):
+#     bash scripts/gpu/ray-executor-speedup.sh bundle    # with network: .raywhl/ = ray 2.60.0 cp312 (jar
+#                                                        # removed) + jsonschema, jsonschema-specifications,
+#                                                        # referencing, rpds-py: 43.9 MiB
+#     copy the checkout with .raywhl/ to the GPU machine, there:
+#     bash scripts/gpu/ray-executor-speedup.sh install   # -> .raysite/ (kept for later runs: git ignores it)
+#     OUT=$OUT bash scripts/gpu/ray-executor-speedup.sh
 # (click, filelock, msgpack, protobuf, pyyaml, requests, packaging, attrs are in the GPU image already.)
 # (`bundle` and `install` add `/.raywhl/` and `/.raysite/` to .git/info/exclude.)
 set -u
 cd "$(dirname "$0")/../.."
 PY="${PYTHON:-python3}"
-O="${OUT:-/tmp/ldbench-gpu}/issue16"
-W="reports/issue16"
-DRY="${ISSUE16_DRY:-0}"
-SUITE="${ISSUE16_SUITE:-suites/aalund2015-ao.toml}"
-ARGS="${ISSUE16_ARGS:-}"
-T="${ISSUE16_TIMEOUT:-270}"
+O="${OUT:-/tmp/ldbench-gpu}/ray-executor-speedup"
+W="reports/ray-executor-speedup"
+DRY="${LDBENCH_GPU_DRY:-0}"
+SUITE="${LDBENCH_GPU_SUITE:-suites/aalund2015-ao.toml}"
+ARGS="${LDBENCH_GPU_RUN_ARGS:-}"
+T="${LDBENCH_GPU_RUN_TIMEOUT:-270}"
 RAY_VERSION=2.60.0
 if [ "$DRY" = 1 ]; then
-    SUITE="${ISSUE16_SUITE:-suites/aalund2015-ao-ci.toml}"
-    ARGS="${ISSUE16_ARGS:---size 32x32 --spp 16}"
+    SUITE="${LDBENCH_GPU_SUITE:-suites/aalund2015-ao-ci.toml}"
+    ARGS="${LDBENCH_GPU_RUN_ARGS:---size 32x32 --spp 16}"
 fi
 [ -d .raysite ] && export PYTHONPATH="$PWD/.raysite${PYTHONPATH:+:$PYTHONPATH}"
 mkdir -p "$O" "$W"
@@ -67,7 +68,7 @@ bundle() {  # here, with network access to the package index
     ls -l .raywhl | awk 'NR > 1 {s += $5; print $5, $9} END {printf "%.1f MiB\n", s / 1048576}'
 }
 
-install() {  # on the GPU machine, call 1
+install() {  # on the GPU machine, from the copied .raywhl/
     exclude
     "$PY" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target .raysite \
         .raywhl/*.whl && PYTHONPATH="$PWD/.raysite${PYTHONPATH:+:$PYTHONPATH}" "$PY" -c \
@@ -122,7 +123,7 @@ runs = {}
 for f in sorted(work.glob("*.wall")):
     t0, t1, rc, k = f.read_text().split()
     runs[f.stem] = {"seconds": float(t1) - float(t0), "rc": int(rc), "gpus": int(k), "done": (work / f.stem / "results.parquet").is_file()}
-lines = ["# Issue 16: the Ray executor against a serial run", ""]
+lines = ["# The Ray executor against a serial run", ""]
 serial = runs.get("serial")
 tim = []
 for name, r in runs.items():

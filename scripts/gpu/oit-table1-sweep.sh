@@ -1,24 +1,24 @@
 #!/usr/bin/env bash
-# GPU measurements of issue 13 (yang2010 order-independent transparency): Table 1 (linked list vs depth
+# GPU measurements of yang2010 (order-independent transparency): Table 1 (linked list vs depth
 # peeling vs dual depth peeling on the teapot and the Stanford dragon at 512², the first-n-layers trade-off)
 # and a depth-complexity sweep (hairball density at 512²) showing where depth peeling falls behind.
 #
-# Usage, from the project root with its Python environment set up (on the lent H200: `. .offline/install.sh`):
-#     OUT=/some/dir bash scripts/gpu/issue13.sh [SCENE_MIRROR]
-# SCENE_MIRROR: a folder laid out like shared/scenes holding stanford_dragon/ (default: shared/scenes or
-# ../shared/scenes when present); without it the dragon rows fail with one line and everything else runs.
-# Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/issue13/"; a summary on stdout.
+# Usage, from the project root with its Python environment set up:
+#     OUT=/some/dir bash scripts/gpu/oit-table1-sweep.sh [SCENE_MIRROR]
+# SCENE_MIRROR: a scene mirror (`ldbench scenes fetch --from`) holding stanford_dragon/;
+# without it the dragon rows fail with one line and everything else runs.
+# Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/oit-table1-sweep/"; a summary on stdout.
 # Every step runs under `timeout` and a failing step does not stop the script; the limits add up to 222 s.
-# ISSUE13_TINY=1: a CPU-sized dry run (64×64, small hairballs, `reproduce --scale ci`) to test the script.
+# LDBENCH_GPU_DRY=1: a CPU-sized dry run (64×64, small hairballs, `reproduce --scale ci`) to test the script.
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/issue13"
+O="${OUT:-/tmp/ldbench-gpu}/oit-table1-sweep"
 mkdir -p "$O"
 : > "$O/log.txt"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 PY="${PYTHON:-python3}"
 LD="$PY -m harness.cli"
-W="$(mktemp -d "${TMPDIR:-/tmp}/issue13.XXXXXX")"
-TINY="${ISSUE13_TINY:-0}"
+W="$(mktemp -d "${TMPDIR:-/tmp}/oit-table1-sweep.XXXXXX")"
+TINY="${LDBENCH_GPU_DRY:-0}"
 if [ "$TINY" = 1 ]; then
     SIZE=64x64; SCALE=ci; DENSITIES="2000 6000 20000"; FRAMES="--warmup 1 --frames 2"
 else
@@ -39,9 +39,6 @@ step 8 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.dev
 
 # 0. the Stanford dragon for Table 1 (copied from a mirror into the checksummed cache)
 MIRROR="${1:-}"
-for d in shared/scenes ../shared/scenes; do
-    [ -z "$MIRROR" ] && [ -d "$d/stanford_dragon" ] && MIRROR="$d"
-done
 if [ -n "$MIRROR" ]; then
     step 12 fetch $LD scenes fetch dragon --from "$MIRROR"
 else

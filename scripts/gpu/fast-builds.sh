@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# GPU measurements of issue 14 (fast layered-structure builds; docs/fast_builds.md): aalund2015's Figure 8
+# GPU measurements of the fast layered-structure builds (docs/fast_builds.md): aalund2015's Figure 8
 # configuration (512 LDMs of 200², atrium 260k, 800², quadratic d_max 10.32 m) with every build variant —
 # frame time, memory and PSNR (suites/fast-builds.toml) — the builds alone, against triangles (65k … 4M)
 # and against maps (32 … 1024), the fraction of the copy-bandwidth bound they reach, the one-pass raster's
@@ -7,23 +7,23 @@
 # fragments identical to this GPU's hardware raster: its fill rule).
 #
 # Usage, from the project root with its Python environment set up:
-#     OUT=/some/dir bash scripts/gpu/issue14.sh
-# Outputs under "$OUT/issue14/": issue14.md (the summary, also printed) and issue14.tar.gz (CSVs, the two
+#     OUT=/some/dir bash scripts/gpu/fast-builds.sh
+# Outputs under "$OUT/fast-builds/": summary.md (the summary, also printed) and fast-builds.tar.gz (CSVs, the two
 # figures, the Figure 8 results.csv, logs; < 1 MB). Every step runs under `timeout` (the limits add up to
 # 7 min) and a failing step does not stop the script; the bench parts write their rows as they go.
-# ISSUE14_DRY=1: a CPU-sized dry run (tiny scenes and maps, 32² frame) to test the script on llvmpipe.
+# LDBENCH_GPU_DRY=1: a CPU-sized dry run (tiny scenes and maps, 32² frame) to test the script on llvmpipe.
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/issue14"
+O="${OUT:-/tmp/ldbench-gpu}/fast-builds"
 mkdir -p "$O"
-# ISSUE14_WORK: keep the working folder there (not removed), so a caller's time limit loses nothing
-W="${ISSUE14_WORK:-$(mktemp -d "${TMPDIR:-/tmp}/issue14.XXXXXX")}"
-R="$W/issue14"
+# LDBENCH_GPU_WORK: keep the working folder there (not removed), so a caller's time limit loses nothing
+W="${LDBENCH_GPU_WORK:-$(mktemp -d "${TMPDIR:-/tmp}/fast-builds.XXXXXX")}"
+R="$W/fast-builds"
 mkdir -p "$R"
 : > "$R/log.txt"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 PY="${PYTHON:-python3}"
 LD="$PY -m harness.cli"
-DRY="${ISSUE14_DRY:-0}"
+DRY="${LDBENCH_GPU_DRY:-0}"
 K=1
 B=""
 SUITE=suites/fast-builds.toml
@@ -50,7 +50,7 @@ step 10 probe $PY -c "from harness.gpu import Gpu; from methods.layered_builds i
 g = Gpu(); print(g.info, g.device); print('fill rule', fill_rule(g))"
 # the splat's fragments against this GPU's hardware raster (edge cases: ties on texel centres, snapping)
 step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py
-B14="scripts/gpu/issue14_bench.py"
+B14="scripts/gpu/fast_builds_bench.py"
 step 10 bandwidth $PY "$B14" "$R" bandwidth $B
 # the Figure 8 frame with every variant (ldbench's runner: reference, PSNR, memory, invariants)
 step 150 fig8-frame $LD run "$SUITE" ${RUNARGS[@]+"${RUNARGS[@]}"} --out "$W/fig8" --no-progress --no-report
@@ -60,16 +60,16 @@ step 20 coverage $PY "$B14" "$R" coverage $B
 step 45 tune $PY "$B14" "$R" tune $B
 step 60 maps $PY "$B14" "$R" maps $B
 step 120 triangles $PY "$B14" "$R" triangles $B
-step 15 figures $PY scripts/gpu/issue14_figures.py "$R" "$W/fig8"
+step 15 figures $PY scripts/gpu/fast_builds_report.py "$R" "$W/fig8"
 
-cp "$R/issue14.md" "$O/issue14.md" 2>/dev/null
-tar -czf "$O/issue14.tar.gz" -C "$W" issue14
+cp "$R/summary.md" "$O/summary.md" 2>/dev/null
+tar -czf "$O/fast-builds.tar.gz" -C "$W" fast-builds
 echo
 echo "---- GPU and its fill rule ----"
 cat "$R/probe.log" 2>/dev/null
 echo "---- tests/test_builds.py on this GPU ----"
 tail -3 "$R/tests.log" 2>/dev/null
 echo "---- summary ----"
-cat "$R/issue14.md" 2>/dev/null || echo "(no summary: see the logs in $O/issue14.tar.gz)"
-[ -n "${ISSUE14_WORK:-}" ] || rm -rf "$W"
+cat "$R/summary.md" 2>/dev/null || echo "(no summary: see the logs in $O/fast-builds.tar.gz)"
+[ -n "${LDBENCH_GPU_WORK:-}" ] || rm -rf "$W"
 echo "outputs: $O ($(du -sh "$O" | cut -f1))"

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# GPU measurements of issues 9 and 17 (the rays effect, layered structures, real scenes), on an NVIDIA
-# GPU with the project's Python environment set up (on the lent H200: `. .offline/install.sh` first).
-# Usage: bash scripts/gpu/issue9.sh [SCENE_MIRROR]     (outputs under $OUT/issue9, small files only)
+# GPU measurements of the rays effect through layered depth maps (linked vs linear layouts, the lock-free insert
+# under contention, Figure 8 on real scenes), on an NVIDIA GPU with the project's Python environment set up.
+# Usage: bash scripts/gpu/ldm-rays.sh [SCENE_MIRROR]     (outputs under $OUT/ldm-rays, small files only)
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/issue9"
+O="${OUT:-/tmp/ldbench-gpu}/ldm-rays"
 mkdir -p "$O"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 LD="python3 -m harness.cli"
@@ -37,12 +37,12 @@ keep /tmp/g-stress stress-linked
 step 60 stress-linear $LD run --scene hairball --method ldm --effect ao --size 256x256 --spp 64 --warmup 1 --frames 3 \
     --set ldm.layout=linear --set ldm.directions=256 --set ldm.resolution=128 --out /tmp/g-stress2 --no-progress --no-report
 keep /tmp/g-stress2 stress-linear
-# 4. Figure 8 on the real scenes (needs the scene mirror, e.g. a carried copy of shared/scenes)
+# 4. Figure 8 on the real scenes (needs SCENE_MIRROR, a folder holding sponza/ and sibenik/)
 if [ -n "${1:-}" ]; then
     step 60 fetch $LD scenes fetch sponza sibenik --from "$1"
     step 100 fig8-real $LD reproduce aalund2015-fig8-real --size 400x400 --out /tmp/g-f8r --no-progress --no-report
     keep /tmp/g-f8r fig8-real
 fi
 ls -la "$O" >> "$O/log.txt"
-# everything in one archive (the lent GPU returns at most 8 files)
-tar czf "$O/../issue9-runs.tgz" -C /tmp --exclude='*.exr' --exclude=images g-rays g-stress g-stress2 g-f8r 2>/dev/null
+# everything in one archive (one file to copy back from the GPU machine)
+tar czf "$O/../ldm-rays-runs.tgz" -C /tmp --exclude='*.exr' --exclude=images g-rays g-stress g-stress2 g-f8r 2>/dev/null

@@ -1,7 +1,7 @@
-"""Issue 14 measurements (run by scripts/gpu/issue14.sh; docs/fast_builds.md): the build variants of the
+"""Fast-build measurements (run by scripts/gpu/fast-builds.sh; docs/fast_builds.md): the build variants of the
 layered structures (methods/layered_builds.py) timed alone, on the LDM's maps of aalund2015 Figure 8.
 
-    python scripts/gpu/issue14_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION]
+    python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION]
 
 PART:
   bandwidth  copy bandwidth of this GPU (a compute-shader copy of 64 MiB … 1 GiB, the fastest; timed like a

@@ -1,26 +1,26 @@
 #!/usr/bin/env bash
-# GPU measurements of issue 11 (archer2019, the cdi-vpl adapter): Tables 1–3 at the paper's sizes with
+# GPU measurements of archer2019 (the cdi-vpl adapter): Tables 1–3 at the paper's sizes with
 # memory, and the performance goals — CDI build of 169 × 64² on atrium 260k ≤ 2 ms, raycast ≥ 5 G rays/s,
 # with Mitsuba's oracle on the same rays in the same run beside it.
 #
 # Usage, from the project root with its Python environment set up:
-#     OUT=/some/dir bash scripts/gpu/issue11.sh
-# Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/issue11/"; a summary on stdout.
+#     OUT=/some/dir bash scripts/gpu/cdi-vpl-tables.sh
+# Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/cdi-vpl-tables/"; a summary on stdout.
 # Each table runs scene by scene (ldbench's runner on the bundled suite's jobs of that scene, scale
 # "paper"), every step under `timeout` (limits add up to 5 min); a failing or timed-out step loses only its
 # own rows, the script goes on; the last step evaluates whatever rows exist (harness.reproduce).
-# ISSUE11_DRY=1: a CPU-sized dry run (scale "ci", RSMs ≤ 64², tiny scenes) to test the script on llvmpipe.
+# LDBENCH_GPU_DRY=1: a CPU-sized dry run (scale "ci", RSMs ≤ 64², tiny scenes) to test the script on llvmpipe.
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/issue11"
+O="${OUT:-/tmp/ldbench-gpu}/cdi-vpl-tables"
 mkdir -p "$O"
 : > "$O/log.txt"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache}
 PY="${PYTHON:-python3}"
-W="$(mktemp -d "${TMPDIR:-/tmp}/issue11.XXXXXX")"
-DRY="${ISSUE11_DRY:-0}"
+W="$(mktemp -d "${TMPDIR:-/tmp}/cdi-vpl-tables.XXXXXX")"
+DRY="${LDBENCH_GPU_DRY:-0}"
 SCALE=paper
-K="${ISSUE11_TIMEOUT_SCALE:-1}"  # multiplies every limit
-[ "$DRY" = 1 ] && SCALE=ci && K="${ISSUE11_TIMEOUT_SCALE:-4}"
+K="${LDBENCH_GPU_TIMEOUT_SCALE:-1}"  # multiplies every limit
+[ "$DRY" = 1 ] && SCALE=ci && K="${LDBENCH_GPU_TIMEOUT_SCALE:-4}"
 step() {  # step SECONDS NAME CMD...: run with a time limit (× K), log, continue on failure
     local t=$(($1 * K)) name=$2; shift 2
     echo "== $name: $*" >> "$O/log.txt"

@@ -1,20 +1,21 @@
 #!/usr/bin/env bash
-# GPU measurements of issue 12: LDM single-bounce indirect light (aalund2015 §4.2, Figure 10), on an NVIDIA
+# GPU measurements of LDM single-bounce indirect light (aalund2015 §4.2, Figure 10), on an NVIDIA
 # GPU, run from the project root with the Python environment set up (about 3 minutes on an H200).
-#   bash scripts/gpu/issue12.sh                  outputs (CSV, Markdown, PNG; < 5 MB) under $OUT/issue12
-#   ISSUE12_DRY=1 bash scripts/gpu/issue12.sh    every step at tiny sizes (llvmpipe: about 2 minutes)
+#   bash scripts/gpu/ldm-indirect-stages.sh                     outputs (CSV, Markdown, PNG; < 5 MB) under
+#                                                               $OUT/ldm-indirect-stages
+#   LDBENCH_GPU_DRY=1 bash scripts/gpu/ldm-indirect-stages.sh   every step at tiny sizes (llvmpipe: ~2 minutes)
 # Steps: 1. the indirect-light tests on the GPU (real concurrency: photon counts, invariants); 2. stage times
 # (light_raster, trace, splat), memory and counters at 800² on atrium (260k triangles) and cornell, blend
-# and atomic splats; 3. `ldbench reproduce aalund2015-fig10`; 4. issue12.md: the tables, the verdict of
+# and atomic splats; 3. `ldbench reproduce aalund2015-fig10`; 4. summary.md: the tables, the verdict of
 # "splatting is the bottleneck, tracing is cheap" from the stage times and the blur proxy.
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/issue12"
-W="${ISSUE12_WORK:-/tmp/ldbench-issue12}"   # full run folders (EXR images) stay out of $OUT
+O="${OUT:-/tmp/ldbench-gpu}/ldm-indirect-stages"
+W="${LDBENCH_GPU_WORK:-/tmp/ldbench-ldm-indirect-stages}"   # full run folders (EXR images) stay out of $OUT
 mkdir -p "$O" "$W"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache}
 PY=${PY:-python3}
 LD="$PY -m harness.cli"
-if [ "${ISSUE12_DRY:-0}" = 1 ]; then
+if [ "${LDBENCH_GPU_DRY:-0}" = 1 ]; then
     SIZE=32x32 TRI=4000 D=16 RES=32 R_ATR=16 R_COR=24 SPP=16 WARM=0 FRAMES=2 SCALE=ci TESTS=3
 else
     SIZE=800x800 TRI=260000 D=512 RES=200 R_ATR=100 R_COR=128 SPP=256 WARM=2 FRAMES=5 SCALE=paper TESTS=240
@@ -32,7 +33,7 @@ print('GL_NV_shader_atomic_float', 'GL_NV_shader_atomic_float' in g.ctx.extensio
 print('SSBO limit MiB', int(g.ctx.info['GL_MAX_SHADER_STORAGE_BLOCK_SIZE']) / 2**20)"
 
 # 1. correctness on the GPU (skipped in the dry run: it is the CI suite there)
-if [ "${ISSUE12_DRY:-0}" != 1 ]; then
+if [ "${LDBENCH_GPU_DRY:-0}" != 1 ]; then
     step "$TESTS" pytest $PY -m pytest -q -p no:cacheprovider tests/test_ldm_indirect.py
 fi
 
@@ -40,7 +41,7 @@ fi
 #    (the adapter's defaults but 512 maps of 200²), blend and atomic splats
 cat > "$W/stages.toml" <<EOF
 [suite]
-name = "issue12-stages"
+name = "ldm-indirect-stages"
 size = "$SIZE"
 spp = $SPP
 warmup = $WARM
@@ -131,7 +132,7 @@ def blur_proxy(run_dir, row):
     return energy(m) / e if e > 0 else float("nan")
 
 
-lines = ["# issue 12 on the GPU: LDM indirect light (aalund2015 §4.2, Fig. 10)", ""]
+lines = ["# LDM indirect light on the GPU (aalund2015 §4.2, Fig. 10)", ""]
 for run in ("stages", "fig10"):
     df = load(run)
     if df is None:
@@ -170,7 +171,7 @@ lines += ["blur proxy: Σ|∇L| / Σ|∇L_ref| of the luminance after 4×4 box a
           "reference; nan where two jobs' truncated image names collide); 'splat is the bottleneck' holds when "
           "the splat stage takes at least half the frame and more than the light raster and trace together "
           "(GPU timer queries)."]
-(out / "issue12.md").write_text("\n".join(lines) + "\n")
+(out / "summary.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
 
 # a strip: Fig. 10's blend rows by footprint and R, then the reference (downscaled)

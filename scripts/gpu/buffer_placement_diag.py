@@ -1,9 +1,9 @@
 """Diagnosis of the buffer placement on NVIDIA (docs/fast_builds.md, "Read-backs"): the CPU reading a
 buffer that shaders use makes the driver move it from video to host memory, and the sorted (CAS)
-insert of the linked layout then runs ~18x slower. Also the two copy bandwidths (glCopyBufferSubData
+insert of the linked layout then runs many times slower (the table in docs/fast_builds.md). Also the two copy bandwidths (glCopyBufferSubData
 and a compute-shader copy).
 
-    python scripts/gpu/issue14_diag.py [--dry]
+    python scripts/gpu/buffer_placement_diag.py [--dry]
 
 Prints, per variant, the wall time of consecutive builds (ms; the same structure rebuilt; between two
 builds some variants read a buffer back, directly or through harness.gpu.Gpu.read) and the driver's GL

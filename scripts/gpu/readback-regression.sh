@@ -3,10 +3,10 @@
 # while NVIDIA's driver had moved CPU-read buffers to host memory (docs/fast_builds.md, "Read-backs"):
 # Sibenik LDM AO at the Figure 8 settings (pre-sorted insert; 1013 ms before), the hairball stress build
 # (sorted insert; 274 ms before) and yang2010's Table 1 teapot (ll-oit 43.7 ms before).
-#     OUT=/some/dir bash scripts/gpu/readback_rerun.sh MIRROR      # MIRROR: a folder laid out like shared/scenes
-# -> "$OUT/readback/": summary.md and each run's results.csv. Every step under `timeout`, continuing past failures.
+#     OUT=/some/dir bash scripts/gpu/readback-regression.sh MIRROR      # MIRROR: a scene mirror holding sibenik/
+# -> "$OUT/readback-regression/": summary.md and each run's results.csv. Every step under `timeout`, continuing past failures.
 set -u
-O="${OUT:-/tmp/ldbench-gpu}/readback"
+O="${OUT:-/tmp/ldbench-gpu}/readback-regression"
 mkdir -p "$O"
 PY="${PYTHON:-python3}"
 LD="$PY -m harness.cli"
