@@ -98,6 +98,12 @@ _TABLE = {
     "PEEL_VERTICES": _b("ssbo", 18, "ldi.peel", "vertices (position, normal, material) read by the compaction",
                         "Vertices"),
     "OIT_COUNTERS": _b("ssbo", 12, "ll_oit", "linked-list OIT resolve: counters", "OITCounters"),
+    "MLAB_LAYERS": _b("ssbo", 12, "mlab", "MLAB k-buffer: (premultiplied colour, transmittance) per slot",
+                      "MlabLayers"),
+    "MLAB_KEYS": _b("ssbo", 13, "mlab", "MLAB k-buffer: (depth, material bits) per slot", "MlabKeys"),
+    "MLAB_COUNTS": _b("ssbo", 14, "mlab", "MLAB: layers in use per pixel", "MlabCounts"),
+    "MLAB_LOCKS": _b("ssbo", 15, "mlab", "MLAB spinlock: one lock word per pixel", "MlabLocks"),
+    "MLAB_STATS": _b("ssbo", 16, "mlab", "MLAB: fragments, lost fragments, merges", "MlabStats"),
     # -- the harness's ray batches (methods/glsl/rays.glsl), shared by every method's ray queries
     "RAYS": _b("ssbo", 20, "rays", "the ray batch (harness ray layout)", "RayBatch"),
     "HITS": _b("ssbo", 21, "rays", "hit distance of each ray", "RayHits"),
