@@ -248,6 +248,18 @@ def test_bitterli_0x_original_loads_like_its_3x_port():
         assert np.array_equal(m.faces, n.faces) and np.abs(m.vertices - n.vertices).max() < 3e-7, n.name
 
 
+@pytest.mark.parametrize("body,needle", [
+    ('<shape type="cube"><transform name="to_world"><shear value="1"/></transform></shape>', "unexpected <shear>"),
+    ('<shape type="cube"><bsdf type="plastic"/></shape>', "unsupported bsdf type 'plastic'"),
+])
+def test_cli_bad_scene_is_one_line(tmp_path, body, needle):
+    """What Mitsuba's parser rejects and what ldbench cannot represent: exit 2, one line, no traceback."""
+    from test_cli import assert_one_line_error, run_cli
+
+    rc, _, se = run_cli("reference", str(write(tmp_path, body)), "--effect", "ao", "--size", "8x8", "--spp", "1")
+    assert_one_line_error(rc, se, needle, "scene.xml", "line 3")
+
+
 def test_mitsuba_errors_become_one_line():
     e = RuntimeError("[parser.cpp:111] Found unused parameters:\n  - $a=1\n  - $b=2")
     assert mitsuba_message(e) == "Found unused parameters: - $a=1 - $b=2"
