@@ -81,8 +81,8 @@ def _mitsuba():
     except ImportError as e:
         raise LdbenchError(f"reading Mitsuba XML needs Mitsuba 3 with its {VARIANT} variant ({e})") from None
     except AttributeError:
-        raise LdbenchError("reading Mitsuba XML needs a Mitsuba 3 with mitsuba.parser (3.7 or later): "
-                           "pip install -U mitsuba") from None
+        raise LdbenchError(f"reading Mitsuba XML needs mitsuba.parser, which Mitsuba {mi.__version__} lacks: "
+                           f"pip install -U mitsuba") from None
 
 
 def mitsuba_message(e: Exception) -> str:
@@ -154,9 +154,12 @@ class _Loader:
         data = self._text[n.file_index]
         return data.count(b"\n", 0, n.offset) + 1 if data else None
 
+    def file(self, n) -> str:
+        """The file a node comes from (the scene file or one it includes)."""
+        return self.files[n.file_index] if n.file_index < len(self.files) else self.path
+
     def where(self, n) -> str:
-        f = self.files[n.file_index] if n.file_index < len(self.files) else self.path
-        return f"line {self.line(n)} of {f}"
+        return f"line {self.line(n)} of {self.file(n)}"
 
     def desc(self, n) -> str:
         i = n.props.id()
@@ -166,7 +169,8 @@ class _Loader:
 
     def err(self, what: str, n=None, hint: str = "") -> LdbenchError:
         where = f" (element {self.desc(n)})" if n is not None else ""
-        return LdbenchError(f"{what}{where} in {self.path}" + (f": {hint}" if hint else ""))
+        return LdbenchError(f"{what}{where} in {self.file(n) if n is not None else self.path}"
+                            + (f": {hint}" if hint else ""))
 
     def children(self, n) -> list:
         """The object nodes nested in (or referenced by) ``n``, in document order, as (name, node)."""
@@ -332,7 +336,7 @@ class _Loader:
             fn = self.string(n, "filename")
             if not fn:
                 raise self.err("shape without a filename", n)
-            p = Path(fn) if os.path.isabs(fn) else Path(self.files[n.file_index]).resolve().parent / fn
+            p = Path(fn) if os.path.isabs(fn) else self.dir / fn  # Mitsuba resolves it from the scene's folder
             if not p.is_file():
                 raise self.err(f"mesh file {p} not found", n)
             try:

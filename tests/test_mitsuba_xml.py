@@ -348,6 +348,29 @@ def test_named_and_twosided_bsdfs(tmp_path):
     assert sc.content_hash() == "67ff037332dfc20e"
 
 
+def test_include(tmp_path):
+    """Mitsuba's <include>: shapes of the included file in document order; an error there names that file and
+    its line; mesh files resolve from the scene's folder, as Mitsuba resolves them."""
+    (tmp_path / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "sub").mkdir()
+    part = tmp_path / "sub" / "part.xml"
+    part.write_text('<scene version="3.0.0">\n<shape type="obj" id="t"><string name="filename" value="m.obj"/>'
+                    '</shape>\n</scene>\n')
+    sc = load_mitsuba_xml(write(tmp_path, '<include filename="sub/part.xml"/>' + RECT))
+    assert [m.name for m in sc.meshes] == ["t", "r"] and len(sc.meshes[0].faces) == 1
+    part.write_text('<scene version="3.0.0">\n\n<shape type="cube"><bsdf type="plastic"/></shape>\n</scene>\n')
+    msg = error_of(tmp_path / "scene.xml")
+    assert "unsupported bsdf type 'plastic'" in msg and f"line 3) in {part}" in msg
+
+
+@needs_cbox
+@pytest.mark.parametrize("name,hash_", [("cornell-mitsuba", "fbe6a3f2bc635552"), ("cornell-bitterli", "e6176e6dbf3f2321")])
+def test_registered_xml_scenes_keep_their_hashes(name, hash_):
+    from harness.scenes import build_registered
+
+    assert build_registered(name, SHARED).content_hash() == hash_
+
+
 def test_obj_and_ply_shapes(tmp_path):
     (tmp_path / "m").mkdir()
     (tmp_path / "m" / "quad.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
