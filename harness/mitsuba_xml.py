@@ -14,8 +14,9 @@ This module maps the resulting graph of plugin properties onto a :class:`Scene`:
   (Mitsuba's default 0.5). Textured, rgb or spectral opacity, nested masks and a different front and
   back opacity are errors;
 * shapes ``obj``/``ply`` (``filename`` relative to the XML's folder) and the analytic ``rectangle``,
-  ``cube``, ``sphere`` (``center``, ``radius``) and ``disk``, tessellated by :mod:`harness.meshio` in
-  their local frames; ``to_world`` (as Mitsuba composed it, float64) is applied here in float64;
+  ``cube``, ``sphere`` (``center``, ``radius``), ``disk`` and ``cylinder`` (``p0``, ``p1``, ``radius``;
+  open, as Mitsuba's), tessellated by :mod:`harness.meshio` in their local frames; ``to_world`` (as
+  Mitsuba composed it, float64) is applied here in float64;
 * one ``perspective`` sensor (``fov`` + ``fov_axis`` x | y | diagonal | smaller | larger, or
   ``focal_length``; ``to_world``; film width/height, Mitsuba's default 768 × 576), as ldbench's vertical
   field of view for the film's aspect ratio; the film size goes to ``scene.params['film']``. Mitsuba
@@ -54,7 +55,7 @@ from . import meshio
 from .errors import LdbenchError
 from .scene import Camera, Mesh, Scene, SpotLight
 
-SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk")
+SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk", "cylinder")
 DEFAULT_FILM = (768, 576)  # Mitsuba's hdrfilm default
 VARIANT = "scalar_rgb"  # the parser's variant: rgb values stay colours (a spectral one makes textures)
 COLOUR_HINT = "ldbench supports constant colours (rgb, uniform spectrum, float)"
@@ -349,6 +350,21 @@ class _Loader:
             v, f = meshio.box((-1, -1, -1), (1, 1, 1))
         elif t == "disk":
             v, f = meshio.disk()
+        elif t == "cylinder":  # the unit tube along +z mapped onto p0 -> p1 with the radius
+            v, f = meshio.tube()
+            p0 = self.vec3(n, "p0") if self.has(n, "p0") else np.zeros(3)
+            p1 = self.vec3(n, "p1") if self.has(n, "p1") else np.array([0.0, 0.0, 1.0])
+            radius = self.number(n, "radius", 1.0)
+            axis = p1 - p0
+            length = float(np.linalg.norm(axis))
+            if not radius > 0 or not length > 0:
+                raise self.err(f"cylinder needs a positive radius and p0 != p1, got radius {radius}", n)
+            e3 = axis / length
+            e1 = np.cross(np.eye(3)[int(np.argmin(np.abs(e3)))], e3)
+            e1 /= np.linalg.norm(e1)
+            F = np.eye(4)
+            F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = e1 * radius, np.cross(e3, e1) * radius, axis, p0
+            M = M @ F
         else:  # sphere: Mitsuba's to_world · translate(center) · scale(radius)
             v, f = meshio.icosphere()
             center = self.vec3(n, "center") if self.has(n, "center") else np.zeros(3)

@@ -195,7 +195,8 @@ def test_unreadable_mesh_file(tmp_path):
      '<ref name="reflectance" id="chk"/></bsdf></shape>', ["unsupported texture type 'checkerboard'"]),
     ('<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700:0.5"/></bsdf>'
      '</shape>', ["unsupported spectrum"]),
-    ('<shape type="cylinder" id="c"/>', ["unsupported shape type 'cylinder'"]),
+    ('<shape type="linearcurve" id="c"/>', ["unsupported shape type 'linearcurve'", 'id="c"']),
+    ('<shape type="cylinder"><point name="p1" x="0" y="0" z="0"/></shape>', ["p0 != p1"]),
     ('<shape type="cube"><ref id="nowhere"/></shape>', ['unresolved reference to "nowhere"', "line 3"]),
     ('<medium type="homogeneous" id="fog"/>' + RECT, ["unsupported element <medium>"]),
     ('<shape type="cube"><transform name="to_world"><shear value="1"/></transform></shape>',
@@ -369,6 +370,30 @@ def test_registered_xml_scenes_keep_their_hashes(name, hash_):
     from harness.scenes import build_registered
 
     assert build_registered(name, SHARED).content_hash() == hash_
+
+
+def test_cylinder_matches_mitsuba(mi, tmp_path):
+    """Mitsuba's open cylinder p0 -> p1 with a radius, then to_world: the same box as Mitsuba's, a closed
+    tube side of 128 triangles with outward normals, its vertices on the cylinder."""
+    body = ('<shape type="cylinder" id="c"><point name="p0" x="1" y="2" z="3"/><point name="p1" x="2" y="0" z="4"/>'
+            '<float name="radius" value="0.5"/><transform name="to_world"><rotate y="1" angle="30"/>'
+            '<translate x="-1"/></transform></shape>')
+    p = write(tmp_path, body)
+    m = load_mitsuba_xml(p).meshes[0]
+    bb = mi.load_file(str(p)).shapes()[0].bbox()
+    assert len(m.faces) == 128
+    assert np.allclose(m.vertices.min(0), np.array(bb.min), atol=2e-3)  # inscribed 64-gon: within r(1 - cos π/64)
+    assert np.allclose(m.vertices.max(0), np.array(bb.max), atol=2e-3)
+    R = np.array(mi.ScalarTransform4d().translate([-1, 0, 0]).rotate([0, 1, 0], 30).matrix)
+    a, b = (R[:3, :3] @ np.array(q) + R[:3, 3] for q in ((1, 2, 3), (2, 0, 4)))
+    v = m.vertices.astype(np.float64)
+    s = np.clip((v - a) @ (b - a) / np.dot(b - a, b - a), 0, 1)
+    assert np.allclose(np.linalg.norm(v - a - s[:, None] * (b - a), axis=1), 0.5, atol=1e-5)
+    tri = v[m.faces]
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    c = tri.mean(1)
+    s = (c - a) @ (b - a) / np.dot(b - a, b - a)
+    assert np.all(np.sum(nrm * (c - a - s[:, None] * (b - a)), 1) > 0)
 
 
 def test_obj_and_ply_shapes(tmp_path):
