@@ -207,7 +207,30 @@ def release_inputs(prepared) -> None:
 
 
 def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
-    """One job: set up, time the frames, score the last one; returns its record row."""
+    """One job: set up, time the frames, score the last one; returns its record row.
+
+    Whatever the job raises (bad input, a driver fault, a bug in an adapter, in scoring or in saving
+    its images) becomes that row's ``error: ...`` status, so one job never loses the others' rows: the
+    run completes, as it does on the Ray executor. Only KeyboardInterrupt and SystemExit pass."""
+    from . import records
+
+    try:
+        return _run_job(ctx, job, prep)
+    except LdbenchError as e:
+        status = f"error: {e}"
+    except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
+        status = f"error: {error_text(e)}"
+    return records.make_row(**_job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, prep.scene,
+                                          getattr(prep.reference, "meta", {}), status))
+
+
+def error_text(e: BaseException) -> str:
+    """One line naming an unexpected exception: its type and the first line of its message."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    return f"{type(e).__name__}: {lines[0] if lines else ''}".rstrip(": ")[:300]
+
+
+def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     from methods.base import View, get_method
 
     from . import records

@@ -297,3 +297,30 @@ def test_reference_of_every_image_effect(tmp_path, capsys):
     assert (tmp_path / "o.exr").exists()
     assert main(["reference", "cornell", "--effect", "rays", "--size", "16x16"]) == 2
     assert "per ray" in capsys.readouterr().err
+
+
+# ---- faults that lose rows or hang ------------------------------------------------------------------
+def _tiny_suite():
+    """hbao and ldm, AO on the Cornell box at 16x16: two cheap rows."""
+    from harness.suite import suite_from_dict
+
+    return suite_from_dict({"suite": {"name": "t", "size": "16x16", "spp": 4, "warmup": 0, "frames": 1},
+                            "run": [{"scene": "cornell", "effect": "ao", "methods": ["hbao", "ldm"],
+                                     "params": {"ldm": {"directions": 8, "resolution": 16}}}]}, name="t")
+
+
+def test_an_unexpected_exception_is_one_row_and_the_run_completes(tmp_path, monkeypatch):
+    """A job raising something other than LdbenchError (a bug, a driver fault) marks its own row
+    ``error: TYPE: message``; the other rows are kept and the run directory is committed."""
+    from methods.hbao import HBAO
+    from harness.runner import run_jobs
+
+    def broken(self, *a, **k):
+        raise RuntimeError("simulated driver fault\nsecond line")
+
+    monkeypatch.setattr(HBAO, "frame", broken)
+    out = tmp_path / "run"
+    df = run_jobs(_tiny_suite(), out, progress=False, report=False)
+    st = dict(zip(df["method"], df["status"]))
+    assert st["hbao"] == "error: RuntimeError: simulated driver fault", st
+    assert st["ldm"] == "ok" and (out / "results.parquet").is_file()
