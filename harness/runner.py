@@ -186,8 +186,8 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
                                                     "jobs": len(suite.jobs)}, indent=1))
         if report:
-            from .report import write_report
-            write_report(tmp)
+            from .report import build_report
+            build_report(tmp, records.read_results(tmp, unfinished=True))
         rundir.commit()  # old run aside, new one in, old one deleted
     except BaseException:
         try:

@@ -324,3 +324,46 @@ def test_an_unexpected_exception_is_one_row_and_the_run_completes(tmp_path, monk
     st = dict(zip(df["method"], df["status"]))
     assert st["hbao"] == "error: RuntimeError: simulated driver fault", st
     assert st["ldm"] == "ok" and (out / "results.parquet").is_file()
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory):
+    """One tiny finished run (hbao, AO, 16x16) that tests copy and damage."""
+    out = tmp_path_factory.mktemp("finished") / "run"
+    rc, _, se = tiny_run(out)
+    assert rc == 0, se
+    return out
+
+
+def test_partial_run_folder_is_refused_by_every_reader(tmp_path, finished_run):
+    """A run killed while writing leaves .OUT.partial-PID/ with the marker: report, history add,
+    compare and reproduce --from-run refuse it in one line (its rows are not a finished run)."""
+    import shutil
+
+    from harness.rundir import MARKER
+
+    partial = tmp_path / ".run.partial-12345"
+    shutil.copytree(finished_run, partial)
+    (partial / MARKER).write_text("12345\n")
+    for args in (["report", str(partial)], ["history", "add", str(partial), "--history-dir", str(tmp_path / "h")],
+                 ["compare", str(finished_run), str(partial)], ["compare", str(partial / "results.parquet"),
+                                                                 str(finished_run)],
+                 ["reproduce", "aalund2015-fig8", "--from-run", str(partial), "--no-report"]):
+        rc, _, se = run_cli(*args)
+        assert_one_line_error(rc, se, "unfinished run")
+    assert not (tmp_path / "h").exists()
+
+
+def test_foreign_results_columns_are_one_line_for_every_reader(tmp_path):
+    """A results.parquet of other columns: the same one-line schema error from every reader."""
+    import pandas as pd
+
+    run = tmp_path / "foreign"
+    run.mkdir()
+    pd.DataFrame({"a": [1], "b": ["x"]}).to_parquet(run / "results.parquet")
+    (run / "suite.json").write_text('{"name": "x", "source": "", "jobs": 1}')
+    for args in (["report", str(run)], ["reproduce", "aalund2015-fig8", "--from-run", str(run), "--no-report"],
+                 ["compare", str(run), str(run)], ["history", "add", str(run), "--history-dir", str(tmp_path / "h")]):
+        rc, _, se = run_cli(*args)
+        assert_one_line_error(rc, se, "not an ldbench results table", "no column 'scene'")
+    assert sorted(p.name for p in run.iterdir()) == ["results.parquet", "suite.json"]
