@@ -367,3 +367,22 @@ def test_foreign_results_columns_are_one_line_for_every_reader(tmp_path):
         rc, _, se = run_cli(*args)
         assert_one_line_error(rc, se, "not an ldbench results table", "no column 'scene'")
     assert sorted(p.name for p in run.iterdir()) == ["results.parquet", "suite.json"]
+
+
+def test_reference_out_writes_only_the_exr(tmp_path, capsys):
+    """`reference --out photo.exr` leaves the user's photo.png beside it alone; a name that is not an
+    .exr file is refused before rendering."""
+    from harness.cli import main
+    from references.exr import read_exr
+
+    (tmp_path / "photo.png").write_bytes(b"my holiday")
+    assert main(["reference", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
+                 "--out", str(tmp_path / "photo.exr")]) == 0
+    assert (tmp_path / "photo.png").read_bytes() == b"my holiday"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["photo.exr", "photo.png"]
+    assert read_exr(tmp_path / "photo.exr")["Y"].shape == (8, 8)
+    capsys.readouterr()
+    assert main(["reference", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
+                 "--out", str(tmp_path / "photo.png")]) == 2
+    assert "must name an .exr file" in capsys.readouterr().err
+    assert (tmp_path / "photo.png").read_bytes() == b"my holiday"
