@@ -150,7 +150,6 @@ def test_concurrent_adds_keep_every_run(tmp_path):
     hist, go = tmp_path / "hist", tmp_path / "go"
     runs = [_write_run(tmp_path / f"r{i}", f"run-{i}", day=i + 1) for i in range(4)]
     script = ("import os, sys, time\n"
-              "from harness import history\n"
               "from harness.cli import main\n"
               "while not os.path.exists(sys.argv[2]): time.sleep(0.005)\n"
               "sys.exit(main(['history', 'add', sys.argv[1], '--history-dir', sys.argv[3]]))\n")
