@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 from .errors import LdbenchError
 from .naming import slug as _slug
 from .rundir import RunDir
-from .checks import camera_sees_geometry, unique_scene_names
+from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .suite import Job, Suite, resolve_sizes
 
 if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
@@ -152,6 +152,7 @@ def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) ->
     ref = effect.spec.reference(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs,
                                 cache=cache, progress=progress)
     camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
+    finite_reference(scene, ref, f"{effect.label()} at {w}x{h}")  # likewise
     return Prepared(scene, inputs, ref)
 
 
