@@ -172,7 +172,9 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
     rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
     tmp = rundir.open()
     gpu = None
+    interrupts = _Interrupts()
     try:
+        interrupts.__enter__()
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
         suite.jobs = plan.jobs
@@ -189,6 +191,8 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         if report:
             from .report import build_report
             build_report(tmp, records.read_results(tmp, unfinished=True))
+        if interrupts.seen:  # a Ctrl-C whose KeyboardInterrupt some library caught: still no commit
+            raise KeyboardInterrupt
         rundir.commit()  # old run aside, new one in, old one deleted
     except BaseException:
         try:
@@ -197,7 +201,41 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         finally:
             rundir.abort()
         raise
+    finally:
+        interrupts.__exit__()
     return records.read_results(out_dir)
+
+
+class _Interrupts:
+    """Remembers a SIGINT (Ctrl-C) received while a run directory is written, so that a run is never
+    committed after one, even when code between the signal and the commit (a report library, a
+    cluster client) caught the KeyboardInterrupt. The signal itself still raises as before."""
+
+    def __init__(self):
+        self.seen = False
+        self._prev = None
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        prev = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is threading.main_thread() and callable(prev):
+            self._prev = prev
+            signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.seen = True
+        self._prev(signum, frame)  # Python's default handler raises KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self._prev is not None:
+            import signal
+
+            signal.signal(signal.SIGINT, self._prev)
+            self._prev = None
+        return False
 
 
 def release_inputs(prepared) -> None:

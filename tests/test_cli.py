@@ -386,3 +386,39 @@ def test_reference_out_writes_only_the_exr(tmp_path, capsys):
                  "--out", str(tmp_path / "photo.png")]) == 2
     assert "must name an .exr file" in capsys.readouterr().err
     assert (tmp_path / "photo.png").read_bytes() == b"my holiday"
+
+
+def test_ctrl_c_during_the_report_never_commits(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C while the report is written (the last step before the commit) exits 130 and leaves no
+    run directory, even when the code it interrupted caught the KeyboardInterrupt (a library's broad
+    handler, as once happened after a Ray run)."""
+    import signal
+
+    import harness.report
+
+    def swallowing_report(*a, **k):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass  # caught by someone else's code
+
+    monkeypatch.setattr(harness.report, "build_report", swallowing_report)
+    out = tmp_path / "run"
+    rc = main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "16x16", *TINY[:-1],
+               "--out", str(out)])
+    assert rc == 130 and capsys.readouterr().err.strip().endswith("ldbench: interrupted")
+    assert not out.exists() and not list(tmp_path.iterdir())
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+
+
+def test_unreachable_ray_address_is_one_line_within_the_stated_time(tmp_path):
+    pytest.importorskip("ray")
+    import time
+
+    from harness.executors.ray import CONNECT_TIMEOUT_S
+
+    t0 = time.monotonic()
+    rc, _, se = tiny_run(tmp_path / "run", "--executor", "ray", "--address", "127.0.0.1:1")
+    assert_one_line_error(rc, se, "cannot join the Ray cluster at 127.0.0.1:1")
+    assert time.monotonic() - t0 < CONNECT_TIMEOUT_S + 30
+    assert not list(tmp_path.iterdir())
