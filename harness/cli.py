@@ -109,9 +109,9 @@ def _effect_opts(args) -> dict:
 
 
 def _effect_from(args):
-    from .effects import Effect
+    from .effects.base import effects_from_user
 
-    return Effect.parse(args.effect, _effect_opts(args))
+    return effects_from_user(args.effect, [_effect_opts(args)])[0]
 
 
 def _scene_params(pairs):

@@ -407,6 +407,9 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
         raise LdbenchError(f"--alpha must be in (0, 1), got {alpha}")
     if min_size < 1:
         raise LdbenchError(f"--min-size must be >= 1, got {min_size}")
+    for name, v in (("min-effect", min_effect), ("min-db", min_db)):
+        if not (math.isfinite(v) and v >= 0):
+            raise LdbenchError(f"--{name} must be a finite number >= 0, got {v}")
     hist = load_history(history_dir, machine)
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
     out.mkdir(parents=True, exist_ok=True)

@@ -67,6 +67,10 @@ def test_run_writes_complete_directory(tmp_path):
     (["run", "--scene", "cornell", "--method", "direct-raster", "--effect", "direct", "--size", "abc"], ["size"]),
     (["reference", "cornell", "--effect", "ao", "--falloff", "cubic"], ["falloff"]),
     (["report", "/nonexistent/run"], ["not a run directory"]),
+    (["reference", "cornell", "--effect", "ao", "--ray-kind", "ao"], ["does not use parameter 'ray_kind'"]),
+    (["reference", "cornell", "--effect", "rays", "--d-max", "0.5"], ["does not use parameter 'd_max'"]),
+    (["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--frames", str(10 ** 20)], ["frames"]),
+    (["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--seed", str(2 ** 63)], ["seed"]),
     (["frobnicate"], ["invalid choice"]),
 ])
 def test_bad_input_one_line(tmp_path, args, needles):

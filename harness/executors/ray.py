@@ -60,6 +60,8 @@ CANCEL_WAIT_S = 20.0
 #: How long joining a cluster (``--address``) may take: a TCP connection to its address first, then
 #: ``ray.init``; beyond it the run stops with one line (exit 2) before anything is rendered.
 CONNECT_TIMEOUT_S = 10.0
+#: ``--retries`` at most: a call that failed 100 times will not succeed on the 101st.
+MAX_RETRIES = 100
 
 
 def import_ray():
@@ -264,6 +266,8 @@ class RayExecutor:
                  stage_in_run_dir: bool = True):
         if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
             raise LdbenchError(f"--retries must be an integer >= 0, got {retries!r}")
+        if retries > MAX_RETRIES:
+            raise LdbenchError(f"--retries must be <= {MAX_RETRIES}, got {retries}")
         if group_size is not None and (not isinstance(group_size, int) or group_size < 1):
             raise LdbenchError(f"group size must be an integer >= 1, got {group_size!r}")
         self.address, self.retries, self.group_size = address, retries, group_size
