@@ -290,9 +290,11 @@ def load_suite(path) -> Suite:
 
     path = suite_path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))  # TOML is UTF-8, whatever the locale
     except OSError as e:
         raise LdbenchError(f"cannot read suite {path}: {e.strerror}")
+    except UnicodeDecodeError as e:
+        raise LdbenchError(f"suite {path} is not UTF-8 text (TOML): byte {e.start} cannot be decoded")
     except tomllib.TOMLDecodeError as e:
         raise LdbenchError(f"malformed TOML in {path}: {e}")
     return suite_from_dict(data, name=path.stem, base_dir=path.parent, source=str(path))

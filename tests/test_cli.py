@@ -426,3 +426,39 @@ def test_unreachable_ray_address_is_one_line_within_the_stated_time(tmp_path):
     assert_one_line_error(rc, se, "cannot join the Ray cluster at 127.0.0.1:1")
     assert time.monotonic() - t0 < CONNECT_TIMEOUT_S + 30
     assert not list(tmp_path.iterdir())
+
+
+UNDECODABLE = b"\xff\xfe[\x00s\x00]\x00\x80\x81"
+
+
+@pytest.mark.parametrize("kind", ["suite", "xml", "ply", "obj", "baseline", "history-add", "history-file",
+                                  "history-plot"])
+def test_undecodable_input_files_are_one_line(tmp_path, kind, request):
+    """Bytes that are not UTF-8 in any file ldbench reads: one line, exit 2, nothing written."""
+    f = tmp_path / {"suite": "s.toml", "xml": "s.xml", "ply": "m.ply", "obj": "m.obj"}.get(kind, "r.csv")
+    f.write_bytes(UNDECODABLE)
+    hist = tmp_path / "hist"
+    if kind == "suite":
+        args = ["run", str(f), "--out", str(tmp_path / "run")]
+    elif kind in ("xml", "ply", "obj"):
+        args = ["reference", str(f), "--effect", "ao", "--size", "8x8", "--spp", "1"]
+    elif kind == "baseline":
+        args = ["compare", str(f), str(f)]
+    elif kind == "history-add":
+        args = ["history", "add", str(f), "--history-dir", str(hist)]
+    elif kind == "history-plot":
+        hist.mkdir()
+        (hist / "machine.parquet").write_bytes(UNDECODABLE)
+        args = ["history", "plot", "--history-dir", str(hist)]
+    else:  # the history file a run is added to
+        from harness.history import row_machine_key
+        from harness.records import read_results
+
+        run = request.getfixturevalue("finished_run")
+        hist.mkdir()
+        (hist / f"{row_machine_key(read_results(run).iloc[0])}.parquet").write_bytes(UNDECODABLE)
+        args = ["history", "add", str(run), "--history-dir", str(hist)]
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    rc, _, se = run_cli(*args)
+    assert_one_line_error(rc, se)
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.name != ".lock") == before  # (history's own lock)
