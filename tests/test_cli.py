@@ -462,3 +462,20 @@ def test_undecodable_input_files_are_one_line(tmp_path, kind, request):
     rc, _, se = run_cli(*args)
     assert_one_line_error(rc, se)
     assert sorted(p.name for p in tmp_path.rglob("*") if p.name != ".lock") == before  # (history's own lock)
+
+
+def test_xml_scene_with_a_negative_intensity_is_one_line(tmp_path):
+    """A negative spot intensity in an XML scene: one line before anything renders (checked on the
+    SpotLight, whatever loader built it; vertices beyond float32: tests/test_scenes.py)."""
+    xml = ("<scene version='3.0.0'><sensor type='perspective'><float name='fov' value='40'/>"
+           "<transform name='to_world'><lookat origin='0,1,4' target='0,0,0' up='0,1,0'/></transform></sensor>"
+           "<emitter type='spot'><rgb name='intensity' value='{i}'/><transform name='to_world'>"
+           "<lookat origin='0,3,0' target='0,0,0' up='0,0,1'/></transform></emitter>"
+           "<shape type='rectangle'><transform name='to_world'><scale value='{s}'/>"
+           "<rotate x='1' angle='-90'/></transform></shape></scene>")
+    for i, s, needle in (("-5, -5, -5", "1", "negative"),):
+        f = tmp_path / "s.xml"
+        f.write_text(xml.format(i=i, s=s))
+        rc, _, se = run_cli("reference", str(f), "--effect", "direct", "--size", "8x8", "--spp", "1")
+        assert_one_line_error(rc, se, needle)
+        assert "Warning" not in se
