@@ -333,10 +333,26 @@ def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, sta
     return dict(run_id=run_id, suite=suite_name, **records.git_columns(git), scene=scene.name,
                 scene_hash=scene.content_hash(), triangles=scene.triangle_count,
                 scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
-                effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
+                effect=job.effect.name, effect_params=job.effect.key(),
+                params=params_used(cls, params, job.effect),
                 width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
                 warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
                 ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+
+
+def params_used(cls, params, effect) -> dict:
+    """The method's parameters as the job ran: those the effect supersedes (``EffectSpec.supersedes``,
+    e.g. cdi-vpl's rsm and miss_range on ``vpl_range``, whose VPLs the harness builds) carry the
+    effect's values, not the method's unused ones. Flat dict; a grouped parameter is found through
+    ``Params.renamed``."""
+    out = params.to_dict()
+    renamed = getattr(cls.Params, "renamed", None) or {}
+    ep = effect.params.to_dict()
+    for k in effect.spec.supersedes:
+        name = renamed.get(k, k)
+        if name in out:
+            out[name] = ep[k]
+    return out
 
 
 def failed_row(plan: RunPlan, job: Job, status: str, ref_meta: dict | None = None) -> dict:

@@ -13,6 +13,8 @@ An effect spec declares, as data and a few hooks:
 ``gate``               (non-image effects) the metrics the nightly gate checks: (column, "higher"|"lower"
                        is better, absolute tolerance, relative tolerance); image effects are gated on
                        PSNR/SSIM against their reference's noise (:mod:`harness.compare`)
+``supersedes``         effect parameters that replace a method's parameter of the same name on this
+                       effect (the harness builds the inputs from them): the row records the effect's
 ``inputs()``           arrays the harness builds deterministically from (scene, view, seed) and hands
                        identically to the method and to the reference (None for pure image effects)
 ``reference()``        the ground truth for those inputs
@@ -47,6 +49,7 @@ class EffectSpec:
     reference_backend: str = ""
     metrics: tuple = ()
     gate: tuple = ()
+    supersedes: tuple = ()
 
     # ---- identity -----------------------------------------------------------------------------------
     def key(self, params) -> dict:
