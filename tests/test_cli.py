@@ -479,3 +479,26 @@ def test_xml_scene_with_a_negative_intensity_is_one_line(tmp_path):
         rc, _, se = run_cli("reference", str(f), "--effect", "direct", "--size", "8x8", "--spp", "1")
         assert_one_line_error(rc, se, needle)
         assert "Warning" not in se
+
+
+def test_an_unexpected_reference_failure_marks_its_jobs_and_the_run_completes(tmp_path, monkeypatch):
+    """As on the Ray executor: a reference raising something other than LdbenchError marks the rows of
+    its jobs; the jobs of other references still run."""
+    import references as refs
+    from harness.runner import run_jobs
+    from harness.suite import suite_from_dict
+
+    real = refs.render_reference
+
+    def flaky(scene, effect, **k):
+        if effect.d_max == 0.5:
+            raise MemoryError("simulated")
+        return real(scene, effect, **k)
+
+    monkeypatch.setattr(refs, "render_reference", flaky)
+    suite = suite_from_dict({"suite": {"name": "t", "size": "16x16", "spp": 2, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": [0.5, "inf"],
+                                      "methods": ["hbao"]}]}, name="t")
+    df = run_jobs(suite, tmp_path / "run", progress=False, report=False)
+    st = sorted(df["status"])
+    assert st == ["error: reference failed: MemoryError: simulated", "ok"], st
