@@ -267,7 +267,8 @@ def suite_from_args(args):
             for j in suite.jobs:
                 if j.method in params:
                     merged = {**dict(j.params), **params[j.method]}
-                    get_method(j.method).Params.from_dict(merged, method=j.method)
+                    from .suite import method_params
+                    method_params(get_method(j.method), merged, j.method)
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)
             suite.jobs = jobs

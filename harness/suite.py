@@ -89,6 +89,24 @@ MAX_FRAMES = MAX_WARMUP = 10_000
 MAX_SEED = (1 << 32) - 1
 
 
+#: Method parameters that are integers without a declared maximum (seeds, pool sizes, 0 = auto) are at
+#: most 2^31 - 1: GLSL ints and buffer offsets hold no more.
+MAX_INT_PARAM = (1 << 31) - 1
+
+
+def method_params(cls, values: dict, method: str):
+    """``cls.Params`` from ``values`` (validated by the adapter's declared ranges), with every integer
+    parameter without a declared maximum checked against :data:`MAX_INT_PARAM`."""
+    import dataclasses
+
+    params = cls.Params.from_dict(values, method=method)
+    for f in dataclasses.fields(params):
+        v = getattr(params, f.name)
+        if _is_int(v) and f.metadata.get("hi") is None and v > MAX_INT_PARAM:
+            raise LdbenchError(f"parameter {f.name}={v} of method {method!r} above its maximum {MAX_INT_PARAM}")
+    return params
+
+
 def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
@@ -274,7 +292,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
                 raise LdbenchError(f"method {m!r} does not support effect {eff.name!r} "
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
             for p in _grid(params.get(m, {})):
-                cls.Params.from_dict(p, method=m)  # validate now, before any rendering
+                method_params(cls, p, m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames, seed))
     for m in params:

@@ -109,6 +109,7 @@ ADHOC = ("--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "
     (["--spp", str(10 ** 11)], "spp"),
     (["--size", "1x1"], "size"),
     (["--frames", str(10 ** 20)], "frames must be <="),
+    (["--set", f"hbao.seed={2 ** 31}"], "seed=2147483648 of method 'hbao' above its maximum"),
     (["--warmup", str(10 ** 20)], "warmup must be <="),
 ])
 def test_command_line_rejects(tmp_path, extra, needle):
