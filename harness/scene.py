@@ -41,10 +41,11 @@ def _vec3(v, what: str, bound: float | None = None) -> np.ndarray:
 def _coordinates(v, what: str) -> np.ndarray:
     """``v`` as (N, 3) float32 after checking every value is finite and within :data:`MAX_COORDINATE`
     (checked before the cast, so that an overflow is one line, not a numpy warning and an infinity)."""
-    a = np.asarray(v, dtype=np.float64).reshape(-1)
-    ok = np.abs(a) <= MAX_COORDINATE  # False for NaN too
-    if not ok.all():
-        raise LdbenchError(f"{what}: vertex coordinate {a[np.argmin(ok)]:g} is not finite or beyond "
+    a = np.asarray(v)
+    a = (a if a.dtype == np.float32 else a.astype(np.float64, copy=False)).reshape(-1)  # no copy of float32
+    if a.size and not np.abs(a).max() <= MAX_COORDINATE:  # a NaN maximum fails too
+        ok = np.abs(a) <= MAX_COORDINATE
+        raise LdbenchError(f"{what}: vertex coordinate {float(a[np.argmin(ok)]):g} is not finite or beyond "
                            f"±{MAX_COORDINATE:g} (the GPU computes in float32)")
     return np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 3)
 
