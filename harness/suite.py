@@ -89,21 +89,25 @@ MAX_FRAMES = MAX_WARMUP = 10_000
 MAX_SEED = (1 << 32) - 1
 
 
-#: Method parameters that are integers without a declared maximum (seeds, pool sizes, 0 = auto) are at
-#: most 2^31 - 1: GLSL ints and buffer offsets hold no more.
+#: Method parameters without a declared maximum: an integer (seeds, pool sizes, 0 = auto) is at most
+#: 2^31 - 1 (GLSL ints and buffer offsets hold no more), a float (biases, in pixels or texels) is finite.
 MAX_INT_PARAM = (1 << 31) - 1
 
 
 def method_params(cls, values: dict, method: str):
-    """``cls.Params`` from ``values`` (validated by the adapter's declared ranges), with every integer
-    parameter without a declared maximum checked against :data:`MAX_INT_PARAM`."""
+    """``cls.Params`` from ``values`` (validated by the adapter's declared ranges), with every parameter
+    without a declared maximum checked as :data:`MAX_INT_PARAM` says."""
     import dataclasses
 
     params = cls.Params.from_dict(values, method=method)
     for f in dataclasses.fields(params):
         v = getattr(params, f.name)
-        if _is_int(v) and f.metadata.get("hi") is None and v > MAX_INT_PARAM:
+        if f.metadata.get("hi") is not None:
+            continue
+        if _is_int(v) and v > MAX_INT_PARAM:
             raise LdbenchError(f"parameter {f.name}={v} of method {method!r} above its maximum {MAX_INT_PARAM}")
+        if isinstance(v, float) and not math.isfinite(v):
+            raise LdbenchError(f"parameter {f.name}={v} of method {method!r} must be finite")
     return params
 
 

@@ -51,6 +51,7 @@ def suite(head=None, **run):
     ({}, {"seed": MAX_SEED + 1}, "seed"),
     ({}, {"seed": -1}, "seed"),
     ({}, {"effect": "rays", "methods": ["ldi"], "effect_params": {"rays_per_pixel": 1025}}, "rays_per_pixel"),
+    ({}, {"methods": ["ldm"], "params": {"ldm": {"visibility_bias": float("inf")}}}, "visibility_bias=inf .* finite"),
     # effect parameters the effect does not use: one rule, naming the effect's parameters
     ({}, {"effect": "rays", "methods": ["ldi"], "d_max": 0.5}, "'rays' does not use parameter 'd_max'.*ray_kind"),
     ({}, {"effect": "rays", "methods": ["ldi"], "effect_params": {"ray_kind": ["diffuse", "glossy"],
