@@ -173,8 +173,8 @@ def _reference(args):
           f"key={m.get('key')}")
     if out is not None:
         from references.exr import write_exr
-        mean = ref.mean
-        write_exr(out, {"Y": mean[..., 0]} if mean.shape[-1] == 1 else dict(zip("RGB", mean[..., :3].transpose(2, 0, 1))))
+        from references.exr import image_channels
+        write_exr(out, image_channels(ref.mean))
         print(f"wrote {out}")
     return 0
 

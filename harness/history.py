@@ -7,9 +7,10 @@ Storage
     ``machine_key`` column filled in), sorted by time. Adding a run replaces any rows with the same
     ``run_id`` first, so adding a run twice is idempotent. Writers take ``<history-dir>/.lock``
     (``flock``; concurrent ``history add`` wait their turn, at most :data:`LOCK_WAIT_S`) and replace
-    each file atomically, so every added run's rows are kept and a reader never sees a torn file. The default history directory is
-    ``history/`` under the current directory; it is meant to live outside git (a CI cache or
-    artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore`` if you keep one locally.
+    each file atomically, so every added run's rows are kept and a reader never sees a torn file.
+    The default history directory is ``history/`` under the current directory; it is meant to live
+    outside git (a CI cache or artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore``
+    if you keep one locally.
 
 Plots
     One PNG per machine and benchmark (benchmarks as in :data:`harness.compare.DEFAULT_MATCH`):
