@@ -139,10 +139,9 @@ REQUIRED_COLUMNS = ("status", "total_ms", "raw_ms", "psnr", "ssim")
 
 def check_schema(df, what: str, path, match=DEFAULT_MATCH) -> None:
     """Refuse a results table without a column the comparison needs (LdbenchError naming it)."""
-    missing = [c for c in (*match, *REQUIRED_COLUMNS) if c not in df.columns]
-    if missing:
-        raise LdbenchError(f"{what} {path} is not an ldbench results table: no column {missing[0]!r}"
-                           + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
+    from .records import check_columns
+
+    check_columns(df.columns, f"{what} {path}", (*match, *REQUIRED_COLUMNS))
 
 
 def load_results(path, what: str = "results", match=DEFAULT_MATCH):

@@ -20,11 +20,34 @@ import numpy as np
 from .errors import LdbenchError
 
 
-def _vec3(v, what: str) -> np.ndarray:
+#: The largest coordinate (vertices, camera, lights; world units) a scene may hold: the GPU computes in
+#: float32, whose largest finite value is 3.4e38, and squares distances (3 · (2e18)² = 1.2e37 still
+#: fits). A vertex at 1e39 is finite in float64 but infinite once uploaded.
+MAX_COORDINATE = 1e18
+#: The largest light intensity (W/sr, per channel): products with albedos and 1/distance² stay finite in
+#: float32.
+MAX_INTENSITY = 1e30
+
+
+def _vec3(v, what: str, bound: float | None = None) -> np.ndarray:
     a = np.asarray(v, dtype=np.float64).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise LdbenchError(f"{what} must be 3 finite numbers, got {v!r}")
+    if bound is not None and not np.all(np.abs(a) <= bound):
+        raise LdbenchError(f"{what} {tuple(float(x) for x in a)} beyond ±{bound:g} (the GPU computes in float32)")
     return a
+
+
+def _coordinates(v, what: str) -> np.ndarray:
+    """``v`` as (N, 3) float32 after checking every value is finite and within :data:`MAX_COORDINATE`
+    (checked before the cast, so that an overflow is one line, not a numpy warning and an infinity)."""
+    a = np.asarray(v)
+    a = (a if a.dtype == np.float32 else a.astype(np.float64, copy=False)).reshape(-1)  # no copy of float32
+    if a.size and not np.abs(a).max() <= MAX_COORDINATE:  # a NaN maximum fails too
+        ok = np.abs(a) <= MAX_COORDINATE
+        raise LdbenchError(f"{what}: vertex coordinate {float(a[np.argmin(ok)]):g} is not finite or beyond "
+                           f"±{MAX_COORDINATE:g} (the GPU computes in float32)")
+    return np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +65,7 @@ class Mesh:
     opacity: float = 1.0
 
     def __post_init__(self):
-        v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        v = _coordinates(self.vertices, f"mesh {self.name!r}")
         f = np.ascontiguousarray(self.faces, dtype=np.int32).reshape(-1, 3)
         if len(f) and (f.min() < 0 or f.max() >= len(v)):
             raise LdbenchError(f"mesh {self.name!r}: face index out of range")
@@ -71,7 +94,8 @@ class Camera:
 
     def __post_init__(self):
         for k in ("origin", "target", "up"):
-            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"camera {k}")))
+            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"camera {k}",
+                                                                      MAX_COORDINATE)))
         if not 0.0 < self.fov_y < 180.0:
             raise LdbenchError(f"camera fov_y must be in (0, 180) degrees, got {self.fov_y}")
 
@@ -137,7 +161,10 @@ class SpotLight:
 
     def __post_init__(self):
         for k in ("position", "target", "intensity", "up"):
-            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"light {k}")))
+            bound = MAX_INTENSITY if k == "intensity" else MAX_COORDINATE
+            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"light {k}", bound)))
+        if min(self.intensity) < 0:
+            raise LdbenchError(f"light intensity {self.intensity} is negative (W/sr per channel, >= 0)")
         if not 0.0 < self.cutoff_angle <= 180.0:
             raise LdbenchError(f"light cutoff_angle must be in (0, 180], got {self.cutoff_angle}")
         bw = self.cutoff_angle * 0.75 if self.beam_width is None else float(self.beam_width)

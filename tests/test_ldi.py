@@ -328,6 +328,28 @@ def test_walk_matches_cpu_dda(gpu, seed, kw):
         m.release()
 
 
+def test_walk_is_bounded_whatever_the_floats(gpu):
+    """max_crossings = 0 (the default) bounds the walk by the grid (size.x + size.y crossings), not by
+    float progress: a NaN origin and tmax (no progress along t, no pixel change) ended after 2^15
+    crossings on a 16² grid before the bound, and may never end on another GPU. Finite rays keep their
+    walk (the CPU DDA test above)."""
+    scene = random_scene(0)
+    m = _ldi(gpu, scene, directions=6, resolution=16)
+    nan = np.float32("nan")
+    o = np.array([[nan, nan, nan], [nan, nan, nan], [0.1, 0.2, 0.3]], np.float32)
+    d = np.array([[0, 0, 1], [0, 1, 0], [0, 0, 1]], np.float32)
+    n = np.array([[0, 0, 1], [0, 1, 0], [0, 0, 1]], np.float32)
+    tmax = np.array([nan, nan, np.inf], np.float32)
+    batch = RayBatch(o, d, tmax, n, np.zeros(3, np.uint32), 1, 1, "diffuse", occlusion=False)
+    try:
+        t, st, _ = _trace(gpu, m, batch)
+        assert np.all(st[:2, 0] <= 2 * 16 + 1), st[:, 0]
+        assert np.all(st[:2, 1] >> 31 == 1) and np.all(np.isinf(t[:2]))  # ended: a miss
+        assert st[2, 0] <= 16 and not st[2, 1] >> 31
+    finally:
+        m.release()
+
+
 def _plane_scene():
     """A two-sided plane y = 0, 40 m × 40 m (bounding sphere centred at the origin)."""
     return Scene("plane", [plane(size=40.0)], Camera((0, 5, 5), (0, 0, 0)), [])

@@ -251,6 +251,7 @@ class VplRange(EffectSpec):
     reference_backend = "Mitsuba 3: RSM by ray_intersect from the light; oracle ray_intersect_preliminary on the same rays"
     metrics = VPL_METRICS
     gate = (("range_within_5pct", "higher", 0.002, 0.0), ("range_err_p95", "lower", 1e-4, 0.10))
+    supersedes = ("rsm", "primary", "cone_angle", "range_mode", "miss_range")  # the VPLs are the harness's
 
     def stochastic(self, params):
         return False
