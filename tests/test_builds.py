@@ -1,8 +1,11 @@
 """Build variants of the layered structures (methods/layered_builds.py, docs/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
 vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, zero-area and sliver
-triangles, triangles larger than the map, a triangle crossing the far plane); the sort assembly, the lazy
-pool policy (no read-back inside a build), and LDM AO images across builds."""
+triangles, triangles larger than the map, triangles crossing the far and the near plane); the sort
+assembly, the lazy pool policy (no read-back inside a build), and LDM AO images across builds.
+
+The compute splat's clip dropped on the near side only (``z > 1`` for ``|z| > 1``) fails the variants of
+the splat (seen once; before the "near" triangle no test saw it)."""
 from __future__ import annotations
 
 import numpy as np
@@ -74,8 +77,10 @@ def edge_case_scene() -> Scene:
     big = [[-3.0, -3.0, 0.45], [3.0, -2.5, 0.5], [-2.0, 3.0, 0.55],
            [0.4, 0.1, -0.6], [1.7, 0.3, -0.5], [0.9, 1.6, -0.4]]
     ms.append(_mesh("large", big))
-    # crossing the far plane of layer 0 (clip z = z / 2 > 1 beyond z = 2), the clip line far from centres
+    # crossing the far plane of layer 0 (clip z = z / 2 > 1 beyond z = 2), the clip line far from centres,
+    # and the near plane (clip z < -1 before z = -2)
     ms.append(_mesh("far", [[-0.4, -0.9, 1.9], [-0.1, -0.9, 1.9], [-0.25, -0.55, 2.3]]))
+    ms.append(_mesh("near", [[0.1, -0.9, -1.9], [0.4, -0.9, -1.9], [0.25, -0.55, -2.3]]))
     return Scene("edge_cases", ms, Camera((0, 0, 5), (0, 0, 0)))
 
 

@@ -5,8 +5,9 @@ and ``cdi-vpl`` list their structures' overflow by the same helper (theirs can o
 SSBO size limit).
 
 Broken on purpose once (and seen failing): the helper not adding the overflow line (the rule as before:
-``fixed`` pools silent) fails every test here (ll-oit's too: it no longer holds its own pool to a separate rule); the runner not marking rows whose invariants
-are listed fails ``test_a_fixed_pool_that_overflows_degrades_the_row``."""
+``fixed`` pools silent) fails every test here (ll-oit's too: it no longer holds its own pool to a separate
+rule); the runner not marking rows whose invariants are listed fails
+``test_a_fixed_pool_that_overflows_degrades_the_row``."""
 from __future__ import annotations
 
 import pytest

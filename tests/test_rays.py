@@ -163,7 +163,8 @@ def test_self_hit_threshold_is_half_a_percent_of_the_diagonal():
 def test_rays_per_second_is_the_ray_count_over_the_trace_time(tmp_path):
     """``rays_per_s`` = rays / the median time of the method's ``trace`` stage: the time it implies equals
     that median (the raw per-frame samples), lies within each frame's wall clock, and within the wall
-    clock of the whole run as measured here (a factor 1000 either way fails one of them; broken on purpose both ways, and it failed)."""
+    clock of the whole run as measured here (a factor 1000 either way fails one of them; broken on purpose
+    both ways, and it failed)."""
     import time
 
     from harness.cli import main
