@@ -206,6 +206,24 @@ def test_first_n_layers(gpu, scenes, method, params):
         assert r.invariants == []
 
 
+@pytest.mark.parametrize("params", [{"pool": "count"}, {"pool": "lazy"}, {"pool": "grow", "pool_capacity": 8},
+                                    {"aggregate_atomics": True}], ids=["count", "lazy", "grow-small", "aggregate"])
+def test_ll_oit_pool_policies_and_aggregated_counter(gpu, scenes, refs, params):
+    """Every pool policy (a counting pass; sized from the previous frame; grown from 8 nodes and rebuilt) and
+    the per-subgroup aggregated node counter store every fragment: the composite equals the reference."""
+    for name in ("intersecting", "stack"):
+        cls = get_method("ll-oit")
+        m = cls(cls.Params(**params))
+        m.setup(gpu, scenes[name])
+        try:
+            for _ in range(2):  # lazy sizes the second frame from the first
+                r = m.frame(View(scenes[name].camera, W, H), Effect("oit")).resolve()
+        finally:
+            m.release()
+        assert_matches(r, refs[name], f"ll-oit {params} on {name}")
+        assert r.invariants == [] and r.counters["fragments_stored"] == refs[name].meta["fragments"]
+
+
 def test_overflow_is_a_degraded_row(tmp_path):
     """A pool too small for the fragments: the row is degraded (the image lacks fragments)."""
     from harness.runner import run_jobs
