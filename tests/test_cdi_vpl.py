@@ -9,7 +9,9 @@ subsampled VPL not multiplied by step², and a miss (t = -1) taken as a distance
 ``test_indirect_on_cornell``; the depth mask written to the wrong cell fails the light-grid test; the nearest direction by d · v instead of |d · v| (rays against
 every direction answered by the wrong deep image) and the receiver plane's texel offset with the wrong
 sign (self hits) each fail ``test_rays_against_the_oracle``; the max of the six distances replaced by their
-mean in vpl_build.glsl fails ``test_indirect_vpl_range_mode_max``.
+mean in vpl_build.glsl fails ``test_indirect_vpl_range_mode_max``; the primary ray along the normal whatever
+``primary``, the depth mask ignored by the binning, and ``depth_mask = False`` filling the mask with 0 each
+fail ``test_indirect_primary_reflected_and_no_depth_mask``.
 On llvmpipe a plain read-modify-write instead of ``atomicAdd`` in the fill passes goes unnoticed (its
 fragment threads rarely collide); on a GPU it shows as the invariant "nodes reachable != stored" and the
 row is ``degraded``.
@@ -264,3 +266,24 @@ def test_indirect_vpl_range_mode_max(gpu, cornell):
     assert np.all(got["max"] >= got["mean"] * (1 - 1e-6)), "max below mean"
     assert np.mean(got["max"] > 1.2 * got["mean"]) > 0.7, got
     assert got["mean_err"] < 0.03 and got["max_err"] < 0.005, (got["mean_err"], got["max_err"])
+
+
+def test_indirect_primary_reflected_and_no_depth_mask(gpu, cornell):
+    """``primary = "reflected"``: the six rays around the reflected light direction, against Mitsuba's exact
+    ranges of the same rays (numpy's twin of the directions). Measured: median relative error 9.0 %, 42 %
+    of the VPLs within 5 % (the normal's rays: 2.7 % and 66 %; the reflected rays graze the walls more
+    often); the normal's CDI ranges against the reflected exact ones: 15 %, 21 %; the two CDI modes
+    differ by a median 8.8 %. ``depth_mask = False``: every cell a VPL sphere overlaps gets it, so more
+    grid entries, but cells without a visible surface are never shaded: the same image."""
+    refl, live = _vpl_ranges(gpu, cornell, primary="reflected")
+    exact, _ = _vpl_ranges(gpu, cornell, primary="reflected", range="exact")
+    normal, _ = _vpl_ranges(gpu, cornell)
+    e = np.abs(refl[live] / exact[live] - 1)
+    moved = float(np.median(np.abs(refl[live] / normal[live] - 1)))
+    assert np.median(e) < 0.095 and np.mean(e < 0.05) > 0.40 and moved > 0.08, (np.median(e), np.mean(e < 0.05), moved)
+    imgs = {}
+    for mask in (True, False):
+        r = run(gpu, cornell, Effect("indirect"), size=16, rsm=32, vpl_step=1, depth_mask=mask)
+        imgs[mask] = (np.asarray(r.image), r.counters["grid_entries"], r.counters["grid_cells_masked"])
+    assert imgs[False][1] > imgs[True][1] and imgs[False][2] > imgs[True][2], (imgs[True][1:], imgs[False][1:])
+    np.testing.assert_allclose(imgs[False][0], imgs[True][0], rtol=1e-5, atol=1e-7)
