@@ -530,3 +530,30 @@ def _tie_room(X, ppu):
     pts = [(-9.5, -10.0), (17.5, 17.0), (17.5, -10.0)]
     wedge = Mesh("wedge", np.array([[X, b / ppu, -a / ppu] for a, b in pts], np.float32), np.array([[0, 1, 2]]))
     return Scene("tie_room", [box((-4, -4, -4), (4, 4, 4), "room"), wedge], Camera((0, 0, 3), (0, 0, 0)), [])
+
+
+def test_prebuilt_ldis_answer_as_the_per_frame_build(gpu):
+    """``prebuild``: the LDIs built once in setup (untimed); a frame is the trace alone and answers as the
+    per-frame build does, frame after frame."""
+    from harness.scenes import load_scene
+
+    sc = load_scene("cornell")
+    e = Effect("rays", rays_per_pixel=1)
+    batch = e.spec.inputs(sc, 16, 16, e.params, 0)
+    out = {}
+    for pre in (False, True):
+        m = _ldi(gpu, sc, directions=24, resolution=32, prebuild=pre)
+        try:
+            batch.upload(gpu)
+            ts = []
+            for _ in range(2):
+                gpu.begin_frame()
+                r = m.frame(View(sc.camera, 16, 16), e, batch)
+                stages, _ = gpu.end_frame()
+                ts.append(r.resolve().arrays["t"])
+            out[pre] = (ts, set(stages))
+        finally:
+            m.release()
+    np.testing.assert_array_equal(out[True][0][0], out[False][0][0])
+    np.testing.assert_array_equal(out[True][0][1], out[True][0][0])
+    assert out[True][1] == {"trace"} and {"peel", "trace"} <= out[False][1], (out[True][1], out[False][1])
