@@ -236,13 +236,26 @@ def duplicate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     faces = np.asarray(faces).reshape(-1, 3)
     if len(faces) < 2:
         return np.zeros(len(faces), bool)
-    p = np.ascontiguousarray(np.asarray(vertices, np.float32)[faces] + np.float32(0.0))  # (M, 3, 3)
-    _, vid = np.unique(p.reshape(-1, 3).view(np.dtype((np.void, 12))).ravel(), return_inverse=True)
-    tri = np.sort(vid.reshape(-1, 3).astype(np.int64), axis=1)
-    _, first = np.unique(np.ascontiguousarray(tri).view(np.dtype((np.void, 24))).ravel(), return_index=True)
+    bits = (np.asarray(vertices, np.float32).reshape(-1, 3) + np.float32(0.0)).view(np.uint32).astype(np.uint64)
+    vid, _, _ = _equal_keys([(bits[:, 0] << np.uint64(32)) | bits[:, 1], bits[:, 2]])  # one id per position
+    t = np.sort(vid[faces], axis=1)
+    n = int(vid.max()) + 1
+    keys = [(t[:, 0] * n + t[:, 1]) * n + t[:, 2]] if n < 2_000_000 else [t[:, 0] * n + t[:, 1], t[:, 2]]
+    _, order, first = _equal_keys(keys)
     dup = np.ones(len(faces), bool)
-    dup[first] = False
+    dup[order[first]] = False  # a stable sort: each group's first is its earliest face
     return dup
+
+
+def _equal_keys(keys: list):
+    """Rows (one value per key array) grouped by value: (group id per row, the stable lexicographic order,
+    and per sorted position whether it starts a group)."""
+    order = np.argsort(keys[0], kind="stable") if len(keys) == 1 else np.lexsort(keys[::-1])
+    first = np.ones(len(order), bool)
+    first[1:] = np.logical_or.reduce([k[order][1:] != k[order][:-1] for k in keys])
+    gid = np.empty(len(order), np.int64)
+    gid[order] = np.cumsum(first) - 1
+    return gid, order, first
 
 
 def without_duplicate_triangles(scene: "Scene") -> "Scene":

@@ -294,3 +294,21 @@ def test_a_loaded_mesh_with_duplicates_says_so_once(tmp_path, capsys):
                "--warmup", "0", "--frames", "1", "--out", str(tmp_path / "run"), "--no-report", "--no-progress"])
     err = capsys.readouterr().err
     assert rc == 0 and err.count("duplicate triangles removed") == 1, err
+
+
+def test_duplicate_faces_against_a_set_of_sorted_triangles():
+    """The vectorised rule against the plain one: a face repeats an earlier one when the set of its three
+    vertex positions was seen before (−0 and +0 being one position)."""
+    from harness.scene import duplicate_faces
+
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        v = rng.integers(-1, 2, (30, 3)).astype(np.float32) * np.float32(0.5)
+        v[::7] *= np.float32(-1.0)  # some −0
+        f = rng.integers(0, 30, (500, 3))
+        seen, want = set(), []
+        for tri in f:
+            key = tuple(sorted(tuple(float(x) + 0.0 for x in v[i]) for i in tri))
+            want.append(key in seen)
+            seen.add(key)
+        assert duplicate_faces(v, f).tolist() == want
