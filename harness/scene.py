@@ -255,3 +255,59 @@ class Scene:
         }
         h.update(json.dumps(meta, sort_keys=True).encode())
         return h.hexdigest()[:16]
+
+
+def duplicate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(M,) bool: the faces that repeat an earlier face of the same mesh exactly — the same three vertex
+    positions (bit for bit, −0 = +0), in any order and either winding, through any vertex indices."""
+    faces = np.asarray(faces).reshape(-1, 3)
+    if len(faces) < 2:
+        return np.zeros(len(faces), bool)
+    bits = (np.asarray(vertices, np.float32).reshape(-1, 3) + np.float32(0.0)).view(np.uint32).astype(np.uint64)
+    vid, _, _ = _equal_keys([(bits[:, 0] << np.uint64(32)) | bits[:, 1], bits[:, 2]])  # one id per position
+    t = np.sort(vid[faces], axis=1)
+    n = int(vid.max()) + 1
+    keys = [(t[:, 0] * n + t[:, 1]) * n + t[:, 2]] if n < 2_000_000 else [t[:, 0] * n + t[:, 1], t[:, 2]]
+    _, order, first = _equal_keys(keys)
+    dup = np.ones(len(faces), bool)
+    dup[order[first]] = False  # a stable sort: each group's first is its earliest face
+    return dup
+
+
+def _equal_keys(keys: list):
+    """Rows (one value per key array) grouped by value: (group id per row, the stable lexicographic order,
+    and per sorted position whether it starts a group)."""
+    order = np.argsort(keys[0], kind="stable") if len(keys) == 1 else np.lexsort(keys[::-1])
+    first = np.ones(len(order), bool)
+    first[1:] = np.logical_or.reduce([k[order][1:] != k[order][:-1] for k in keys])
+    gid = np.empty(len(order), np.int64)
+    gid[order] = np.cumsum(first) - 1
+    return gid, order, first
+
+
+def without_duplicate_triangles(scene: "Scene") -> "Scene":
+    """``scene`` with exact duplicate triangles removed within each mesh (:func:`duplicate_faces`; the
+    first copy kept, the order kept), and one line in ``scene.warnings`` saying how many.
+
+    One rule for coincident copies of a triangle, applied once where a scene is loaded, so that every
+    method and every reference see the same triangles: a mesh file that lists a triangle twice (scan
+    meshes do: the low-resolution Stanford bunny has 31) describes one surface. Without it, per-pixel
+    lists store both copies (an OIT composite applies the opacity twice), depth peeling keeps one, and
+    the OIT reference (which finds one hit per surface along a ray) counts it once. Copies in *different*
+    meshes stay: they are distinct surfaces (materials), ordered by the effect's tie rule."""
+    from dataclasses import replace
+
+    meshes, removed = [], []
+    for m in scene.meshes:
+        dup = duplicate_faces(m.vertices, m.faces)
+        if dup.any():
+            removed.append((m.name, int(dup.sum())))
+            m = replace(m, faces=m.faces[~dup])
+        meshes.append(m)
+    if not removed:
+        return scene
+    n = sum(k for _, k in removed)
+    where = ", ".join(f"{name!r}: {k}" for name, k in removed[:3]) + (", ..." if len(removed) > 3 else "")
+    line = (f"scene {scene.name!r}: {n} duplicate triangle{'s' if n != 1 else ''} removed (exact copies within "
+            f"one mesh; {where}): every method and the reference see each triangle once")
+    return replace(scene, meshes=meshes, warnings=[*scene.warnings, line])

@@ -78,6 +78,7 @@ from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
+from methods.invariants import layered_invariants
 from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
 RAY_BYTES = 48
@@ -361,7 +362,7 @@ class CdiVpl(Method):
         return c
 
     def _invariants(self, c: dict) -> list:
-        return self.cdi_struct.invariants(c) if self._uses_cdi() else []
+        return layered_invariants(self.cdi_struct, c) if self._uses_cdi() else []
 
     def release(self):
         self.lighting = None

@@ -69,6 +69,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
+from methods.invariants import layered_invariants
 from methods.layered import bind_ortho_layers, bounding_sphere, ortho_layers
 from methods.lights import CubeShadowMap, set_spot_uniforms
 
@@ -208,7 +209,7 @@ class Ldi(Method):
         self._last = ("rays", batch)
         hits = self.hits
         return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
-                      memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self.ls.invariants)
+                      memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=lambda c: layered_invariants(self.ls, c))
 
     def ray_stats(self, batch) -> np.ndarray:
         """(N, 2) uint32 per ray of ``batch``: pixel crossings, LDI index | ended << 31 (untimed dispatch)."""
@@ -298,7 +299,7 @@ class Ldi(Method):
         self._last = ("image", view, effect)
         out = self.out
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
-                      counters=self._counters, invariants=self.ls.invariants)
+                      counters=self._counters, invariants=lambda c: layered_invariants(self.ls, c))
 
     def _dispatch(self, cs, target, effect, w, h):
         """The gather pass, ``samples_per_dispatch`` rays per pixel per dispatch (gather.glsl)."""

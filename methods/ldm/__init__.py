@@ -86,6 +86,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table
+from methods.invariants import layered_invariants
 from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 from methods.linked_list import POLICIES
 from methods.scan import groups_2d
@@ -227,7 +228,7 @@ class Ldm(Method):
         out = self.out
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask,
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
-                      invariants=self.ls.invariants)
+                      invariants=lambda c: layered_invariants(self.ls, c))
 
     def _rays_defines(self) -> dict:
         if self.params.map_lookup == "table" and self.lut_buf is None:
@@ -255,7 +256,7 @@ class Ldm(Method):
         hits = self.hits
         return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
-                      invariants=self.ls.invariants)
+                      invariants=lambda c: layered_invariants(self.ls, c))
 
     def _indirect(self, view):
         from .indirect import IndirectLight
@@ -269,7 +270,7 @@ class Ldm(Method):
         image = ind.frame(view)
         return Result(image=image, mask=self.gbuf.mask, memory_bytes={**self.res.by_buffer(), **ind.memory()},
                       counters=lambda: {**self._counters(), **ind.counters()},
-                      invariants=lambda c: self.ls.invariants(c) + ind.invariants(c))
+                      invariants=lambda c: layered_invariants(self.ls, c) + ind.invariants(c))
 
     def release(self):
         if self.indirect is not None:

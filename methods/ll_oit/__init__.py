@@ -48,6 +48,7 @@ import numpy as np
 
 from harness.bindings import B
 from methods.base import ParamsBase, param
+from methods.invariants import layered_invariants
 from methods.layered import make_structure
 from methods.linked_list import POLICIES
 from methods.oit import OITMethod, camera_transform
@@ -85,7 +86,6 @@ class LLOIT(OITMethod):
         self.ls = make_structure("linked", self.gpu, self.geo, self.res, layers=1, width=w, height=h,
                                  payload=("material",), sorted_insert=False, pool=p.pool,
                                  pool_capacity=p.pool_capacity, aggregate=p.aggregate_atomics, prefix="oit.ll.")
-        self.ls.overflow_allowed = False  # a fragment lost to a full pool changes the image: always a violation
         self.fbo = self.gpu.ctx.framebuffer([self.out])
 
     def _program(self):
@@ -135,4 +135,4 @@ class LLOIT(OITMethod):
 
     def _invariants(self, c: dict) -> list[str]:
         # the lists are unsorted by design (yang2010): the resolve sorts, so "sorted" is not an invariant here
-        return self.ls.invariants({**c, "unsorted_lists": 0})
+        return layered_invariants(self.ls, {**c, "unsorted_lists": 0})
