@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from harness import conventions as conv
 from harness.errors import LdbenchError
 
 RENDERABLE = ("ao", "direct", "indirect")
@@ -134,6 +135,13 @@ def _offset(mi, dr, p, n):
     """Mitsuba's spawn offset: p + n · (1 + max|p|) · RayEpsilon (n already on the ray's side)."""
     mag = (1.0 + dr.max(dr.abs(p))) * mi.math.RayEpsilon
     return p + n * mag
+
+
+def backed_off(mi, dr, p, toward):
+    """The hit ``p`` nudged ``conventions.BACKOFF`` ε(p) back along the unit ``toward`` (the ray that found
+    it): the first half of :func:`harness.conventions.ray_origin`; :func:`_offset` at this point is the
+    second."""
+    return p - toward * ((1.0 + dr.max(dr.abs(p))) * mi.math.RayEpsilon * conv.BACKOFF)
 
 
 def _rng2(mi, dr, pixel, sample, seed_key):

@@ -128,7 +128,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
             # Nudge the hit a few ray-epsilons back towards the camera: a pixel centre that lands exactly
             # on an edge where two walls meet would otherwise start its secondary rays *in* the other
             # wall's plane, and they would escape through it (AO = 1 on Cornell box edges).
-            p_hit = mi.Point3f(si.p) - mi.Vector3f(ray.d) * ((1.0 + dr.max(dr.abs(si.p))) * mi.math.RayEpsilon * 16)
+            p_hit = _int.backed_off(mi, dr, mi.Point3f(si.p), mi.Vector3f(ray.d))
             dr.eval(valid, p_hit, n, alb)
             m = _int.np1(valid).astype(bool)
             mask[c0:c1] = m

@@ -43,8 +43,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estim
             per_pixel = {"n": _int.facing_normal(dr, si, ray.d),
                          "albedo": mi.Color3f(si.bsdf().eval_diffuse_reflectance(si, valid)),
                          "d": mi.Vector3f(ray.d),
-                         "p": mi.Point3f(si.p) - mi.Vector3f(ray.d) * ((1.0 + dr.max(dr.abs(si.p)))
-                                                                      * mi.math.RayEpsilon * 16)}
+                         "p": _int.backed_off(mi, dr, mi.Point3f(si.p), mi.Vector3f(ray.d))}
             if needs_direct:
                 per_pixel["direct"] = _int.direct_light(mi, dr, mscene, si, valid, shadows=False)
             dr.eval(valid, *per_pixel.values())

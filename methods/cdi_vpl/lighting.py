@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from harness.conventions import RAY_EPSILON
 from harness.effects.vpl_range import RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera, vpl_directions
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
@@ -22,7 +23,6 @@ from methods.scan import Scan
 
 B_RANGES, B_VPLS, B_GRID_OFF, B_GRID_IDX, B_GRID_MASK, B_TABLE, B_GRID_OVERFLOW = 13, 14, 15, 16, 17, 18, 19
 VPL_BYTES = 48
-RAY_EPSILON = 8.940697e-05  # Mitsuba's float32 RayEpsilon (the exact baseline's ray origins)
 
 
 class VplLighting:
