@@ -8,34 +8,35 @@ N = 4096
 SHADER = """
 #include "conventions.glsl"
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer In { vec4 fin[]; };     // 6 per item
+layout(std430, binding = 0) readonly buffer In { vec4 fin[]; };     // 8 per item
 layout(std430, binding = 1) readonly buffer InU { uvec4 uin[]; };   // 1 per item
-layout(std430, binding = 2) writeonly buffer Out { vec4 fout[]; };  // 8 per item
+layout(std430, binding = 2) writeonly buffer Out { vec4 fout[]; };  // 9 per item
 layout(std430, binding = 3) writeonly buffer OutU { uvec4 uout[]; };
 uniform uint n_items;
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= n_items) return;
-    vec4 a = fin[6u * i], b = fin[6u * i + 1u], c = fin[6u * i + 2u], t03 = fin[6u * i + 3u];
-    vec4 e = fin[6u * i + 4u], ctr = fin[6u * i + 5u];
+    vec4 a = fin[8u * i], b = fin[8u * i + 1u], c = fin[8u * i + 2u], t03 = fin[8u * i + 3u];
+    vec4 e = fin[8u * i + 4u], ctr = fin[8u * i + 5u], e1 = fin[8u * i + 6u], e2 = fin[8u * i + 7u];
     uvec4 k = uin[i];
     float u0 = a.w, u1 = b.w, cap = e.z;
     vec3 t, bt;
     tangent_frame(c.xyz, t, bt);
-    fout[8u * i] = vec4(ray_origin(a.xyz, b.xyz, c.xyz, CONV_RAY_EPSILON), ray_offset_scale(a.xyz, CONV_RAY_EPSILON));
-    fout[8u * i + 1u] = vec4(t, 0.0);
-    fout[8u * i + 2u] = vec4(bt, 0.0);
-    fout[8u * i + 3u] = vec4(cosine_direction(c.xyz, u0, u1), 0.0);
-    fout[8u * i + 4u] = vec4(phong_direction(c.xyz, c.w, u0, u1), 0.0);
-    fout[8u * i + 5u] = vec4(sphere_point(ctr.xyz, ctr.w, u0, u1), 0.0);
+    fout[9u * i] = vec4(spawn_origin(a.xyz, c.xyz, CONV_RAY_EPSILON), ray_offset_scale(a.xyz, CONV_RAY_EPSILON));
+    fout[9u * i + 1u] = vec4(t, 0.0);
+    fout[9u * i + 2u] = vec4(bt, 0.0);
+    fout[9u * i + 3u] = vec4(cosine_direction(c.xyz, u0, u1), 0.0);
+    fout[9u * i + 4u] = vec4(phong_direction(c.xyz, c.w, u0, u1), 0.0);
+    fout[9u * i + 5u] = vec4(sphere_point(ctr.xyz, ctr.w, u0, u1), 0.0);
     uint st = sample_stream(k.z, k.y, k.w);
     uint st0 = st;
     float p0 = pcg_uniform(st), p1 = pcg_uniform(st);
     float am = 0.0, ax = 0.0;
     float ts[6] = float[6](t03.x, t03.y, t03.z, t03.w, e.x, e.y);
     for (int j = 0; j < 6; ++j) { am = range_accumulate(am, ts[j], cap, 0); ax = range_accumulate(ax, ts[j], cap, 1); }
-    fout[8u * i + 6u] = vec4(hash01(k.x, k.y), p0, p1, range_finish(am, 0));
-    fout[8u * i + 7u] = vec4(range_finish(ax, 1), 0.0, 0.0, 0.0);
+    fout[9u * i + 6u] = vec4(hash01(k.x, k.y), p0, p1, range_finish(am, 0));
+    fout[9u * i + 7u] = vec4(range_finish(ax, 1), 0.0, 0.0, 0.0);
+    fout[9u * i + 8u] = vec4(crease_point(a.xyz, e1.xyz, e2.xyz, vec2(e1.w, e2.w), CONV_RAY_EPSILON), 0.0);
     uout[i] = uvec4(lowbias32(k.x), st0, pcg_hash(k.x), 0u);
 }
 """
@@ -57,30 +58,45 @@ def _inputs(rng):
     centre = rng.uniform(-20, 20, (N, 3))
     radius = rng.uniform(0, 2, N)
     ints = rng.integers(0, 1 << 32, (N, 4), dtype=np.uint64).astype(np.uint32)
-    return x, toward, n, u, exponent, cap, t, centre, radius, ints
+    # triangles (p0, p0 + e1, p0 + e2) around x: sizes from 1e-4 (smaller than the crease band) to 10,
+    # x on an edge, near one (within a few ε), near a vertex, or inside
+    size = 10.0 ** rng.uniform(-4, 1, (N, 1))
+    e1, e2 = rng.normal(size=(N, 3)) * size, rng.normal(size=(N, 3)) * size
+    uv = rng.dirichlet([1, 1, 1], N)[:, 1:]
+    near = rng.random(N)
+    uv[near < 0.2, 0] = 0.0                                              # on the edge p0-p2
+    uv[(near >= 0.2) & (near < 0.4), 1] *= 1e-5                          # near the edge p0-p1
+    uv[(near >= 0.4) & (near < 0.5)] = rng.random((np.count_nonzero((near >= 0.4) & (near < 0.5)), 2)) * 1e-6
+    side = (near >= 0.5) & (near < 0.6)                                  # near the edge p1-p2
+    uv[side] *= (1.0 - 1e-6) / uv[side].sum(1, keepdims=True)
+    tri = (e1, e2, uv)
+    return x, toward, n, u, exponent, cap, t, centre, radius, ints, tri
 
 
 def test_python_and_glsl_conventions_agree(gpu, tmp_path):
-    x, toward, n, u, exponent, cap, t, centre, radius, ints = _inputs(np.random.default_rng(7))
+    x, toward, n, u, exponent, cap, t, centre, radius, ints, (e1, e2, uv) = _inputs(np.random.default_rng(7))
     # float32 inputs on both sides (the shader sees float32)
     f32 = lambda a: np.asarray(a, np.float32).astype(np.float64)  # noqa: E731
-    x, toward, n, u, exponent, cap, t, centre, radius = map(f32, (x, toward, n, u, exponent, cap, t, centre, radius))
-    fin = np.zeros((N, 6, 4), np.float32)
+    x, toward, n, u, exponent, cap, t, centre, radius, e1, e2, uv = map(
+        f32, (x, toward, n, u, exponent, cap, t, centre, radius, e1, e2, uv))
+    fin = np.zeros((N, 8, 4), np.float32)
     fin[:, 0, :3], fin[:, 0, 3] = x, u[:, 0]
     fin[:, 1, :3], fin[:, 1, 3] = toward, u[:, 1]
     fin[:, 2, :3], fin[:, 2, 3] = n, exponent
     fin[:, 3, :] = t[:, :4]
     fin[:, 4, 0:2], fin[:, 4, 2] = t[:, 4:], cap
     fin[:, 5, :3], fin[:, 5, 3] = centre, radius
+    fin[:, 6, :3], fin[:, 6, 3] = e1, uv[:, 0]
+    fin[:, 7, :3], fin[:, 7, 3] = e2, uv[:, 1]
     (tmp_path / "conv_test.glsl").write_text(SHADER)
     cs = gpu.compute(tmp_path / "conv_test.glsl")
     bufs = [gpu.ctx.buffer(fin.tobytes()), gpu.ctx.buffer(ints.tobytes()),
-            gpu.ctx.buffer(reserve=N * 8 * 16), gpu.ctx.buffer(reserve=N * 16)]
+            gpu.ctx.buffer(reserve=N * 9 * 16), gpu.ctx.buffer(reserve=N * 16)]
     for i, b in enumerate(bufs):
         b.bind_to_storage_buffer(i)
     cs["n_items"] = N
     cs.run((N + 63) // 64)
-    out = np.frombuffer(gpu.read(bufs[2]), np.float32).reshape(N, 8, 4).astype(np.float64)
+    out = np.frombuffer(gpu.read(bufs[2]), np.float32).reshape(N, 9, 4).astype(np.float64)
     uout = np.frombuffer(gpu.read(bufs[3]), np.uint32).reshape(N, 4)
     for b in bufs:
         b.release()
@@ -88,10 +104,17 @@ def test_python_and_glsl_conventions_agree(gpu, tmp_path):
     unit = lambda v: v / np.linalg.norm(v, axis=1, keepdims=True)  # noqa: E731
     eps = conv.offset_scale(x)
     np.testing.assert_allclose(out[:, 0, 3], eps, rtol=1e-6)
-    o = conv.ray_origin(x, toward, n)
+    o = conv.spawn_origin(x, n)
     # the offset o - x itself must agree (x alone would hide it): to float32 rounding of x
     err = np.abs((out[:, 0, :3] - x) - (o - x)).max(1)
     assert np.all(err <= 1.2e-7 * np.abs(x).max(1) + 1e-4 * eps)
+    cp = conv.crease_point(x, e1, e2, uv)
+    moved = np.linalg.norm(cp - x, axis=1) > 0
+    assert 0.3 < moved.mean() < 0.8  # both branches are exercised
+    err = np.abs((out[:, 8, :3] - x) - (cp - x)).max(1)
+    # float32 rounding of x, and of the barycentric 1 - u - v (times the triangle's size)
+    size = np.linalg.norm(e1, axis=1) + np.linalg.norm(e2, axis=1)
+    assert np.all(err <= 2.4e-7 * np.abs(x).max(1) + 1e-7 * size + 1e-3 * np.linalg.norm(cp - x, axis=1))
     tt, bb = conv.tangent_frame(n)
     np.testing.assert_allclose(out[:, 1, :3], tt, atol=2e-5)
     np.testing.assert_allclose(out[:, 2, :3], bb, atol=2e-5)

@@ -6,10 +6,13 @@ arrays to the method and to the oracle:
 1. **Primary hits**: Mitsuba's exact intersection of the pixel-centre camera rays (the reference's own
    primary hits), so both sides start from the same surface points x with the same geometric normal n
    flipped to face the camera.
-2. **Origin offset**: :func:`harness.conventions.ray_origin`: o = x − 16 ε d_cam + ε n with
-   ε = (1 + max|x|) · Mitsuba's ``RayEpsilon`` (8.94e-5 for float32 variants): nudged back towards the
-   camera (a pixel centre exactly on a crease would otherwise start inside the neighbouring wall's
-   plane), then off the surface along n. It is the offset of the ``ao`` reference.
+2. **Origin** (:func:`harness.conventions.spawn_origin`): o = x' + ε n with ε = (1 + max|x'|) · Mitsuba's
+   ``RayEpsilon`` (8.94e-5 for float32 variants), Mitsuba's ``spawn_ray`` offset, where x' is x except
+   within a few ε of an edge of its triangle (:func:`harness.conventions.crease_point`, the hits'
+   ``spawn``): a pixel centre exactly on a crease would otherwise start inside the neighbouring wall's
+   plane. It is the origin of the ``ao`` and ``indirect`` references. A ray into the surface (a shadow
+   ray towards a light point below the tangent plane) starts on the camera's side and meets the surface
+   at once.
 3. ``rays_per_pixel`` rays per hit pixel, of one ``ray_kind``:
 
    ==========  =========================================================================  ===============
@@ -137,14 +140,15 @@ class RayBatch:
 
 def build_batch(hits: dict, cam_dirs: np.ndarray, params: RaysParams, seed: int, *, light=None,
                 ray_epsilon: float, shadow_epsilon: float) -> RayBatch:
-    """The ray batch from primary hits (``references.primary_hits``) and the camera ray directions."""
+    """The ray batch from primary hits (``references.primary_hits``: ``spawn`` points, else ``position``) and
+    the camera ray directions."""
     H, W = hits["mask"].shape
     pix = np.flatnonzero(hits["mask"].reshape(-1)).astype(np.uint32)
     k = params.rays_per_pixel
-    x = hits["position"].reshape(-1, 3)[pix].astype(np.float64)
+    x = hits.get("spawn", hits["position"]).reshape(-1, 3)[pix].astype(np.float64)
     n = hits["normal"].reshape(-1, 3)[pix].astype(np.float64)
     dc = cam_dirs.reshape(-1, 3)[pix].astype(np.float64)
-    o = conv.ray_origin(x, dc, n, ray_epsilon)
+    o = conv.spawn_origin(x, n, ray_epsilon)
     o, n, dc = (np.repeat(a, k, axis=0) for a in (o, n, dc))
     pixel = np.repeat(pix, k)
     u = conv.batch_uniforms(seed, KINDS.index(params.ray_kind), len(pixel))

@@ -15,9 +15,9 @@ identically to the method and to the oracle):
    ``"reflected"``: the mirror direction of ω_i about n) and five around it at ``cone_angle`` from p, at
    azimuths φ₀ + 2πk/5 in the frame of p (Duff et al. 2017); φ₀ = 2π · hash(texel, seed) (:func:`hash01`,
    the same integer hash in numpy and GLSL, so the method's own VPLs for ``indirect`` get the same rays).
-   Origin: :func:`harness.conventions.ray_origin` with the light's direction: y moved 16 ε back towards
-   the light and ε off the surface along n, ε = (1 + max|y|) · Mitsuba's ``RayEpsilon`` (as the ``rays``
-   effect does towards the camera). t_max = the miss range.
+   Origin (:func:`harness.conventions.spawn_origin`, as the ``rays`` effect): y' + ε n, ε = (1 + max|y'|) ·
+   Mitsuba's ``RayEpsilon``, y' = y except within a few ε of its triangle's edges
+   (:func:`harness.conventions.crease_point`). t_max = the miss range.
 3. **Range** of a VPL (:func:`harness.conventions.reduce_range`): the ``range_mode`` (``mean`` or ``max``)
    of its six distances, each clamped to the **miss range** ``miss_range`` × scene diagonal, which is also
    the range of a ray that hits nothing.
@@ -106,9 +106,9 @@ def vpl_directions(normal, incident, texel, *, primary: str, cone_angle: float, 
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def ray_origins(position, normal, incident, ray_epsilon: float) -> np.ndarray:
-    """The rays' common origin per VPL: :func:`harness.conventions.ray_origin` from y along ω_i."""
-    return conv.ray_origin(position, incident, normal, ray_epsilon)
+def ray_origins(position, normal, ray_epsilon: float) -> np.ndarray:
+    """The rays' common origin per VPL: :func:`harness.conventions.spawn_origin` (y is the crease point)."""
+    return conv.spawn_origin(position, normal, ray_epsilon)
 
 
 def reduce_ranges(t: np.ndarray, cap: float, mode: str) -> np.ndarray:

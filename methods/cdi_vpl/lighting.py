@@ -230,7 +230,7 @@ class VplLighting:
             n = N[valid]
             dirs = vpl_directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
                                   seed=0)
-            o = np.repeat(ray_origins(y, n, w, RAY_EPSILON), RAYS_PER_VPL, axis=0)
+            o = np.repeat(ray_origins(y, n, RAY_EPSILON), RAYS_PER_VPL, axis=0)
             f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
             k = len(o)
             batch = RayBatch(f4(o), f4(dirs.reshape(-1, 3)), np.full(k, self.cap, np.float32),

@@ -10,10 +10,25 @@ const float CONV_SHADOW_EPSILON = 8.940697e-04;  // Mitsuba 3's float32 math.Sha
 // eps(x) = (1 + max|x|) * ray_eps
 float ray_offset_scale(vec3 x, float ray_eps) { return (1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))) * ray_eps; }
 
-// o = x - 16 eps toward + eps n, toward = the unit direction of the ray that found x
-vec3 ray_origin(vec3 x, vec3 toward, vec3 n, float ray_eps) {
-    float eps = ray_offset_scale(x, ray_eps);
-    return x - toward * (16.0 * eps) + n * eps;
+// o = x + eps n, n the unit normal of the side the ray leaves from (Mitsuba's spawn_ray offset)
+vec3 spawn_origin(vec3 x, vec3 n, float ray_eps) { return x + n * ray_offset_scale(x, ray_eps); }
+
+// x = p0 + uv.x e1 + uv.y e2 moved towards its triangle's centroid until CONV_CREASE eps(x) from every edge
+// (unchanged when it already is, or when the triangle is degenerate)
+#define CONV_CREASE 4.0
+vec3 crease_point(vec3 x, vec3 e1, vec3 e2, vec2 uv, float ray_eps) {
+    float area2 = length(cross(e1, e2));
+    if (!(area2 > 0.0)) return x;
+    vec3 b = vec3(1.0 - uv.x - uv.y, uv.x, uv.y);
+    vec3 h = area2 / vec3(length(e2 - e1), length(e2), length(e1));
+    float delta = CONV_CREASE * ray_offset_scale(x, ray_eps);
+    float lam = 0.0;
+    for (int i = 0; i < 3; ++i) {
+        float dist = b[i] * h[i];
+        if (dist < delta) lam = max(lam, b[i] < 1.0 / 3.0 ? (delta - dist) / ((1.0 / 3.0 - b[i]) * h[i]) : 1.0);
+    }
+    lam = clamp(lam, 0.0, 1.0);
+    return lam > 0.0 ? x + lam * ((1.0 / 3.0 - uv.x) * e1 + (1.0 / 3.0 - uv.y) * e2) : x;
 }
 
 // (t, b) completing the unit vector n to an orthonormal basis (Duff et al. 2017)

@@ -1,7 +1,8 @@
 // Image effects of the LDI adapter: one invocation per G-buffer pixel x1 (normal n1 facing the camera,
 // albedo a1), N secondary rays traced through the LDIs (ldi_trace.glsl). Random numbers: a PCG hash of
-// (pixel, sample, seed) (sample_stream); origin, frame and warps of conventions.glsl (ray_origin: the
-// origin of the references and of the rays effect's batches).
+// (pixel, sample, seed) (sample_stream); origin, frame and warps of conventions.glsl (spawn_origin, the
+// offset of the references and of the rays effect's batches; the G-buffer has no triangle, so no crease
+// point).
 //
 // The samples of a pixel may be split over several dispatches (samples_per_dispatch): each sample has its own
 // random stream, sums are kept in the output image between dispatches, the last one writes the value.
@@ -77,7 +78,7 @@ void main() {
     vec4 pos = texelFetch(g_position, p, 0);
     if (pos.w < 0.5) { imageStore(out_image, p, vec4(0.0)); return; }
     vec3 x = pos.xyz, n = texelFetch(g_normal, p, 0).xyz;
-    vec3 o = ray_origin(x, normalize(x - eye), n, ray_eps);    // the references' and the rays batch's origin
+    vec3 o = spawn_origin(x, n, ray_eps);   // the references' and the rays batch's offset
     uint pix = uint(p.y * size.x + p.x);
     vec4 acc = sample_base > 0 ? imageLoad(out_image, p) : vec4(0.0);   // sums of the earlier dispatches
 #if defined(LDI_STATS)
