@@ -66,8 +66,8 @@ def test_ao_reference_unbiased_at_atrium_scale():
     """A point on a floor under a parallel ceiling at height h, AO with d_max (step): a ray at cos θ is
     blocked iff h / cos θ < d_max, so AO = (h / d_max)² exactly. At coordinates of 30 m an origin lifted
     by δ gives ((h − δ) / d_max)²: the old rule (x − 16 ε d_cam + ε n, δ = 17 ε = 47 mm, camera looking
-    straight down) is 2.3 % too dark, 10σ of this reference; Mitsuba's spawn offset (δ = ε = 2.8 mm) is
-    0.14 % (0.6σ)."""
+    straight down) measured 2.3 % too dark, 13.8σ of this reference; Mitsuba's spawn offset (δ = ε = 2.8 mm)
+    0.13 % (0.8σ)."""
     ox, _, oz = FAR
     h, d_max, s = 4.0, 8.0, 60.0
     floor = quad((ox - s, 0, oz - s), (ox - s, 0, oz + s), (ox + s, 0, oz + s), (ox + s, 0, oz - s), "floor")
