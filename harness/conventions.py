@@ -32,7 +32,8 @@ t sin θ cos φ + b sin θ sin φ + axis cos θ.
 
 - cosine hemisphere about n (pdf cos θ/π): cos θ = √(1 − u₀) (:func:`cosine_direction`);
 - normalized Phong lobe (e+1)/(2π) cos^e α about an axis: cos α = u₀^(1/(e+1)) (:func:`phong_direction`);
-- uniform on a sphere (by area) of radius r about c: z = 1 − 2u₀, c + r (√(1−z²) cos φ, √(1−z²) sin φ, z)
+- uniform on a sphere (by area) of radius r about c: z = 1 − 2u₀,
+  c + r (√(1−z²) cos φ, √(1−z²) sin φ, z)
   (:func:`sphere_point`).
 
 **Random numbers.**
@@ -166,7 +167,8 @@ def hash32(x) -> np.ndarray:
 
 
 def hash01(texel, seed) -> np.ndarray:
-    """A uniform number in [0, 1) per texel (seed: one, or one per texel): the top 24 bits of hash32(texel + hash32(seed))."""
+    """A uniform number in [0, 1) per texel (seed: one, or one per texel): the top 24 bits of
+    hash32(texel + hash32(seed))."""
     s = hash32(_u32(seed))
     with np.errstate(over="ignore"):
         h = hash32(np.asarray(texel, np.uint32) + s)

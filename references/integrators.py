@@ -15,8 +15,8 @@ Estimators (all samples of a batch in one wavefront; ``x`` = primary hit, ``n`` 
 flipped to face the camera, ``ω`` cosine-distributed about ``n`` with pdf cos θ/π):
 
 - ``ao``: per sample ``V = 1 − ρ(t)``, ``t`` = distance to the first hit of the ray
-  ``o → ω`` (o = :func:`spawn_origin`) with ``maxt = d_max``; ρ = 1 (step) or 1 − (t/d_max)² (quadratic) when it hits,
-  V = 1 when it escapes. The pdf cancels cos θ/π, so the pixel value is the sample mean of V.
+  ``o → ω`` (o = :func:`spawn_origin`) with ``maxt = d_max``; ρ = 1 (step) or 1 − (t/d_max)² (quadratic)
+  when it hits, V = 1 when it escapes. The pdf cancels cos θ/π, so the pixel value is the sample mean of V.
   Background pixels are 1.
 - ``direct``: deterministic: Σ over lights of ``bsdf.eval(x, ω_l)`` (Mitsuba's ``twosided`` diffuse:
   albedo/π · cos θ, zero when the light is behind the side the camera sees) × the emitter's
@@ -27,8 +27,9 @@ flipped to face the camera, ``ω`` cosine-distributed about ``n`` with pdf cos �
 
 Secondary rays start at :func:`spawn_origin` (:func:`harness.conventions.spawn_origin`): ε along the
 facing normal, Mitsuba's own ``(1 + max|p|) · RayEpsilon`` (as in ``Interaction.spawn_ray``), from the
-hit's crease point (:func:`spawn_points`: the hit itself unless within a few ε of its triangle's edges). Random numbers: one PCG32 stream per (pixel, sample index, seed), seeded
-through TEA hashing, so results do not depend on how samples are split into batches.
+hit's crease point (:func:`spawn_points`: the hit itself unless within a few ε of its triangle's edges).
+Random numbers: one PCG32 stream per (pixel, sample index, seed), seeded through TEA hashing, so results
+do not depend on how samples are split into batches.
 """
 from __future__ import annotations
 

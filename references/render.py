@@ -277,8 +277,8 @@ def primary_hits(scene, width: int, height: int) -> dict:
 
     Returns ``mask`` (H×W bool), ``position`` (H×W×3 float32, world space, 0 on background),
     ``spawn`` (where secondary rays start before their offset: ``position`` moved off triangle edges,
-    :func:`harness.conventions.crease_point`), ``normal`` (H×W×3, geometric normal facing the camera), ``distance`` (H×W, ray t; inf on
-    background) and ``albedo`` (H×W×3).
+    :func:`harness.conventions.crease_point`), ``normal`` (H×W×3, geometric normal facing the camera),
+    ``distance`` (H×W, ray t; inf on background) and ``albedo`` (H×W×3).
     """
     variant = choose_variant()
     import drjit as dr

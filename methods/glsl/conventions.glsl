@@ -73,7 +73,9 @@ uint pcg_hash(uint v) {
     uint word = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
     return (word >> 22u) ^ word;
 }
-uint sample_stream(uint pixel, uint seed, uint sample_index) { return pcg_hash(pixel ^ pcg_hash(seed ^ pcg_hash(sample_index))); }
+uint sample_stream(uint pixel, uint seed, uint sample_index) {
+    return pcg_hash(pixel ^ pcg_hash(seed ^ pcg_hash(sample_index)));
+}
 float pcg_uniform(inout uint state) { state = pcg_hash(state); return float(state >> 8) * (1.0 / 16777216.0); }
 
 // a VPL ray's distance clamped to the miss range (a miss, NaN or negative "no hit" counts cap) and the
