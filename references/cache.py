@@ -30,7 +30,7 @@ from harness.errors import LdbenchError
 from .exr import image_channels, read_exr, read_exr_header, write_exr
 
 # Bump whenever an integrator changes what it computes (invalidates every cached reference).
-REFERENCE_VERSION = 2  # 2: secondary rays start nudged towards the camera (edge pixels)
+REFERENCE_VERSION = 3  # 3: secondary rays at Mitsuba's spawn offset of the crease point (2: nudged to the camera)
 
 
 def default_cache_dir() -> Path:

@@ -74,8 +74,8 @@ def test_six_rays_geometry():
 
 
 def test_glsl_rays_equal_numpy(gpu, tmp_path):
-    """The method's own VPLs (``indirect``) get the harness's rays: vpl.glsl's hash, frame and directions
-    equal the numpy definition to float precision."""
+    """The method's own VPLs (``indirect``) get the harness's rays: vpl.glsl's directions (with the hash and
+    frame of conventions.glsl) equal the numpy definition to float precision."""
     src = VPL_GLSL.read_text() + """
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer In { vec4 nin[]; };
@@ -85,8 +85,8 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= n_items) return;
     vec3 p = nin[i].xyz, t, b;
-    vpl_frame(p, t, b);
-    float phi0 = VPL_TWO_PI * vpl_hash01(floatBitsToUint(nin[i].w), seed);
+    tangent_frame(p, t, b);
+    float phi0 = VPL_TWO_PI * hash01(floatBitsToUint(nin[i].w), seed);
     for (uint k = 0u; k < 6u; ++k) dout[6u * i + k] = vec4(vpl_ray_dir(k, p, t, b, phi0, cos_a, sin_a), 0.0);
 }
 """

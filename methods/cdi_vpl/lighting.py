@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from harness.bindings import B
+from harness.conventions import RAY_EPSILON
 from harness.effects.vpl_range import RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera, vpl_directions
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
@@ -22,7 +23,6 @@ from methods.layered import fill_uint
 from methods.scan import Scan
 
 VPL_BYTES = 48
-RAY_EPSILON = 8.940697e-05  # Mitsuba's float32 RayEpsilon (the exact baseline's ray origins)
 
 
 class VplLighting:
@@ -230,7 +230,7 @@ class VplLighting:
             n = N[valid]
             dirs = vpl_directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
                                   seed=0)
-            o = np.repeat(ray_origins(y, n, w, RAY_EPSILON), RAYS_PER_VPL, axis=0)
+            o = np.repeat(ray_origins(y, n, RAY_EPSILON), RAYS_PER_VPL, axis=0)
             f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
             k = len(o)
             batch = RayBatch(f4(o), f4(dirs.reshape(-1, 3)), np.full(k, self.cap, np.float32),

@@ -65,6 +65,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.bindings import B
+from harness.conventions import RAY_EPSILON, SHADOW_EPSILON
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
@@ -77,7 +78,6 @@ from .peel import make_ldi_structure
 
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
-RAY_EPSILON, SHADOW_EPSILON = 8.940697e-05, 8.940697e-04  # Mitsuba's float32 RayEpsilon, ShadowEpsilon
 
 
 @contextmanager
