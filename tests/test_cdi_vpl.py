@@ -270,8 +270,8 @@ def test_indirect_vpl_range_mode_max(gpu, cornell):
 
 def test_indirect_primary_reflected_and_no_depth_mask(gpu, cornell):
     """``primary = "reflected"``: the six rays around the reflected light direction, against Mitsuba's exact
-    ranges of the same rays (numpy's twin of the directions). Measured: median relative error 9.0 %, 42 %
-    of the VPLs within 5 % (the normal's rays: 2.7 % and 66 %; the reflected rays graze the walls more
+    ranges of the same rays (numpy's twin of the directions). Measured: median relative error 9.6 %, 42 %
+    of the VPLs within 5 % (9.0 % before the exact ranges started at x + ε n) (the normal's rays: 2.7 % and 66 %; the reflected rays graze the walls more
     often); the normal's CDI ranges against the reflected exact ones: 15 %, 21 %; the two CDI modes
     differ by a median 8.8 %. ``depth_mask = False``: every cell a VPL sphere overlaps gets it, so more
     grid entries, but cells without a visible surface are never shaded: the same image."""
@@ -280,7 +280,7 @@ def test_indirect_primary_reflected_and_no_depth_mask(gpu, cornell):
     normal, _ = _vpl_ranges(gpu, cornell)
     e = np.abs(refl[live] / exact[live] - 1)
     moved = float(np.median(np.abs(refl[live] / normal[live] - 1)))
-    assert np.median(e) < 0.095 and np.mean(e < 0.05) > 0.40 and moved > 0.08, (np.median(e), np.mean(e < 0.05), moved)
+    assert np.median(e) < 0.097 and np.mean(e < 0.05) > 0.40 and moved > 0.08, (np.median(e), np.mean(e < 0.05), moved)
     imgs = {}
     for mask in (True, False):
         r = run(gpu, cornell, Effect("indirect"), size=16, rsm=32, vpl_step=1, depth_mask=mask)
