@@ -18,7 +18,8 @@ Usage (from the project root; a CUDA variant on a GPU: ``LDBENCH_MITSUBA_VARIANT
     python scripts/reference_origin_bias.py --size 64 --spp 256                                # CPU, minutes
 
 Scenes that cannot be loaded (``sponza`` not fetched: ``ldbench scenes fetch sponza``) are reported and
-skipped. Writes ``origin_bias.csv`` and ``origin_bias.md`` under ``--out`` (default: print only).
+skipped. Writes ``origin_bias.csv``, ``origin_bias.md`` and ``origin_bias.png`` (per scene and effect, the
+per-pixel (new − old) / old of the mean over channels, clipped to ±5 %) under ``--out`` (default: print only).
 """
 from __future__ import annotations
 
@@ -92,6 +93,28 @@ def compare(new, old, region) -> dict:
             "z": (a - b) / sigma if sigma > 0 else math.nan}
 
 
+def save_maps(maps, path: Path, clip: float = 0.05):
+    """One panel per (scene, effect): the per-pixel relative change, diverging colours, background grey."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cols = 2
+    rows = (len(maps) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 4.0 * rows), squeeze=False)
+    cmap = plt.get_cmap("RdBu_r").copy()
+    cmap.set_bad("0.85")
+    for ax, (title, img) in zip(axes.flat, maps):
+        im = ax.imshow(img, cmap=cmap, vmin=-clip, vmax=clip, interpolation="nearest")
+        ax.set_title(title, fontsize=10)
+        ax.set_axis_off()
+    for ax in list(axes.flat)[len(maps):]:
+        ax.set_axis_off()
+    fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.6, label="(new − old) / old  (clipped to ±5 %)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scenes", default="cornell,atrium,sponza")
@@ -101,7 +124,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
-    rows = []
+    rows, maps = [], []
     for name in args.scenes.split(","):
         try:
             scene = load_scene(name)
@@ -118,6 +141,8 @@ def main(argv=None) -> int:
                 old = render_reference(scene, effect, **kw)
             secs = time.perf_counter() - t0
             m = new.mask & old.mask
+            mo, mn = old.mean.astype(np.float64).mean(-1), new.mean.astype(np.float64).mean(-1)
+            maps.append((f"{name} {eff}", np.where(m & (mo > 0), (mn - mo) / np.where(mo > 0, mo, 1), np.nan)))
             for region, sel in (("image", m), ("creases", m & band)):
                 r = {"scene": name, "effect": eff, "region": region, **compare(new, old, sel),
                      "size": args.size, "spp": args.spp, "variant": new.meta["variant"], "seconds": round(secs, 1)}
@@ -135,6 +160,7 @@ def main(argv=None) -> int:
         lines += [f"| {r['scene']} | {r['effect']} | {r['region']} | {r['pixels']} | {r['rel_mean']:+.3%} | "
                   f"{r['rel_abs']:.3%} | {r['z']:+.1f} |" for r in rows]
         (args.out / "origin_bias.md").write_text("\n".join(lines) + "\n")
+        save_maps(maps, args.out / "origin_bias.png")
     return 0
 
 
