@@ -16,6 +16,7 @@ import math
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -34,16 +35,19 @@ def param(default, doc: str, *, lo=None, hi=None, choices=None, paper=None):
 class ParamsBase:
     """Base of every adapter's ``Params``: coerces types and checks ranges on construction."""
 
+    #: the dotted prefix of this class's parameters in error messages ("structure." for a group)
+    prefix: ClassVar[str] = ""
+
     def __post_init__(self):
         for f in dataclasses.fields(self):
-            v, md = getattr(self, f.name), f.metadata
-            v = _coerce(type(f.default), v, f.name)
+            v, md, name = getattr(self, f.name), f.metadata, self.prefix + f.name
+            v = _coerce(type(f.default), v, name)
             if md.get("choices") is not None and v not in md["choices"]:
-                raise LdbenchError(f"parameter {f.name}={v!r} not one of {list(md['choices'])}")
+                raise LdbenchError(f"parameter {name}={v!r} not one of {list(md['choices'])}")
             if md.get("lo") is not None and not v >= md["lo"]:
-                raise LdbenchError(f"parameter {f.name}={v!r} below its minimum {md['lo']}")
+                raise LdbenchError(f"parameter {name}={v!r} below its minimum {md['lo']}")
             if md.get("hi") is not None and not v <= md["hi"]:
-                raise LdbenchError(f"parameter {f.name}={v!r} above its maximum {md['hi']}")
+                raise LdbenchError(f"parameter {name}={v!r} above its maximum {md['hi']}")
             object.__setattr__(self, f.name, v)
 
     @classmethod

@@ -16,7 +16,6 @@ from harness.scene import Camera, Scene
 from methods.base import View, get_method
 from methods.directions import cube_cell, cube_directions, cube_k
 from methods.ldi import Ldi, LdiParams
-from methods.ldi.peel import PeeledLayers, SinglePassLayers
 from methods.scan import Scan
 
 
@@ -62,20 +61,22 @@ def test_registered_and_params():
 # ---------------------------------------------------------------------------------------------------
 # structure: depth peeling, compaction, the one-pass build
 
-def _quads_structure(gpu, cls, **kw):
+def _quads_structure(gpu, build, **kw):
     from methods.gbuffer import SceneGeometry
+    from methods.structures import make_structure
 
     res = gpu.resources()
     geo = SceneGeometry(gpu, quads_scene(), res)
-    s = cls(gpu, geo, res, layers=2, width=LAYER_W, height=LAYER_H, **kw)
+    spec = Ldi(LdiParams(build=build, **kw)).structure_spec()
+    s = make_structure(spec, gpu, geo, res, layers=2, width=LAYER_W, height=LAYER_H, prefix="ldi.")
     s.set_layers(*layer_transforms())
     return s, res
 
 
-@pytest.mark.parametrize("cls", [PeeledLayers, SinglePassLayers], ids=["peel", "single_pass"])
-def test_structure_matches_cpu_raster(gpu, cls):
+@pytest.mark.parametrize("build", ["peel", "single_pass"])
+def test_structure_matches_cpu_raster(gpu, build):
     """Both builds store exactly the CPU raster's fragments (incl. the coincident 'tie' quad), sorted."""
-    s, res = _quads_structure(gpu, cls)
+    s, res = _quads_structure(gpu, build)
     try:
         s.build()
         got, exp = s.lists(), expected_lists()
@@ -86,7 +87,7 @@ def test_structure_matches_cpu_raster(gpu, cls):
                 for x in range(LAYER_W):
                     assert np.allclose(got[k][y][x], exp[k, y, x], atol=5e-4), (k, y, x)  # NVIDIA: 1.7e-4 (H200)
         assert st["fragments"] == sum(len(exp[k, y, x]) for k in range(2) for y in range(16) for x in range(16))
-        if cls is PeeledLayers:
+        if build == "peel":
             assert st["peel_layers"] == st["max_list_length"] == 6 and st["peel_raster_passes"] == 14
     finally:
         res.release()
@@ -101,9 +102,9 @@ def test_compaction_against_cumsum(gpu):
     try:
         s = m.ls
         s.build()
-        counts = np.frombuffer(s._scratch["count"].read(), np.uint32).astype(np.int64)
+        counts = np.frombuffer(s.source.scratch["count"].read(), np.uint32).astype(np.int64)
         off = np.frombuffer(s.offsets.read(), np.uint32).astype(np.int64)
-        assert (counts == 0).sum() > 1000 and counts.max() == s.stats()["max_list_length"] == s.peel_layers
+        assert (counts == 0).sum() > 1000 and counts.max() == s.stats()["max_list_length"] == s.source.peel_layers
         assert np.array_equal(off[:-1], np.cumsum(counts)) and off[-1] == counts.sum()
         # random counts: zeros, runs of zeros, a long list, across several scan blocks
         rng = np.random.default_rng(3)
@@ -112,14 +113,14 @@ def test_compaction_against_cumsum(gpu):
         c[100:1200] = 0
         c[-1] = 0
         c[7] = 70000
-        s._scratch["count"].write(c.tobytes())
-        gpu.ctx.copy_buffer(s.offsets, s._scratch["count"], 4 * n)
+        s.source.scratch["count"].write(c.tobytes())
+        gpu.ctx.copy_buffer(s.offsets, s.source.scratch["count"], 4 * n)
         s.offsets.write(np.zeros(1, np.uint32).tobytes(), offset=4 * n)
         Scan(gpu).run(s.offsets, n + 1)
-        s._ends["n"].value = n
+        s.source._ends["n"].value = n
         s.offsets.bind_to_storage_buffer(1)
-        s._scratch["count"].bind_to_storage_buffer(14)
-        s._ends.run(20)
+        s.source.scratch["count"].bind_to_storage_buffer(14)
+        s.source._ends.run(20)
         gpu.ctx.memory_barrier()
         off = np.frombuffer(s.offsets.read(size=4 * (n + 1)), np.uint32).astype(np.int64)
         assert np.array_equal(off[:-1], np.cumsum(c)) and off[-1] == c.sum()

@@ -2,9 +2,9 @@
 ``indirect`` and ``rays``.
 
 **CDI** (§3.1): ``directions`` orthographic deep images of ``resolution``² texels over the scene's bounding
-sphere (:func:`methods.layered.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
+sphere (:func:`methods.structures.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
 spherical coordinates (:func:`methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
-(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.linear_arrays`). Build
+(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.structures.linear`). Build
 (stages ``count``, ``scan``, ``fill``, ``sort``), a variant of the shared layered-structure module:
 
 * ``one_pass`` (the paper): one raster of the scene per pass, each triangle swizzled to its dominant axis in
@@ -77,7 +77,7 @@ import numpy as np
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
-from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
 B_LUT, B_RANGES, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 RAY_BYTES = 48
@@ -163,11 +163,11 @@ class CdiVpl(Method):
         """The CDI (created at the first use that needs it; a static one is built then, untimed)."""
         if self.cdi_struct is None:
             p = self.params
-            build = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster", "splat": "splat"}[p.build]
-            s = make_structure(
-                "linear", self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
-                max_list=p.max_list, instanced=p.build == "instanced", prefix="cdi.", build=build, assembly=p.assembly,
-                pass_layers=p.pass_directions, sphere=(self.centre, self.radius))
+            source = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster", "splat": "splat"}[p.build]
+            spec = StructureSpec(layout="linear", source=source, assembly=p.assembly, max_list=p.max_list,
+                                 instanced=p.build == "instanced", pass_layers=p.pass_directions)
+            s = make_structure(spec, self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+                               prefix="cdi.", sphere=(self.centre, self.radius))
             s.set_layers(*self._layers)
             self.axes_buf = self.res.buffer("cdi.axes", self._basis)
             self.cdi_struct = s

@@ -17,7 +17,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.lights import set_spot_uniforms
 from methods.gbuffer import mat_bytes
-from methods.layered import fill_uint
+from methods.structures import fill_uint
 from methods.scan import Scan
 
 B_RANGES, B_VPLS, B_GRID_OFF, B_GRID_IDX, B_GRID_MASK, B_TABLE, B_GRID_OVERFLOW = 13, 14, 15, 16, 17, 18, 19

@@ -1,5 +1,5 @@
 // Linearised per-pixel arrays (archer2019 §3; pknowles' "linearised" fragment buffer): the "linear"
-// layout of the layered-structure module (methods/layered.py, methods/linear_arrays.py).
+// layout of the layered-structure module (methods/structures/core.py, methods/structures/linear.py).
 //
 // The fragments of list i are contiguous: la_depth[begin(i) .. end(i)), sorted by ascending depth after
 // the sort pass. Build: count pass (atomicAdd on la_off[i]), exclusive prefix sum of la_off over all

@@ -1,7 +1,7 @@
 // Per-pixel linked lists (yang2010 §3), N layers of W×H lists sharing one head buffer and one node pool:
-// the "linked" layout of the layered-structure module (methods/layered.py, methods/linked_list.py).
+// the "linked" layout of the layered-structure module (methods/structures/core.py, methods/structures/linked.py).
 //
-// Defines (methods/linked_list.py: LayeredLinkedLists.defines()):
+// Defines (methods/structures/linked.py: LayeredLinkedLists.defines()):
 //   LL_PAGES       1..4   number of SSBO pages the node pool is split into (SSBO size limits)
 //   LL_PAGE_SHIFT         log2(nodes per page); node i lives in page i >> LL_PAGE_SHIFT
 //   LS_PAYLOAD     0..8   payload words per node (a parallel buffer, read only on a hit)

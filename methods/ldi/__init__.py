@@ -17,10 +17,10 @@ edge-on (not at all), and rays grazing such walls miss them (glossy light on Cor
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
-farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.layered.ortho_layers`).
+farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.structures.ortho_layers`).
 
-**Build** (:mod:`methods.ldi.peel`): ``build = "peel"``, depth peeling (stages ``peel``, ``scan``,
-``scatter``, ``canon``) into the ``linear`` layout of :mod:`methods.layered`, compacted by the GPU prefix
+**Build** (:mod:`methods.structures`): ``build = "peel"``, depth peeling (the ``peel`` source, stages
+``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU prefix
 sum; ``build = "single_pass"``, the shared one-pass linearised arrays (``count``, ``scan``, ``fill``,
 ``sort``) + ``canon``: the same structure bit for bit. Payload per fragment: normal and albedo; the spot
 light's direct light at a hit is computed with the cube shadow map (stage ``shadow``), as in the paper.
@@ -69,10 +69,10 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
-from methods.layered import bind_ortho_layers, bounding_sphere, ortho_layers
 from methods.lights import CubeShadowMap, set_spot_uniforms
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
-from .peel import make_ldi_structure
+PAYLOAD = ("normal", "albedo")
 
 B_STATS, B_RAYS, B_HITS = 12, 20, 21  # 11: the axes (bind_ortho_layers)
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
@@ -150,9 +150,8 @@ class Ldi(Method):
         self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
         axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
-                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.", raster=p.raster,
-                                     assembly=p.assembly)
+        self.ls = make_structure(self.structure_spec(), gpu, self.geo, self.res, layers=len(axes),
+                                 width=p.resolution, prefix="ldi.ls.")
         self.ls.set_layers(clip, rows)
         basis = np.zeros((len(axes), 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
@@ -165,6 +164,15 @@ class Ldi(Method):
         if p.prebuild:
             self.ls.build(_untimed)
             self.ls.free_scratch()
+
+    def structure_spec(self) -> StructureSpec:
+        """The LDIs' structure: linear arrays with normal and albedo, ties at equal depth in payload order
+        (so that every source gives the peel's structure bit for bit), from depth peeling or the raster
+        or splat of the shared one-pass arrays."""
+        p = self.params
+        source = "peel" if p.build == "peel" else {"hardware": "raster", "splat": "splat"}[p.raster]
+        return StructureSpec(layout="linear", source=source, assembly=p.assembly, payload=PAYLOAD, indexed=False,
+                             max_list=64, max_layers=p.max_layers, canonical=True)
 
     # ---- shared uniforms ------------------------------------------------------------------------------
     def _bind_ldis(self, cs):
@@ -350,7 +358,7 @@ class Ldi(Method):
     def _counters(self) -> dict:
         c = self.ls.stats()
         p = self.params
-        c.update(directions=p.directions, ldis=self.n_ldis, k=self.k, resolution=p.resolution,
+        c.update(build=p.build, directions=p.directions, ldis=self.n_ldis, k=self.k, resolution=p.resolution,
                  pixel_world=self.pixel, epsilon_world=p.epsilon * self.pixel, bounding_radius=self.radius,
                  ldi_bytes=int(sum(v for k, v in self.ls.memory().items() if ".peel." not in k)))
         if self._last is not None:

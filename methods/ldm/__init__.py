@@ -6,12 +6,12 @@ Also registered as ``ldm-ao`` (its earlier name): suites and command lines using
 Per frame (stages):
 
 ``gbuffer``  (``ao``) camera G-buffer (position, camera-facing geometric normal).
-build        the N maps as a layered structure (:mod:`methods.layered`), ``layout = "linked"``: one
+build        the N maps as a layered structure (:mod:`methods.structures`), ``layout = "linked"``: one
              instanced draw rasterizes the scene into all maps (both faces, no depth test), every fragment
-             inserted into its texel's linked list (:mod:`methods.linked_list`), pre-sorted by a lock-free
+             inserted into its texel's linked list (:mod:`methods.structures.linked`), pre-sorted by a lock-free
              CAS insert (``sorted_insert = True``, the paper's PSPPSLL) — stages ``count`` (only
              ``pool = "count"``), ``build``, ``sort`` (only ``sorted_insert = False``);
-             ``layout = "linear"``: linearised arrays (:mod:`methods.linear_arrays`) — stages ``count``,
+             ``layout = "linear"``: linearised arrays (:mod:`methods.structures.linear`) — stages ``count``,
              ``scan``, ``fill``, ``sort``. Both give the same sorted lists, hence the same images.
 ``ao``       compute pass over the G-buffer pixels, looping over the N maps.
 ``trace``    (``rays``) one invocation per ray of the harness's batch: the map whose axis is nearest to the
@@ -85,8 +85,8 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.directions import ldm_axes, nearest_axis_table
-from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
-from methods.linked_list import POLICIES
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
+from methods.structures.spec import POOLS as POLICIES
 from methods.scan import groups_2d
 
 B_ANGLE, B_LUT, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
@@ -171,12 +171,11 @@ class Ldm(Method):
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        common = dict(layers=p.directions, width=p.resolution, pool=p.pool, pool_capacity=p.pool_capacity,
-                      build=p.build, assembly=p.assembly,
-                      max_list=p.max_list, instanced=p.instanced, indexed=p.indexed, prefix="ldm.")
-        if p.layout == "linked":
-            common.update(sorted_insert=p.sorted_insert, aggregate=p.aggregate_atomics)
-        self.ls = make_structure(p.layout, gpu, self.geo, self.res, **common)
+        spec = StructureSpec(layout=p.layout, source=p.build, assembly=p.assembly, pool=p.pool,
+                             pool_capacity=p.pool_capacity, sorted_insert=p.sorted_insert, max_list=p.max_list,
+                             instanced=p.instanced, aggregate=p.aggregate_atomics, indexed=p.indexed)
+        self.ls = make_structure(spec, gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+                                 prefix="ldm.")
         self.ls.set_layers(clip, rows)
         basis = np.zeros((p.directions, 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v

@@ -43,7 +43,7 @@ from harness.scene import Camera
 from methods.base import View
 from methods.lights import set_spot_uniforms
 from methods.gbuffer import GBuffer, mat_bytes
-from methods.layered import fill_uint
+from methods.structures import fill_uint
 
 B_PHOTONS, B_PHOTON_COUNT, B_ACCUM, B_STATS = 14, 15, 16, 17  # 11-13: the maps (ldm_trace.glsl)
 PHOTON_BYTES = 64

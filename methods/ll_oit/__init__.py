@@ -4,7 +4,7 @@ Per frame (stages):
 
 ``build``    (``count`` first with ``pool = "count"``) one raster pass of the whole scene (both faces, no
              depth test) into one layer of ``width × height`` linked lists of the shared module
-             (:func:`methods.layered.make_structure` ``"linked"``, ``layers = 1``): yang2010's insert — a node
+             (:func:`methods.structures.make_structure`, ``layout = "linked"``, ``layers = 1``): yang2010's insert — a node
              from the atomic counter, ``atomicExchange`` on the pixel's head — with one payload word per
              node, the fragment's material id. The layer's transform is the camera's clip matrix and its
              depth row the linear view depth (:func:`methods.oit.camera_transform`). The lists stay in
@@ -35,7 +35,7 @@ Parameter               Default   Paper        Meaning
 ======================  ========  ===========  ==================================================
 ``max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
 ``max_list``            64                     register array of the resolve's sort (longer: slow path)
-``pool``                grow                   node pool: grow | count | fixed (methods/linked_list.py)
+``pool``                grow                   node pool: grow | count | fixed (methods/structures/linked.py)
 ``pool_capacity``       0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
 ``aggregate_atomics``   False                  one atomicAdd per subgroup on the node counter
 ======================  ========  ===========  ==================================================
@@ -47,8 +47,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from methods.base import ParamsBase, param
-from methods.layered import make_structure
-from methods.linked_list import POLICIES
+from methods.structures import StructureSpec, make_structure
+from methods.structures.spec import POOLS
 from methods.oit import OITMethod, camera_transform
 
 B_COUNTERS = 12
@@ -60,7 +60,7 @@ class LLOITParams(ParamsBase):
                             paper="all (Table 1); 8 of 64 (§4.1.3)")
     max_list: int = param(64, "register array of the resolve's insertion sort (longer lists: exact O(n^2) path)",
                           lo=1, hi=256)
-    pool: str = param("grow", "node pool sizing: grow and redo / counting pass / fixed", choices=POLICIES)
+    pool: str = param("grow", "node pool sizing: grow and redo / counting pass / fixed", choices=POOLS)
     pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per pixel)", lo=0)
     aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
 
@@ -83,10 +83,12 @@ class LLOIT(OITMethod):
         if self.ls is not None:
             self.ls.fbo.release()
             self.fbo.release()
-        self.ls = make_structure("linked", self.gpu, self.geo, self.res, layers=1, width=w, height=h,
-                                 payload=("material",), sorted_insert=False, pool=p.pool,
-                                 pool_capacity=p.pool_capacity, aggregate=p.aggregate_atomics, prefix="oit.ll.")
-        self.ls.overflow_allowed = False  # a fragment lost to a full pool changes the image: always a violation
+        # a fragment lost to a full pool changes the image: always a violation (fixed_overflow_ok=False)
+        spec = StructureSpec(layout="linked", source="raster", payload=("material",), sorted_insert=False,
+                             pool=p.pool, pool_capacity=p.pool_capacity, aggregate=p.aggregate_atomics,
+                             fixed_overflow_ok=False)
+        self.ls = make_structure(spec, self.gpu, self.geo, self.res, layers=1, width=w, height=h,
+                                 prefix="oit.ll.")
         self.fbo = self.gpu.ctx.framebuffer([self.out])
 
     def _program(self):
