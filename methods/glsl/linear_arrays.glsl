@@ -20,7 +20,7 @@
 #define LA_QUAL readonly
 #endif
 
-// binding 0: counters (indices shared with methods/linear_arrays.py)
+// binding 0: counters (indices shared with methods/structures/linear.py)
 #define LA_C_COUNTED 0u     // fragments of the count pass
 #define LA_C_SORT_LONG 1u   // lists longer than LA_MAX_LIST met by the sort pass (sorted in global memory)
 #define LA_C_NONEMPTY 2u    // statistics pass: non-empty lists

@@ -38,7 +38,7 @@
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
 
-// binding 0: counters (indices shared with methods/linked_list.py)
+// binding 0: counters (indices shared with methods/structures/linked.py)
 #define LL_C_NODES 0u       // nodes handed out; saturates at the capacity (an overflowing alloc undoes its add)
 #define LL_C_SORT_LONG 1u   // lists longer than LL_MAX_LIST met by the sort pass
 #define LL_C_NONEMPTY 2u    // statistics pass: non-empty lists
