@@ -184,6 +184,17 @@ def _grid(d: dict) -> list[dict]:
     return [dict(zip(keys, combo)) for combo in itertools.product(*(_listify(d[k]) for k in keys))]
 
 
+def _dotted(d: dict, prefix: str = "") -> dict:
+    """Nested tables (TOML's ``structure.source = ...``) as flat dotted names (``structure.source``)."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_dotted(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def _frozen(d: dict) -> tuple:
     """Sorted (key, value) pairs with lists turned into tuples, so jobs are hashable."""
     return tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in d.items()))
@@ -267,7 +278,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
             if eff.name not in cls.effects:
                 raise LdbenchError(f"method {m!r} does not support effect {eff.name!r} "
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
-            for p in _grid(params.get(m, {})):
+            for p in _grid(_dotted(params.get(m, {}))):
                 cls.Params.from_dict(p, method=m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames, seed))
