@@ -330,10 +330,10 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
     view = View(sc.camera, 48, 48)
     eff = Effect("ao", d_max=1.0, falloff="quadratic")
     imgs = {}
-    for name, kw in {"raster": {}, "splat": dict(build="splat"), "splat-linear-sort": dict(
-            layout="linear", build="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
+    for name, kw in {"raster": {}, "splat": dict(source="splat"), "splat-linear-sort": dict(
+            layout="linear", source="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
             layout="linear", assembly="sort", pool="lazy")}.items():
-        m = Ldm(LdmParams(directions=24, resolution=48, **kw))
+        m = Ldm(LdmParams(directions=24, resolution=48, structure=kw))
         m.setup(gpu, sc)
         for _ in range(2):
             r = m.frame(view, eff)

@@ -49,13 +49,16 @@ def test_registered_and_params():
     assert get_method("ldi") is Ldi and Ldi.paper == "niessner2010"
     assert {"rays", "indirect", "glossy_indirect", "soft_shadows"} == set(Ldi.effects)
     p = LdiParams()
-    assert (p.directions, p.resolution, p.build, p.share_opposite) == (150, 128, "peel", True)
+    assert (p.directions, p.resolution, p.structure.source, p.share_opposite) == (150, 128, "peel", True)
+    assert (p.structure.payload, p.structure.canonical, p.structure.indexed) == (("normal", "albedo"), True, False)
     with pytest.raises(LdbenchError, match="directions=100.*nearest: 96, 150"):
         LdiParams(directions=100)
     with pytest.raises(LdbenchError, match="filter_size"):
-        LdiParams(filter_size=10)
+        LdiParams.from_dict({"indirect.filter_size": 10})
     with pytest.raises(LdbenchError, match="build"):
-        LdiParams(build="hw")
+        LdiParams.from_dict({"build": "hw"})
+    with pytest.raises(LdbenchError, match="structure.source"):
+        LdiParams.from_dict({"structure.source": "one_pass"})
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -67,7 +70,7 @@ def _quads_structure(gpu, build, **kw):
 
     res = gpu.resources()
     geo = SceneGeometry(gpu, quads_scene(), res)
-    spec = Ldi(LdiParams(build=build, **kw)).structure_spec()
+    spec = LdiParams.from_dict({"build": build, **kw}).structure
     s = make_structure(spec, gpu, geo, res, layers=2, width=LAYER_W, height=LAYER_H, prefix="ldi.")
     s.set_layers(*layer_transforms())
     return s, res
@@ -129,7 +132,7 @@ def test_compaction_against_cumsum(gpu):
 
 
 def _ldi(gpu, scene, **kw):
-    m = Ldi(LdiParams(**kw))
+    m = Ldi(LdiParams.from_dict(kw))
     m.setup(gpu, scene)
     return m
 
@@ -189,8 +192,12 @@ def test_fast_build_parameters_need_the_single_pass():
     from methods.ldi import LdiParams
 
     with pytest.raises(LdbenchError, match="single_pass"):
-        LdiParams(raster="splat")
-    LdiParams(build="single_pass", raster="splat", assembly="sort")
+        LdiParams.from_dict({"raster": "splat"})
+    s = LdiParams.from_dict({"build": "single_pass", "raster": "splat", "assembly": "sort"}).structure
+    assert (s.source, s.assembly) == ("splat", "sort")
+    assert LdiParams.from_dict({"build": "single_pass"}).structure.source == "raster"
+    with pytest.raises(LdbenchError, match="assembly"):
+        LdiParams.from_dict({"structure.source": "peel", "structure.assembly": "sort"})
 
 
 def test_peel_invariants_report_truncation(gpu):
@@ -226,7 +233,7 @@ def cpu_walk(lists, m, o, d, n, tmax, k_ldi):
     res, R, c = p.resolution, m.radius, m.centre
     u, w, v = (np.frombuffer(m.axes_buf.read(), np.float32).reshape(-1, 3, 4)[k_ldi, i, :3].astype(np.float64)
                for i in range(3))
-    eps, bias = p.epsilon * m.pixel, p.bias * m.pixel
+    eps, bias = p.trace.epsilon * m.pixel, p.trace.bias * m.pixel
     ppu = res / (2 * R)
     r = o - c
     f = np.array([r @ u, r @ w]) * ppu + 0.5 * res
@@ -263,7 +270,7 @@ def cpu_walk(lists, m, o, d, n, tmax, k_ldi):
             return min(max(t, t_in), t_out), cross, False
         if t_out >= t_end:
             return -1.0, cross, False
-        if p.max_crossings and cross >= p.max_crossings:
+        if p.trace.max_crossings and cross >= p.trace.max_crossings:
             return -1.0, cross, True
         a = 0 if tnext[0] <= tnext[1] else 1
         px[a] += stp[a]

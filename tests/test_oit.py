@@ -89,7 +89,7 @@ def refs(scenes):
 
 def run(gpu, scene, method, size=(W, H), method_cls=None, **params):
     cls = method_cls or get_method(method)
-    m = cls(cls.Params(**params))
+    m = cls(cls.Params.from_dict(params))
     m.setup(gpu, scene)
     try:
         return m.frame(View(scene.camera, *size), Effect("oit")).resolve()

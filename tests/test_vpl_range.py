@@ -165,7 +165,7 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
     np.testing.assert_allclose(ref.range, r_exact, rtol=1e-4)
     limits = {"one_pass": (0.037, 0.38, 0.0140, 0.0005), "brute_force": (0.036, 0.25, 0.0120, 0.0025)}
     for build, (p50, p95, missing, at_zero) in limits.items():
-        m = CdiVpl(CdiVplParams(build=build))
+        m = CdiVpl(CdiVplParams.from_dict({"build": build}))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 8, 8), eff, b).resolve()
@@ -181,7 +181,7 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
 def test_random_range_is_uniform_in_its_bounds(gpu, box_batch):
     """The random baseline: uniform in [r_min, r_max] × diagonal, deterministic for a seed."""
     sc, eff, b, _ = box_batch
-    m = CdiVpl(CdiVplParams(range="random", r_min=0.1, r_max=0.3))
+    m = CdiVpl(CdiVplParams.from_dict({"vpl.range": "random", "vpl.r_min": 0.1, "vpl.r_max": 0.3}))
     m.setup(gpu, sc)
     try:
         r1 = m.frame(View(sc.camera, 8, 8), eff, b).resolve().arrays["range"]

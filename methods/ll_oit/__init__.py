@@ -30,15 +30,19 @@ Counters: ``fragments`` (rasterized), ``fragments_stored``, ``overflow``, ``dept
 ``degraded``): every fragment stored — pool overflow is reported even with ``pool = "fixed"``, because a
 lost fragment changes the image — every stored node reachable once, no abandoned insert.
 
-======================  ========  ===========  ==================================================
-Parameter               Default   Paper        Meaning
-======================  ========  ===========  ==================================================
-``max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
-``max_list``            64                     register array of the resolve's sort (longer: slow path)
-``pool``                grow                   node pool: grow | count | fixed (methods/structures/linked.py)
-``pool_capacity``       0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
-``aggregate_atomics``   False                  one atomicAdd per subgroup on the node counter
-======================  ========  ===========  ==================================================
+==========================  ========  ===========  ==============================================
+Parameter                   Default   Paper        Meaning
+==========================  ========  ===========  ==============================================
+``oit.max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
+``oit.max_list``            64                     register array of the resolve's sort (longer: slow path)
+``structure.pool``          grow                   node pool: grow | count | fixed | lazy
+                                                   (methods/structures/linked.py)
+``structure.pool_capacity`` 0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
+``structure.aggregate``     False                  one atomicAdd per subgroup on the node counter
+==========================  ========  ===========  ==============================================
+
+The earlier flat names (``max_layers``, ``pool``, ``aggregate_atomics``, ...) still work
+(:attr:`LLOITParams.renamed`).
 """
 from __future__ import annotations
 
@@ -46,23 +50,35 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from methods.base import ParamsBase, param
+from methods.base import ParamsBase, group, param
 from methods.structures import StructureSpec, make_structure
-from methods.structures.spec import POOLS
 from methods.oit import OITMethod, camera_transform
 
 B_COUNTERS = 12
 
 
 @dataclass(frozen=True)
-class LLOITParams(ParamsBase):
+class LLOITResolve(ParamsBase):
+    """The ``oit`` effect's resolve (``oit.``)."""
+
+    prefix = "oit."
     max_layers: int = param(0, "composite only the n nearest fragments (0 = all: exact)", lo=0, hi=256,
                             paper="all (Table 1); 8 of 64 (§4.1.3)")
     max_list: int = param(64, "register array of the resolve's insertion sort (longer lists: exact O(n^2) path)",
                           lo=1, hi=256)
-    pool: str = param("grow", "node pool sizing: grow and redo / counting pass / fixed", choices=POOLS)
-    pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per pixel)", lo=0)
-    aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
+
+
+@dataclass(frozen=True)
+class LLOITParams(ParamsBase):
+    # yang2010's lists: one layer, the material id per node, arrival order (the resolve sorts); a fragment
+    # lost to a full pool changes the image, so an overflow is a violation even for pool=fixed
+    structure: StructureSpec = group(StructureSpec, "one layer of per-pixel linked lists (yang2010's insert)",
+                                     expose=("pool", "pool_capacity", "aggregate"), layout="linked",
+                                     payload=("material",), sorted_insert=False, fixed_overflow_ok=False)
+    oit: LLOITResolve = group(LLOITResolve, "effect oit: the per-pixel sort and composite")
+
+    renamed = {"max_layers": "oit.max_layers", "max_list": "oit.max_list", "pool": "structure.pool",
+               "pool_capacity": "structure.pool_capacity", "aggregate_atomics": "structure.aggregate"}
 
 
 class LLOIT(OITMethod):
@@ -83,19 +99,15 @@ class LLOIT(OITMethod):
         if self.ls is not None:
             self.ls.fbo.release()
             self.fbo.release()
-        # a fragment lost to a full pool changes the image: always a violation (fixed_overflow_ok=False)
-        spec = StructureSpec(layout="linked", source="raster", payload=("material",), sorted_insert=False,
-                             pool=p.pool, pool_capacity=p.pool_capacity, aggregate=p.aggregate_atomics,
-                             fixed_overflow_ok=False)
-        self.ls = make_structure(spec, self.gpu, self.geo, self.res, layers=1, width=w, height=h,
+        self.ls = make_structure(p.structure, self.gpu, self.geo, self.res, layers=1, width=w, height=h,
                                  prefix="oit.ll.")
         self.fbo = self.gpu.ctx.framebuffer([self.out])
 
     def _program(self):
         p = self.params
-        d = {**self.ls.defines(), "OIT_ARRAY": p.max_list}
-        if p.max_layers:
-            d["OIT_FIRST_N"] = p.max_layers
+        d = {**self.ls.defines(), "OIT_ARRAY": p.oit.max_list}
+        if p.oit.max_layers:
+            d["OIT_FIRST_N"] = p.oit.max_layers
         return self.gpu.program(self.shader("resolve.glsl"), d)
 
     def frame(self, view, effect, inputs=None):
@@ -134,7 +146,7 @@ class LLOIT(OITMethod):
                 "depth_complexity_mean": st["mean_list_length"], "pixels_covered": st["lists_nonempty"],
                 "linked_nodes": st["linked_nodes"], "insert_failures": st["insert_failures"],
                 "pool_capacity": st["pool_capacity"], "build_passes": st["build_passes"],
-                "slow_path_lists": slow, "max_layers": self.params.max_layers}
+                "slow_path_lists": slow, "max_layers": self.params.oit.max_layers}
 
     def _invariants(self, c: dict) -> list[str]:
         # the lists are unsorted by design (yang2010): the resolve sorts, so "sorted" is not an invariant here
