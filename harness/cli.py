@@ -250,9 +250,12 @@ def suite_from_args(args):
                     raise LdbenchError(f"--set names method {m!r}, which this suite does not run")
             jobs = []
             for j in suite.jobs:
-                if j.method in params:  # in the current names, so that --set overrides an earlier name
+                if j.method in params:
                     P = get_method(j.method).Params
-                    merged = {**P.upgrade(dict(j.params)), **P.upgrade(params[j.method])}
+                    try:  # --set overrides the suite's parameter of the same name
+                        merged = P.upgrade({**dict(j.params), **params[j.method]})
+                    except LdbenchError:  # the suite names it one way (build), --set the other (structure.source)
+                        merged = {**P.upgrade(dict(j.params)), **P.upgrade(params[j.method])}
                     P.from_dict(merged, method=j.method)
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)

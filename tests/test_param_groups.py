@@ -68,3 +68,33 @@ def test_suites_take_dotted_nested_and_earlier_names():
     got = [[LdmParams.from_dict(dict(j.params)) for j in suite_from_dict({"suite": {"size": "16x16"}, "run": [r]},
                                                                          name="t").jobs] for r in runs]
     assert got[0] == got[1] and [p.structure.source for p in got[0]] == ["raster", "splat"]
+
+
+@pytest.mark.parametrize("in_suite,sets,want", [
+    ('build = "raster"', ["ldm.structure.source=splat"], ("splat", "linked")),   # the suite's earlier name
+    ('structure.source = "raster"', ["ldm.build=splat"], ("splat", "linked")),   # the --set's earlier name
+    ('layout = "linked"', ["ldm.structure.layout=linear", "ldm.assembly=sort"], ("raster", "linear"))])
+def test_set_overrides_a_suite_parameter_under_either_name(tmp_path, in_suite, sets, want):
+    from harness.cli import build_parser, suite_from_args
+    from methods.ldm import LdmParams
+
+    suite = tmp_path / "s.toml"
+    suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["ldm"]\n'
+                     f'[run.params.ldm]\n{in_suite}\n')
+    args = build_parser().parse_args(["run", str(suite), *[a for s in sets for a in ("--set", s)]])
+    (job,) = suite_from_args(args).jobs
+    s = LdmParams.from_dict(dict(job.params)).structure
+    assert (s.source, s.layout) == want
+
+
+def test_set_completes_an_earlier_ldi_build(tmp_path):
+    """``raster`` applied to the suite's ``build = single_pass`` (the two earlier names of one source)."""
+    from harness.cli import build_parser, suite_from_args
+    from methods.ldi import LdiParams
+
+    suite = tmp_path / "s.toml"
+    suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "rays"\nmethods = ["ldi"]\n'
+                     '[run.params.ldi]\nbuild = "single_pass"\n')
+    args = build_parser().parse_args(["run", str(suite), "--set", "ldi.raster=splat"])
+    (job,) = suite_from_args(args).jobs
+    assert LdiParams.from_dict(dict(job.params)).structure.source == "splat"
