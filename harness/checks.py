@@ -37,3 +37,23 @@ def camera_sees_geometry(scene, reference, width: int, height: int) -> None:
     if mask is not None and not np.asarray(mask).any():
         raise LdbenchError(f"scene {scene.name!r}: the camera sees no geometry at {width}x{height} "
                            f"(camera facing away, or only zero-area / zero-scale meshes)")
+
+
+def finite_reference(scene, reference, label: str) -> None:
+    """Refuse a reference image with a NaN or infinite value (mean or variance) where the camera sees
+    a surface: every row scored against it would be ``ok`` with NaN metrics."""
+    if getattr(reference, "mean", None) is None:
+        return
+
+    def nonfinite(a):  # per pixel: any channel
+        b = ~np.isfinite(np.asarray(a))
+        return b.any(-1) if b.ndim == 3 else b
+
+    bad = nonfinite(reference.mean)
+    if getattr(reference, "variance", None) is not None:
+        bad = bad | nonfinite(reference.variance)
+    mask = getattr(reference, "mask", None)
+    n = int(bad[np.asarray(mask, bool)].sum() if mask is not None else bad.sum())
+    if n:
+        raise LdbenchError(f"scene {scene.name!r}: the reference of {label} has {n} non-finite pixel(s); "
+                           f"not scoring against it (rerun with a fresh reference cache)")

@@ -1,4 +1,4 @@
-"""The ``ldbench`` command line (DESIGN.md, "Command line").
+"""The ``ldbench`` command line (docs/design.md, "Command line").
 
 Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
@@ -109,9 +109,9 @@ def _effect_opts(args) -> dict:
 
 
 def _effect_from(args):
-    from .effects import Effect
+    from .effects.base import effects_from_user
 
-    return Effect.parse(args.effect, _effect_opts(args))
+    return effects_from_user(args.effect, [_effect_opts(args)])[0]
 
 
 def _scene_params(pairs):
@@ -143,7 +143,8 @@ def _reference_args(p):
     p.add_argument("--spp", type=int, default=1024)
     p.add_argument("--size", default="256x256")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
-    p.add_argument("--out", default=None, help="also write the mean as this EXR file")
+    p.add_argument("--out", default=None, metavar="FILE.exr",
+                   help="also write the mean as this EXR file (only this file: no preview beside it)")
     p.add_argument("--no-cache", action="store_true")
 
 
@@ -154,6 +155,7 @@ def _reference(args):
     from .suite import MAX_SPP, _int, check_budget
     w, h = parse_size(args.size)
     check_budget(w, h, _int(args.spp, "--spp", 1, MAX_SPP))
+    out = _reference_out(args.out)
     effect = _effect_from(args)
     spec = effect.spec
     if spec.output != "image":
@@ -169,12 +171,25 @@ def _reference(args):
     took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
           f"key={m.get('key')}")
-    if args.out:
-        from .imageio import save_image
-        out = Path(args.out)
-        save_image(out.with_suffix(""), ref.mean)
-        print(f"wrote {out.with_suffix('.exr')}")
+    if out is not None:
+        from references.exr import write_exr
+        from references.exr import image_channels
+        write_exr(out, image_channels(ref.mean))
+        print(f"wrote {out}")
     return 0
+
+
+def _reference_out(out):
+    """``reference --out``: the one EXR file to write (atomically), checked before rendering. Nothing
+    else is written beside it (a preview would replace the user's FILE.png)."""
+    if out is None:
+        return None
+    p = Path(out)
+    if p.suffix.lower() != ".exr":
+        raise LdbenchError(f"--out {out}: must name an .exr file (the reference's mean, linear float)")
+    if p.is_dir() or p.is_symlink():
+        raise LdbenchError(f"--out {out} is a directory or a symbolic link; give a file name")
+    return p
 
 
 # ---- run / report ---------------------------------------------------------------------------------
@@ -251,12 +266,14 @@ def suite_from_args(args):
             jobs = []
             for j in suite.jobs:
                 if j.method in params:
-                    P = get_method(j.method).Params
+                    cls = get_method(j.method)
+                    P = cls.Params
                     try:  # --set overrides the suite's parameter of the same name
                         merged = P.upgrade({**dict(j.params), **params[j.method]})
                     except LdbenchError:  # the suite names it one way (build), --set the other (structure.source)
                         merged = {**P.upgrade(dict(j.params)), **P.upgrade(params[j.method])}
-                    P.from_dict(merged, method=j.method)
+                    from .suite import method_params
+                    method_params(cls, merged, j.method)
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)
             suite.jobs = jobs

@@ -1,10 +1,13 @@
-"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (issue 6).
+"""``ldbench compare BASELINE RUN``: the regression gate of the nightly benchmark (docs/nightly.md).
 
 Both arguments are run directories (``results.parquet``, else ``results.csv``) or results files.
 Rows are matched by :data:`DEFAULT_MATCH` (scene and its builder parameters, method, effect and its
 parameters, method parameters, image size) or by the keys given with ``--match`` (e.g.
 ``--match scene,method,effect`` compares two *configurations* of the same method, such as 64 against
-16 LDM directions). A match key that leaves two rows of one run indistinguishable is bad input.
+16 LDM directions). A match key that leaves two rows of one run indistinguishable is bad input. Method
+parameters are matched in their canonical form (:func:`canonical_params`: old names mapped through the
+adapter's ``Params.renamed``, values equal to the current default dropped), so a parameter added with a
+default orphans no baseline row; a parameter the adapter no longer has keeps its row apart (``missing``).
 
 Every matched benchmark gets up to three checks:
 
@@ -21,20 +24,24 @@ time (``total_ms``)
     the device is the CPU; :func:`harness.device.timing_fields`) times are not comparable: a warning
     is printed and time checks are skipped; quality is still gated.
     On a software rasterizer (``device = cpu-software``, Mesa llvmpipe) time checks are skipped as
-    well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, and two identical
-    runs on a 2-core CI machine differ by up to ~50 % in their median (measured), far beyond the
-    within-run spread the test sees; the CPU nightly gates quality, the GPU nightly gates time.
+    well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, which move between
+    identical runs far beyond the within-run spread the test sees (measured in docs/nightly.md); the
+    CPU nightly gates quality, the GPU nightly gates time.
 
 quality (``psnr``, ``ssim``)
     A regression is a drop beyond ``max(tolerance, what the references' own Monte Carlo noise can
     explain)``; see :func:`noise_bound` for the derivation. PSNR tolerance ``--tol-db`` (0.5 dB),
     SSIM tolerance ``--ssim-tol`` (0.01). A NaN in the run where the baseline was finite (a broken
-    shader) is a regression.
+    shader) is a regression. A NaN in the baseline (a broken baseline) compares nothing: the check is
+    ``unchecked`` and fails, with a warning, unless ``--allow-nan-baseline``.
 
 metrics of non-image effects (``rays``, ...)
     The effect spec's ``gate`` (:class:`harness.effects.base.EffectSpec`): each listed column may
     get worse by at most ``max(absolute, relative × |baseline|)``; both sides are exact (an oracle, no
-    sampling noise), so the tolerances are fixed. A NaN where the baseline was finite is a regression.
+    sampling noise), so the tolerances are fixed. A NaN where the baseline was finite is a regression; a
+    NaN baseline is ``unchecked`` (as for images) where the run has a value or where no metric of the
+    benchmark could be compared; NaN on both sides is a metric the configuration leaves undefined
+    (``n/a``: the distances of shadow rays).
 
 status
     A row whose ``status`` is ``degraded: …`` in RUN (an invariant of its data structure failed: nodes
@@ -64,7 +71,7 @@ DEFAULT_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "
 #: Every column ``--match`` accepts.
 MATCH_KEYS = DEFAULT_MATCH + ("suite", "scene_hash", "ref_spp")
 
-REGRESSING_VERDICTS = ("regression", "failed", "missing", "degraded")
+REGRESSING_VERDICTS = ("regression", "failed", "missing", "degraded", "unchecked")
 
 
 @dataclass
@@ -79,6 +86,7 @@ class Thresholds:
     allow_missing: bool = False
     time: bool = True          # False: skip time checks (--no-time)
     cpu_time: bool = False     # True: gate time on cpu-software (llvmpipe) too (--cpu-time)
+    allow_nan_baseline: bool = False  # True: a NaN quality metric of the baseline does not fail
 
     def validate(self):
         if not 0 < self.alpha < 1:
@@ -97,7 +105,8 @@ class Check:
     baseline: str
     current: str
     change: str
-    verdict: str           # ok | regression | improved | inconclusive | skipped | failed | missing | new | fixed | n/a
+    verdict: str           # ok | regression | improved | inconclusive | skipped | failed | missing | new | fixed
+    #                        | unchecked (the baseline's metric is NaN: nothing to compare against) | n/a
     note: str = ""
 
     @property
@@ -139,10 +148,9 @@ REQUIRED_COLUMNS = ("status", "total_ms", "raw_ms", "psnr", "ssim")
 
 def check_schema(df, what: str, path, match=DEFAULT_MATCH) -> None:
     """Refuse a results table without a column the comparison needs (LdbenchError naming it)."""
-    missing = [c for c in (*match, *REQUIRED_COLUMNS) if c not in df.columns]
-    if missing:
-        raise LdbenchError(f"{what} {path} is not an ldbench results table: no column {missing[0]!r}"
-                           + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
+    from .records import check_columns
+
+    check_columns(df.columns, f"{what} {path}", (*match, *REQUIRED_COLUMNS))
 
 
 def load_results(path, what: str = "results", match=DEFAULT_MATCH):
@@ -228,9 +236,36 @@ def _key(row, keys) -> tuple:
         elif k == "method":  # an adapter's earlier name (e.g. ldm-ao) matches its current one
             from methods.base import canonical_name
             out.append(_canon(canonical_name(str(_get(row, k)))))
+        elif k == "params":  # defaults dropped, old names mapped: a new parameter orphans no baseline row
+            out.append(_canon(canonical_params(_get(row, "method"), _get(row, k) or {})))
         else:
             out.append(_canon(_get(row, k)))
     return tuple(out)
+
+
+def canonical_params(method, params: dict) -> dict:
+    """``params`` as the match key sees them: names mapped through the adapter's ``Params.renamed`` (old flat
+    name -> current name) and every value equal to the adapter's current default dropped, so that a row
+    recorded before a parameter was added (or renamed) matches a row recorded after. A parameter the
+    adapter no longer has stays (the configuration no longer exists: the row is reported missing). An
+    unknown method's parameters are returned as given."""
+    from methods.base import get_method
+
+    if not isinstance(params, dict):
+        return params
+    try:
+        cls = get_method(str(method))
+        defaults = cls.Params().to_dict()
+    except (LdbenchError, TypeError):
+        return params
+    renamed = getattr(cls.Params, "renamed", None) or {}
+    out = {}
+    for name, value in params.items():
+        name = renamed.get(name, name)
+        if name in defaults and _canon(value) == _canon(defaults[name]):
+            continue
+        out[name] = value
+    return out
 
 
 def _index(df, keys, what) -> dict:
@@ -309,9 +344,11 @@ def _config_diff(brow, rrow) -> str:
     """Differences between two matched rows outside the match keys (params, size, reference)."""
     diffs = []
     bp, rp = _get(brow, "params") or {}, _get(rrow, "params") or {}
-    for n in sorted(set(bp) | set(rp)):
-        if _canon(bp.get(n)) != _canon(rp.get(n)):
-            diffs.append(f"{n} {_fmt_value(bp.get(n))} → {_fmt_value(rp.get(n))}")
+    cb, cr = canonical_params(_get(brow, "method"), bp), canonical_params(_get(rrow, "method"), rp)
+    shown = lambda c, n: _fmt_value(c[n]) if n in c else "default"  # noqa: E731
+    for n in sorted(set(cb) | set(cr)):  # a parameter left at its default is no difference
+        if _canon(cb.get(n)) != _canon(cr.get(n)):
+            diffs.append(f"{n} {shown(cb, n)} → {shown(cr, n)}")
     for col in ("width", "height", "effect_params", "scene_params", "scene_hash", "triangles", "ref_spp"):
         if _canon(_get(brow, col)) != _canon(_get(rrow, col)):
             diffs.append(f"{col} {_get(brow, col)} → {_get(rrow, col)}")
@@ -575,6 +612,7 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
     labels = _labels(union)
     comp = Comparison(match=match, thresholds=th)
     machine_warned = set()
+    nan_base: list = []  # benchmarks whose baseline has a NaN quality metric
 
     order = list(bidx) + [k for k in ridx if k not in bidx]
     for k in order:
@@ -635,10 +673,21 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
         # quality
         gate = _gate(rrow)
         if gate:
-            comp.checks += [metric_check(name, brow, rrow, *g) for g in gate]
+            checks = [metric_check(name, brow, rrow, *g) for g in gate]
+            compared = any(c.verdict != "n/a" for c in checks)
+            for i, c in enumerate(checks):  # a NaN baseline judges nothing: say so (both NaN: undefined here)
+                if c.baseline == "NaN" and (c.current != "NaN" or not compared):
+                    checks[i] = _nan_baseline(name, c.metric, c.current, th)
+                    nan_base += [name] if name not in nan_base else []
+            comp.checks += checks
             continue
         q = quality_thresholds(brow, rrow, th)
         pb, pr = _f(_get(brow, "psnr")), _f(_get(rrow, "psnr"))
+        sb, sr = _f(_get(brow, "ssim")), _f(_get(rrow, "ssim"))
+        if pb is None or math.isnan(pb) or sb is None or math.isnan(sb):
+            nan_base.append(name)
+        if pb is None or math.isnan(pb):
+            comp.checks.append(_nan_baseline(name, "psnr", _fmt_db(pr), th))
         v, change, _ = _psnr_check(pb, pr, q, th)
         if v != "n/a":
             notes = [] if q["noise_known"] else ["reference noise unknown"]
@@ -648,11 +697,26 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
                 notes.append("references differ")
             note = "; ".join(notes)
             comp.checks.append(Check(name, "psnr", _fmt_db(pb), _fmt_db(pr), change, v, note))
-        sb, sr = _f(_get(brow, "ssim")), _f(_get(rrow, "ssim"))
+        if sb is None or math.isnan(sb):
+            comp.checks.append(_nan_baseline(name, "ssim", _fmt_num(sr), th))
         v, change, _ = _ssim_check(sb, sr, q, th)
         if v != "n/a":
             comp.checks.append(Check(name, "ssim", _fmt_num(sb), _fmt_num(sr), change, v))
+    if nan_base:
+        comp.warnings.append(
+            f"the baseline has NaN quality metrics for {len(nan_base)} benchmark(s) ({nan_base[0]}"
+            + (", ..." if len(nan_base) > 1 else "") + "): nothing to compare them against; "
+            + ("allowed by --allow-nan-baseline" if th.allow_nan_baseline
+               else "they fail unless --allow-nan-baseline"))
     return comp
+
+
+def _nan_baseline(name, metric, current, th) -> Check:
+    """The check of a metric the baseline holds as NaN (a broken baseline): ``unchecked`` (failing), or
+    ``n/a`` with ``--allow-nan-baseline``."""
+    if th.allow_nan_baseline:
+        return Check(name, metric, "NaN", current, "", "n/a", "baseline NaN, allowed by --allow-nan-baseline")
+    return Check(name, metric, "NaN", current, "baseline NaN", "unchecked", "nothing to compare against")
 
 
 def _gate(row) -> tuple:
@@ -700,7 +764,7 @@ def _run_label(df, path) -> str:
 
 
 _ICON = {"regression": "❌ regression", "failed": "❌ failed", "missing": "❌ missing", "ok": "✅ ok",
-         "degraded": "❌ degraded",
+         "degraded": "❌ degraded", "unchecked": "❌ unchecked",
          "improved": "🟢 improved", "new": "🆕 new", "fixed": "🟢 fixed", "skipped": "⏭ skipped",
          "inconclusive": "❔ inconclusive", "n/a": "n/a"}
 
@@ -785,6 +849,8 @@ def add_arguments(p):
                    help="reference-noise bound in standard deviations (default 3)")
     p.add_argument("--allow-missing", action="store_true", help="rows that vanished do not fail")
     p.add_argument("--no-time", action="store_true", help="skip time checks (quality only)")
+    p.add_argument("--allow-nan-baseline", action="store_true",
+                   help="a quality metric that is NaN in the baseline (nothing to compare against) does not fail")
     p.add_argument("--cpu-time", action="store_true",
                    help="gate time on a software rasterizer (cpu-software) too; off by default")
     p.add_argument("--out", default=None, metavar="FILE",
@@ -794,7 +860,8 @@ def add_arguments(p):
 def run_cli(args) -> int:
     th = Thresholds(alpha=args.alpha, min_effect=args.min_effect, tol_db=args.tol_db,
                     ssim_tol=args.ssim_tol, noise_z=args.noise_z, allow_missing=args.allow_missing,
-                    time=not args.no_time, cpu_time=args.cpu_time)
+                    time=not args.no_time, cpu_time=args.cpu_time,
+                    allow_nan_baseline=args.allow_nan_baseline)
     match = parse_match(args.match)
     comp = compare_paths(args.baseline, args.run, match=match, thresholds=th)
     run_path = Path(args.run)

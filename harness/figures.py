@@ -6,8 +6,7 @@ axis labels that carry units (ms, MB, dB) and a footer naming the device; on a s
 
 Conventions
 -----------
-* **Time** is ``total_ms`` (median over the measured frames of the per-frame sum of stage times; GPU
-  timer queries on a GPU, wall clock on llvmpipe); error bars span the first to the third quartile of
+* **Time** is ``total_ms`` (docs/design.md, "Timing protocol"); error bars span the first to the third quartile of
   the raw per-frame totals (``raw_ms["total"]``; ± ``total_ms_iqr``/2 when raw samples are missing).
 * **Memory** is ``memory_bytes`` in MB, where 1 MB = 2**20 bytes (MiB), like ``summary.md``.
 * A **parameter is swept** when it takes more than one value among the rows of one
@@ -180,7 +179,7 @@ def param_label(p: str) -> str:
 
 
 def device_footer(fig, df):
-    """Footer naming the device(s); red warning on a software rasterizer (DESIGN.md)."""
+    """Footer naming the device(s); red warning on a software rasterizer (docs/design.md)."""
     devs = sorted({str(d) for d in df["device"] if d is not None}) or ["unknown"]
     renderers = sorted({str(d) for d in df.get("gl_renderer", []) if d is not None})
     soft = "cpu-software" in devs

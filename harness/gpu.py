@@ -2,15 +2,13 @@
 
 One :class:`Gpu` wraps one moderngl EGL context (OpenGL >= 4.3, for compute shaders and SSBOs).
 
-Timing protocol (DESIGN.md): a method wraps each stage of a frame in ``with gpu.stage("build"):``. On a
-real GPU each stage is a GL timer query (``GL_TIME_ELAPSED``; stages must not nest, as those queries
-cannot); on a software rasterizer (llvmpipe), whose timer queries are meaningless, each stage is
-wall clock between two ``ctx.finish()`` calls. The runner brackets whole frames with
-:meth:`begin_frame` / :meth:`end_frame`, which also measure the frame's wall clock after ``finish()``.
+Stage timing implements the timing protocol of docs/design.md: :meth:`Gpu.stage` (a GL timer query, or
+wall clock on a software rasterizer) and :meth:`begin_frame` / :meth:`end_frame` around whole frames.
 
 Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
 etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
-``methods/glsl/``, and default ``#define``s injected after ``#version``.
+``methods/glsl/``, and default ``#define``s injected after ``#version``, with the binding numbers of
+:mod:`harness.bindings` (``#define B_RAYS 20``...). Every program compiled is checked against that table.
 """
 from __future__ import annotations
 
@@ -21,10 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import bindings
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 
-GLSL_DIR = Path(__file__).resolve().parent.parent / "methods" / "glsl"
+METHODS_DIR = Path(__file__).resolve().parent.parent / "methods"
+GLSL_DIR = METHODS_DIR / "glsl"
 STAGES = {
     "vertex_shader": "VERTEX_SHADER",
     "geometry_shader": "GEOMETRY_SHADER",
@@ -66,7 +66,19 @@ def shader_source(path, stage_macro: str, defines: dict | None = None, version: 
         if isinstance(v, bool):
             v = int(v)
         header.append(f"#define {k} {v}")
+    header.append(bindings.glsl_header())
     return "\n".join(header) + "\n#line 1\n" + expand_includes(Path(path))
+
+
+def check_bindings(program, path) -> None:
+    """Refuse a program whose buffer bindings disagree with :mod:`harness.bindings` (a block at another
+    number than the table's would read another buffer, silently). Storage blocks the table does not name
+    are refused only in the project's shaders (under methods/)."""
+    strict = Path(path).resolve().is_relative_to(METHODS_DIR)
+    errs = bindings.program_mismatches(program, strict=strict)
+    if errs:
+        program.release()
+        raise LdbenchError(f"shader {Path(path).name}: {errs[0]}" + (f" (+{len(errs) - 1} more)" if errs[1:] else ""))
 
 
 class Resources:
@@ -186,9 +198,11 @@ class Gpu:
                   if re.search(rf"\b{m}\b", text)}
             kw.setdefault("fragment_shader", None)
             try:
-                self._programs[key] = self.ctx.program(varyings=list(varyings), **kw)
+                prog = self.ctx.program(varyings=list(varyings), **kw)
             except Exception as e:
                 raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+            check_bindings(prog, path)
+            self._programs[key] = prog
         return self._programs[key]
 
     def compute(self, path, defines: dict | None = None):
@@ -196,9 +210,11 @@ class Gpu:
         key = ("c", str(path), tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             try:
-                self._programs[key] = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
+                prog = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
             except Exception as e:
                 raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+            check_bindings(prog, path)
+            self._programs[key] = prog
         return self._programs[key]
 
     def resources(self, prefix: str = "") -> Resources:
@@ -210,10 +226,9 @@ class Gpu:
 
         Never ``buffer.read()`` on a buffer that shaders keep using: NVIDIA's driver moves a buffer the CPU
         reads from video to host memory ("Buffer performance warning: ... is being copied/moved from
-        VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe. Measured on an H200
-        (scripts/gpu/issue14_diag.py): the sorted-insert LDM build of Figure 8 went from 108.7 ms to
-        1920 ms after one read of its 64-byte counter buffer. The GPU copies into this staging buffer,
-        which alone the driver may move."""
+        VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe (measured in
+        docs/fast_builds.md, "Read-backs"). The GPU copies into this staging buffer, which alone the
+        driver may move."""
         size = buffer.size - offset if size is None else int(size)
         if size <= 0:
             return b""

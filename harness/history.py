@@ -1,13 +1,16 @@
-"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (issue 6).
+"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (docs/nightly.md).
 
 Storage
     ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`harness.records.machine_key`
     of device, GL renderer and driver: timings of different machines never share a series). The
     files hold the result rows exactly as ``results.parquet`` does (JSON columns as JSON text, the
     ``machine_key`` column filled in), sorted by time. Adding a run replaces any rows with the same
-    ``run_id`` first, so adding a run twice is idempotent. The default history directory is
-    ``history/`` under the current directory; it is meant to live outside git (a CI cache or
-    artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore`` if you keep one locally.
+    ``run_id`` first, so adding a run twice is idempotent. Writers take ``<history-dir>/.lock``
+    (``flock``; concurrent ``history add`` wait their turn, at most :data:`LOCK_WAIT_S`) and replace
+    each file atomically, so every added run's rows are kept and a reader never sees a torn file.
+    The default history directory is ``history/`` under the current directory; it is meant to live
+    outside git (a CI cache or artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore``
+    if you keep one locally.
 
 Plots
     One PNG per machine and benchmark (benchmarks as in :data:`harness.compare.DEFAULT_MATCH`):
@@ -43,6 +46,9 @@ from .errors import LdbenchError
 from .naming import slug
 
 DEFAULT_HISTORY_DIR = "history"
+LOCK_NAME = ".lock"
+#: How long ``history add`` waits for another writer of the same history directory.
+LOCK_WAIT_S = 300.0
 
 
 # --------------------------------------------------------------------------------------------------
@@ -90,12 +96,45 @@ def _sort(df):
     return df.sort_values(["time", "run_id"], kind="stable", na_position="first").reset_index(drop=True)
 
 
+class _Lock:
+    """``with _Lock(hdir):`` holds ``hdir/.lock`` exclusively (``flock``, dropped by the kernel if the
+    holder dies), waiting at most :data:`LOCK_WAIT_S` for another writer."""
+
+    def __init__(self, hdir: Path):
+        self.path = hdir / LOCK_NAME
+        self.fd = None
+
+    def __enter__(self):
+        import fcntl
+        import time
+
+        try:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise LdbenchError(f"cannot write to history directory {self.path.parent}: {e.strerror or e}")
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    os.close(self.fd)
+                    raise LdbenchError(f"history directory {self.path.parent} is locked by another writer "
+                                       f"for more than {LOCK_WAIT_S:.0f} s ({self.path})") from None
+                time.sleep(0.05)
+        return self
+
+    def __exit__(self, *exc):
+        os.close(self.fd)  # releases the lock; the file stays (deleting it would race a waiting writer)
+        return False
+
+
 def add_run(run, history_dir=DEFAULT_HISTORY_DIR) -> list[dict]:
     """Append a run's rows to the per-machine history files (replacing rows of the same run_id).
 
     Returns one dict per machine touched: ``{"machine_key", "path", "added", "rows", "runs"}``.
     """
-    import pandas as pd
     from .compare import load_results
 
     df = load_results(run, "run")
@@ -108,25 +147,34 @@ def add_run(run, history_dir=DEFAULT_HISTORY_DIR) -> list[dict]:
         hdir.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise LdbenchError(f"cannot create history directory {hdir}: {e.strerror or e}")
-    out = []
-    for key, group in df.groupby("machine_key", sort=True):
-        path = hdir / f"{key}.parquet"
-        new = _serialize(group)
-        ids = set(new["run_id"])
-        if path.exists():
-            try:
-                old = pd.read_parquet(path, engine="pyarrow")
-            except Exception as e:  # a corrupt history file must not be silently overwritten
-                raise LdbenchError(f"cannot read history file {path}: {e}")
-            old = old[~old["run_id"].isin(ids)]
-            both = pd.concat([old, new], ignore_index=True) if len(old) else new
-        else:
-            both = new
-        both = _sort(both)
-        _atomic_parquet(both, path)
-        out.append({"machine_key": key, "path": path, "added": len(new), "rows": len(both),
-                    "runs": int(both["run_id"].nunique())})
-    return out
+    with _Lock(hdir):
+        return [_add_group(hdir, key, group) for key, group in df.groupby("machine_key", sort=True)]
+
+
+def _add_group(hdir: Path, key: str, group) -> dict:
+    """Merge one machine's rows into its history file (call with the lock held)."""
+    import pandas as pd
+
+    from .records import check_columns
+
+    path = hdir / f"{key}.parquet"
+    new = _serialize(group)
+    ids = set(new["run_id"])
+    if path.exists():
+        try:
+            old = pd.read_parquet(path, engine="pyarrow")
+        except Exception as e:  # a corrupt history file must not be silently overwritten
+            why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
+            raise LdbenchError(f"cannot read history file {path}: {why}")
+        check_columns(old.columns, f"history file {path}")
+        old = old[~old["run_id"].isin(ids)]
+        both = pd.concat([old, new], ignore_index=True) if len(old) else new
+    else:
+        both = new
+    both = _sort(both)
+    _atomic_parquet(both, path)
+    return {"machine_key": key, "path": path, "added": len(new), "rows": len(both),
+            "runs": int(both["run_id"].nunique())}
 
 
 def load_history(history_dir=DEFAULT_HISTORY_DIR, machine: str | None = None) -> dict:
@@ -360,6 +408,9 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
         raise LdbenchError(f"--alpha must be in (0, 1), got {alpha}")
     if min_size < 1:
         raise LdbenchError(f"--min-size must be >= 1, got {min_size}")
+    for name, v in (("min-effect", min_effect), ("min-db", min_db)):
+        if not (math.isfinite(v) and v >= 0):
+            raise LdbenchError(f"--{name} must be a finite number >= 0, got {v}")
     hist = load_history(history_dir, machine)
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
     out.mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,7 @@
 A *part* is ``(vertices (N, 3) float64, faces (M, 3) int64)``; faces are counter-clockwise seen from
 the front. Everything is vectorised numpy and deterministic. Mesh files are read with trimesh
 (``process=False``, so the file's triangles are kept one for one); MTL files only for their ``Kd``.
-The analytic Mitsuba shapes (``rectangle``, ``cube``, ``disk``, ``sphere``) are tessellated here in
+The analytic Mitsuba shapes (``rectangle``, ``cube``, ``disk``, ``cylinder``, ``sphere``) are tessellated here in
 their local frames, so the GPU and the reference render the same triangles.
 """
 from __future__ import annotations
@@ -207,6 +207,13 @@ def disk(segments: int = DISK_SEGMENTS):
     v = np.concatenate([[[0.0, 0.0, 0.0]], np.stack([np.cos(phi), np.sin(phi), 0 * phi], -1)])
     k = np.arange(segments)
     return v, np.stack([np.zeros_like(k), 1 + k, 1 + (k + 1) % segments], -1)
+
+
+def tube(segments: int = DISK_SEGMENTS):
+    """Mitsuba's ``cylinder``: the open unit tube (radius 1) around +z from z = 0 to 1 as a ``segments``-gon
+    prism side (no caps, as Mitsuba's), outward normals: 2 · segments triangles."""
+    v, f = cylinder(1.0, 0.0, 1.0, segments, 1)
+    return v @ np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]).T, f  # +90° about x: y axis -> z axis
 
 
 def icosphere(subdivisions: int = SPHERE_SUBDIVISIONS):

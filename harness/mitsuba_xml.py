@@ -1,41 +1,45 @@
-"""Mitsuba 3 XML scene files → :class:`~harness.scene.Scene`, without needing Mitsuba.
+"""Mitsuba 3 XML scene files → :class:`~harness.scene.Scene`, read by Mitsuba's own loader.
 
-``load_mitsuba_xml(path, **params)`` reads the subset of the Mitsuba 3 scene format that ldbench can
-represent, parsing the XML itself (ElementTree elements built by expat, so errors can give line numbers):
+``load_mitsuba_xml(path, **params)`` hands the file to Mitsuba's parser (``mitsuba.parser``, the front
+end of ``mitsuba.load_file``; variant ``scalar_rgb``, nothing instantiated), which does everything the
+XML format defines: ``<default>`` and ``$name`` substitution (``params`` override the defaults, as
+``mitsuba.load_file(path, **params)`` does; an unused one is an error), ``<include>``, ``<ref>`` ids,
+version upgrades, ``<transform>`` elements composed in double precision, ``rgb``/``spectrum`` values.
+This module maps the resulting graph of plugin properties onto a :class:`Scene`:
 
-* ``<scene version="2.x/3.x">``; ``<default name= value=>`` and ``$name`` substitution in every
-  attribute (``params`` override the defaults, as ``mitsuba.load_file(path, **params)`` does);
-* BSDFs ``diffuse`` (``reflectance`` as ``<rgb>``, a single-value ``<spectrum>`` or ``<float>``;
-  Mitsuba's default 0.5) and ``twosided`` wrapping one diffuse BSDF; named BSDFs (``id``) used through
-  ``<ref id=...>``; a shape without a BSDF gets Mitsuba's default diffuse 0.5;
-* opacity (the ``oit`` effect's α, :attr:`harness.scene.Mesh.opacity`): Mitsuba's own ``mask`` BSDF,
-  ``<bsdf type="mask"><float name="opacity" value="0.4"/> <bsdf type="diffuse">…</bsdf></bsdf>``, around
-  a diffuse or twosided BSDF or inside a twosided one; its opacity must be one ``<float>`` in [0, 1]
-  (Mitsuba's default 0.5 when absent). Opacity as a texture, an ``<rgb>`` or a spectrum, nested masks
-  and a different front and back opacity are errors;
-* shapes ``obj``/``ply`` (``filename`` relative to the XML's folder, read with trimesh,
-  ``process=False``, all parts merged as Mitsuba does) and the analytic ``rectangle`` ([-1, 1]² in
-  z = 0, 2 triangles), ``cube`` ([-1, 1]³, 12 triangles), ``sphere`` (``center``, ``radius``;
-  an icosphere of 5120 triangles inscribed in the sphere) and ``disk`` (unit disk in z = 0, 64-gon),
-  tessellated here — the reference renders these same triangles;
-* ``<transform name="to_world">`` of ``matrix`` (16 or 9 numbers, row-major), ``translate``,
-  ``rotate`` (axis, angle in degrees, right-handed; like Mitsuba, the axis is not normalised),
-  ``scale``, ``lookat``, composed in Mitsuba's
-  order: each element left-multiplies what came before;
-* one ``<sensor type="perspective">`` (``fov`` + ``fov_axis`` x | y | diagonal | smaller | larger,
-  or ``focal_length``; ``to_world``; ``<film>`` width/height, Mitsuba's default 768 × 576). The
-  field of view is converted to ldbench's vertical one for the film's aspect ratio, and the film
-  size is kept in ``scene.params['film'] = (width, height)``. Mitsuba cameras look along local +z
-  with local +x towards the image's *left*; :class:`~harness.scene.Camera` derives right = forward ×
-  up, which is the same image (not mirrored) for every proper (det > 0) rigid sensor transform;
+* BSDFs ``diffuse`` (``reflectance`` a constant colour: ``rgb``, a uniform ``spectrum`` or a ``float``;
+  Mitsuba's default 0.5) and ``twosided`` around one diffuse BSDF; no BSDF: diffuse 0.5;
+* opacity (the ``oit`` effect's α, :attr:`harness.scene.Mesh.opacity`): Mitsuba's ``mask`` BSDF around
+  a diffuse or twosided BSDF or inside a twosided one, its ``opacity`` one ``float`` in [0, 1]
+  (Mitsuba's default 0.5). Textured, rgb or spectral opacity, nested masks and a different front and
+  back opacity are errors;
+* shapes ``obj``/``ply`` (``filename`` relative to the XML's folder) and the analytic ``rectangle``,
+  ``cube``, ``sphere`` (``center``, ``radius``), ``disk`` and ``cylinder`` (``p0``, ``p1``, ``radius``;
+  open, as Mitsuba's), tessellated by :mod:`harness.meshio` in their local frames; ``to_world`` (as
+  Mitsuba composed it, float64) is applied here in float64;
+* one ``perspective`` sensor (``fov`` + ``fov_axis`` x | y | diagonal | smaller | larger, or
+  ``focal_length``; ``to_world``; film width/height, Mitsuba's default 768 × 576), as ldbench's vertical
+  field of view for the film's aspect ratio; the film size goes to ``scene.params['film']``. Mitsuba
+  cameras look along local +z with local +x towards the image's left; :class:`~harness.scene.Camera`
+  derives right = forward × up, the same (unmirrored) image for every proper rigid sensor transform;
 * emitters ``spot`` (``intensity``, ``cutoff_angle``, ``beam_width``, ``to_world``) and ``point``
   (``position`` or ``to_world``, ``intensity``) → :class:`~harness.scene.SpotLight`.
 
-Area emitters inside shapes (the shape stays as geometry) and other emitter types (``constant``,
-``envmap``, ``directional``, ...) are ignored with a line in ``scene.warnings``; ``<integrator>`` and
-sensor details that do not change the image geometry (sampler, rfilter, clip planes) are ignored.
-Everything else that ldbench cannot represent — other BSDFs, textures, several sensors, other shape
-or sensor types, media — raises :class:`LdbenchError` naming the element, its line and the file.
+Area emitters inside shapes (the shape stays geometry) and other emitter types are ignored with a line
+in ``scene.warnings``; integrators, samplers, filters and clip planes do not change the geometry and are
+ignored. Anything else (other BSDFs, textures, media, other shape or sensor types, several sensors)
+raises :class:`LdbenchError` naming the element, its line and the file.
+
+Why not everything from Mitsuba: the reference renders the Scene's own triangles (references/
+integrators.py), and ``Scene.content_hash`` keys the reference cache on their exact bytes. Mesh files
+are therefore read with :func:`harness.meshio.read_mesh` (trimesh), like every other ldbench mesh:
+Mitsuba's OBJ loader splits a quad (a, b, c, d) as (a, b, c), (a, c, d) where trimesh gives (a, b, c),
+(c, d, a), and an instantiated ``scalar_rgb`` scene holds vertices, camera and lights in float32.
+
+ldbench's own layer on top of Mitsuba (:func:`_xml_layer`, xml.etree): the ``<default>`` values, which
+Mitsuba's parser substitutes and forgets, recorded in ``scene.params['xml_params']`` (defaults with the
+overrides applied), and malformed XML reported with expat's line before Mitsuba sees the file.
+Mitsuba's own errors are reduced to one line.
 """
 from __future__ import annotations
 
@@ -43,7 +47,6 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ET
-import xml.parsers.expat
 from pathlib import Path
 
 import numpy as np
@@ -52,407 +55,363 @@ from . import meshio
 from .errors import LdbenchError
 from .scene import Camera, Mesh, Scene, SpotLight
 
-SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk")
+SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk", "cylinder")
 DEFAULT_FILM = (768, 576)  # Mitsuba's hdrfilm default
-_PARAM_RE = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
+VARIANT = "scalar_rgb"  # the parser's variant: rgb values stay colours (a spectral one makes textures)
+COLOUR_HINT = "ldbench supports constant colours (rgb, uniform spectrum, float)"
+MASK_HINT = ('ldbench reads opacity as <bsdf type="mask"><float name="opacity" value="0.5"/> around a '
+             'diffuse or twosided bsdf, with one opacity in [0, 1]')
+BSDF_HINT = "ldbench supports diffuse and twosided(diffuse), optionally in a mask (opacity)"
+
+# Mitsuba's object types as the XML tag that declares them (for messages).
+_TAGS = {"Scene": "scene", "Sensor": "sensor", "Film": "film", "Emitter": "emitter", "Sampler": "sampler",
+         "Shape": "shape", "Texture": "texture", "Volume": "volume", "Medium": "medium", "BSDF": "bsdf",
+         "Integrator": "integrator", "PhaseFunction": "phase", "ReconstructionFilter": "rfilter"}
 
 
-# ---------------------------------------------------------------------------------------------------
-# parsing
-
-def _parse(path: str):
-    """(root element, {id(element): line}) of an XML file; malformed XML is an LdbenchError."""
+def _mitsuba():
+    """(mitsuba, its parser module) with the ``scalar_rgb`` types registered, without setting a variant
+    (the references choose theirs; a scalar variant's module does not start the LLVM backend)."""
     try:
-        data = Path(path).read_bytes()
+        import importlib
+
+        import mitsuba as mi
+
+        importlib.import_module(f"mitsuba.{VARIANT}")
+        return mi, mi.parser
+    except ImportError as e:
+        raise LdbenchError(f"reading Mitsuba XML needs Mitsuba 3 with its {VARIANT} variant ({e})") from None
+    except AttributeError:
+        raise LdbenchError(f"reading Mitsuba XML needs mitsuba.parser, which Mitsuba {mi.__version__} lacks: "
+                           f"pip install -U mitsuba") from None
+
+
+def mitsuba_message(e: Exception) -> str:
+    """Mitsuba's exception text as one line: source locations (``[parser.cpp:451] ``) dropped,
+    whitespace and line breaks collapsed."""
+    msg = re.sub(r"\[[\w./-]+:\d+\]\s*", "", str(e))
+    return " ".join(msg.split()) or type(e).__name__
+
+
+def _xml_layer(path: str) -> dict:
+    """ldbench's reading of the file itself: ``{name: value}`` of the root's ``<default>`` elements.
+
+    Malformed XML is an LdbenchError with expat's line and column."""
+    try:
+        root = ET.parse(path).getroot()
     except OSError as e:
         raise LdbenchError(f"cannot read scene file {path}: {e.strerror or e}") from None
-    parser = xml.parsers.expat.ParserCreate()
-    stack, lines, roots = [], {}, []
-
-    def start(tag, attrs):
-        el = ET.Element(tag, attrs)
-        lines[id(el)] = parser.CurrentLineNumber
-        (stack[-1].append(el) if stack else roots.append(el))
-        stack.append(el)
-
-    def end(tag):
-        stack.pop()
-
-    parser.StartElementHandler, parser.EndElementHandler = start, end
-    try:
-        parser.Parse(data, True)
-    except xml.parsers.expat.ExpatError as e:
+    except ET.ParseError as e:
         raise LdbenchError(f"malformed XML in {path}: {e}") from None
-    return roots[0], lines
+    return {d.get("name"): d.get("value") for d in root.findall("default") if d.get("name") is not None}
 
 
 class _Loader:
     def __init__(self, path: str, params: dict):
         self.path = str(path)
         self.dir = Path(self.path).resolve().parent
-        self.root, self.lines = _parse(self.path)
         self.overrides = {k: str(v) for k, v in params.items()}
         self.warnings: list[str] = []
-        self.ids: dict[str, ET.Element] = {}
-        self._albedo_cache: dict[int, tuple] = {}
-        self._opacity: dict[int, float] = {}  # id(bsdf element) -> α of a mask BSDF (see opacity())
+        self._albedo: dict[int, tuple] = {}
+        self._opacity: dict[int, float] = {}  # id(mask BSDF node) -> its α (see opacity())
 
-    # -- messages ------------------------------------------------------------------------------------
-    def desc(self, el) -> str:
-        attrs = "".join(f' {k}="{el.get(k)}"' for k in ("type", "id", "name") if el.get(k) is not None)
-        line = self.lines.get(id(el))
-        return f"<{el.tag}{attrs}>" + (f" at line {line}" if line else "")
+    # -- Mitsuba's parse -----------------------------------------------------------------------------
+    def parse(self):
+        self.mi, parser = _mitsuba()
+        self.T = self.mi.Properties.Type
+        cfg = parser.ParserConfig(VARIANT)
+        cfg.merge_equivalent = False  # keep one node per XML element: ids, lines and order as written
+        cfg.merge_meshes = False
+        try:
+            state = parser.parse_file(cfg, self.path, **self.overrides)
+            parser.transform_upgrade(cfg, state)
+            parser.transform_resolve(cfg, state)
+        except Exception as e:  # Mitsuba raises RuntimeError with a multi-line text
+            raise self.parse_error(mitsuba_message(e)) from None
+        self.nodes = list(state.nodes)  # one Python object per node: id(node) keys the caches below
+        self.files = [str(f) for f in state.files]
+        self._text: dict[int, bytes] = {}
 
-    def err(self, what: str, el=None, hint: str = "") -> LdbenchError:
-        where = f" (element {self.desc(el)})" if el is not None else ""
-        return LdbenchError(f"{what}{where} in {self.path}" + (f": {hint}" if hint else ""))
+    def parse_error(self, msg: str) -> LdbenchError:
+        unused = re.findall(r"\$(\w+)=", msg) if "unused parameters" in msg else []
+        if unused:
+            return LdbenchError(f"parameter {', '.join(map(repr, unused))} is not used by scene file {self.path} "
+                                f"(its defaults: {', '.join(self.defaults) or 'none'})")
+        msg = re.sub(rf'^Error while loading (XML file )?"?{re.escape(self.path)}"?:? ?', "", msg)
+        return LdbenchError(f"Mitsuba cannot load scene file {self.path}" + (" " if msg.startswith("(") else ": ")
+                            + msg)
+
+    # -- nodes -----------------------------------------------------------------------------------------
+    def tag(self, n) -> str:
+        return _TAGS.get(n.type.name, n.type.name.lower())
+
+    def line(self, n):
+        """1-based line of a node's element (Mitsuba records its byte offset in its file)."""
+        if n.file_index not in self._text:
+            try:
+                self._text[n.file_index] = Path(self.files[n.file_index]).read_bytes()
+            except (OSError, IndexError):
+                self._text[n.file_index] = b""
+        data = self._text[n.file_index]
+        return data.count(b"\n", 0, n.offset) + 1 if data else None
+
+    def file(self, n) -> str:
+        """The file a node comes from (the scene file or one it includes)."""
+        return self.files[n.file_index] if n.file_index < len(self.files) else self.path
+
+    def where(self, n) -> str:
+        return f"line {self.line(n)} of {self.file(n)}"
+
+    def desc(self, n) -> str:
+        i = n.props.id()
+        attrs = f' type="{n.props.plugin_name()}"' + (f' id="{i}"' if i else "")
+        line = self.line(n)
+        return f"<{self.tag(n)}{attrs}>" + (f" at line {line}" if line else "")
+
+    def err(self, what: str, n=None, hint: str = "") -> LdbenchError:
+        where = f" (element {self.desc(n)})" if n is not None else ""
+        return LdbenchError(f"{what}{where} in {self.file(n) if n is not None else self.path}"
+                            + (f": {hint}" if hint else ""))
+
+    def children(self, n) -> list:
+        """The object nodes nested in (or referenced by) ``n``, in document order, as (name, node)."""
+        out = [(n.props[k].index(), k) for k in n.props.keys() if n.props.type(k) == self.T.ResolvedReference]
+        return [(k, self.nodes[i]) for i, k in sorted(out)]
+
+    def kind(self, n, tag: str) -> list:
+        return [c for _, c in self.children(n) if self.tag(c) == tag]
 
     # -- values ----------------------------------------------------------------------------------------
-    def floats(self, el, attr: str, n=None, default=None) -> list[float]:
-        s = el.get(attr)
-        if s is None:
-            if default is not None:
-                return default
-            raise self.err(f"missing attribute {attr!r}", el)
-        try:
-            vals = [float(x) for x in s.replace(",", " ").split()]
-        except ValueError:
-            raise self.err(f"bad number in {attr}={s!r}", el) from None
-        if not all(math.isfinite(v) for v in vals):
-            raise self.err(f"non-finite number in {attr}={s!r}", el)
-        if n is not None and len(vals) not in (n if isinstance(n, tuple) else (n,)):
-            raise self.err(f"{attr}={s!r} must have {' or '.join(map(str, n if isinstance(n, tuple) else (n,)))} "
-                           f"numbers", el)
-        return vals
+    def has(self, n, name: str) -> bool:
+        return name in n.props
 
-    def vec3(self, el, default=(0.0, 0.0, 0.0)) -> np.ndarray:
-        """A point/vector: ``value="x, y, z"`` or ``x= y= z=`` attributes."""
-        if el.get("value") is not None:
-            return np.array(self.floats(el, "value", 3))
-        return np.array([self.floats(el, k, 1, [d])[0] for k, d in zip("xyz", default)])
-
-    def props(self, el) -> dict:
-        """name → property element, for the simple property children of an object element."""
-        out = {}
-        for c in el:
-            if c.tag in ("float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector",
-                         "transform", "texture", "bsdf", "ref") and c.get("name"):
-                out[c.get("name")] = c
-        return out
-
-    def number(self, el, name: str, default: float) -> float:
-        c = self.props(el).get(name)
-        if c is None:
+    def number(self, n, name: str, default: float) -> float:
+        if not self.has(n, name):
             return default
-        if c.tag not in ("float", "integer"):
-            raise self.err(f"property {name!r} must be a float", c)
-        return self.floats(c, "value", 1)[0]
+        if n.props.type(name) not in (self.T.Float, self.T.Integer):
+            raise self.err(f"property {name!r} must be a float", n)
+        v = float(n.props[name])
+        if not math.isfinite(v):
+            raise self.err(f"non-finite {name} {v}", n)
+        return v
 
-    def string(self, el, name: str, default=None):
-        c = self.props(el).get(name)
-        return default if c is None else c.get("value", "")
+    def string(self, n, name: str, default=None):
+        if not self.has(n, name):
+            return default
+        return n.props[name] if n.props.type(name) == self.T.String else n.props.as_string(name)
 
-    def color(self, c, what: str) -> tuple:
-        """A constant colour property: <rgb>, single-value <spectrum>, <float>; textures are errors."""
-        if c.tag == "rgb":
-            v = self.floats(c, "value", (1, 3))
-        elif c.tag == "spectrum":
-            if c.get("filename") is not None or ":" in (c.get("value") or ""):
-                raise self.err(f"unsupported spectrum for {what}", c,
-                               "ldbench supports rgb values and single-value spectra")
-            v = self.floats(c, "value", 1)
-        elif c.tag in ("float", "integer"):
-            v = self.floats(c, "value", 1)
-        elif c.tag == "texture":
-            raise self.err(f"unsupported texture type {c.get('type')!r} for {what}", c,
-                           "ldbench supports constant colours (rgb, single-value spectrum, float)")
-        elif c.tag == "ref":
-            tgt = self.lookup(c)
-            raise self.err(f"unsupported reference to a <{tgt.tag}> for {what}", c,
-                           "ldbench supports constant colours (rgb, single-value spectrum, float)")
+    def vec3(self, n, name: str) -> np.ndarray:
+        if n.props.type(name) != self.T.Vector:
+            raise self.err(f"property {name!r} must be a point", n)
+        v = np.array(n.props[name], np.float64).reshape(3)
+        if not np.all(np.isfinite(v)):
+            raise self.err(f"non-finite {name} {tuple(v)}", n)
+        return v
+
+    def color(self, n, name: str, what: str) -> tuple:
+        """A constant colour property: rgb, uniform spectrum, float; textures are errors."""
+        t = n.props.type(name)
+        if t == self.T.Color:
+            v = tuple(float(x) for x in n.props[name])
+        elif t == self.T.Spectrum:
+            s = n.props[name]
+            if not s.is_uniform():
+                raise self.err(f"unsupported spectrum for {what}", n, "ldbench supports rgb values and uniform spectra")
+            v = (float(s.values[0]),) * 3
+        elif t in (self.T.Float, self.T.Integer):
+            v = (float(n.props[name]),) * 3
+        elif t == self.T.ResolvedReference:
+            tgt = self.nodes[n.props[name].index()]
+            raise self.err(f"unsupported {self.tag(tgt)} type {tgt.props.plugin_name()!r} for {what}", tgt, COLOUR_HINT)
         else:
-            raise self.err(f"unsupported <{c.tag}> for {what}", c)
-        return tuple(v * 3 if len(v) == 1 else v)
+            raise self.err(f"unsupported {t.name.lower()} value for {what}", n, COLOUR_HINT)
+        if not all(math.isfinite(x) for x in v):
+            raise self.err(f"non-finite {what} {v}", n)
+        return v
 
-    # -- substitution ----------------------------------------------------------------------------------
-    def substitute(self):
-        if self.root.tag != "scene":
-            raise self.err("the root element must be <scene>", self.root)
-        ver = self.root.get("version")
-        if ver is not None:
-            m = re.match(r"\s*(\d+)", ver)
-            if m is None or int(m.group(1)) < 2:
-                raise self.err(f"scene version {ver!r} is the Mitsuba 0.x format", self.root,
-                               "ldbench reads Mitsuba 2/3 XML (version 2.0.0 or later)")
-        defaults = {}
-        for el in self.root.iter("default"):
-            if el not in list(self.root):
-                raise self.err("<default> must be a direct child of <scene>", el)
-            name, value = el.get("name"), el.get("value")
-            if not name or value is None:
-                raise self.err("<default> needs name and value", el)
-            defaults[name] = value
-        values = {**defaults, **self.overrides}
-        used = set()
-
-        def repl(el, s):
-            def one(m):
-                k = m.group(1)
-                if k not in values:
-                    raise self.err(f"undefined parameter ${k}", el,
-                                   "declare it with <default name=... value=...> or pass it")
-                used.add(k)
-                return values[k]
-            return _PARAM_RE.sub(one, s)
-
-        for el in self.root.iter():
-            if el.tag == "default":
-                continue
-            for k, v in list(el.attrib.items()):
-                if "$" in v:
-                    el.set(k, repl(el, v))
-        for k in self.overrides:
-            if k not in defaults and k not in used:
-                raise LdbenchError(f"parameter {k!r} is not used by scene file {self.path} "
-                                   f"(its defaults: {', '.join(defaults) or 'none'})")
-        self.values = values
-
-    # -- references ------------------------------------------------------------------------------------
-    def register_ids(self):
-        for el in self.root.iter():
-            i = el.get("id")
-            if i is not None and el.tag not in ("ref", "default"):
-                if i in self.ids:
-                    raise self.err(f"duplicate id {i!r}", el)
-                self.ids[i] = el
-
-    def lookup(self, ref):
-        i = ref.get("id")
-        if i is None:
-            raise self.err("<ref> without id", ref)
-        if i not in self.ids:
-            raise self.err(f"reference to undefined id {i!r}", ref)
-        return self.ids[i]
-
-    # -- transforms ------------------------------------------------------------------------------------
-    def transform(self, el) -> np.ndarray:
-        M = np.eye(4)
-        for c in el:
-            T = np.eye(4)
-            if c.tag == "translate":
-                T[:3, 3] = self.vec3(c)
-            elif c.tag == "scale":
-                if c.get("value") is not None:
-                    v = self.floats(c, "value", (1, 3))
-                    s = v * 3 if len(v) == 1 else v
-                else:
-                    s = self.vec3(c, (1.0, 1.0, 1.0))
-                T[:3, :3] = np.diag(s)
-            elif c.tag == "rotate":
-                axis = self.vec3(c)
-                if not np.any(axis):
-                    raise self.err("rotation axis is zero", c)
-                # Mitsuba 3.9 does not normalise the axis (a non-unit axis also scales): same here.
-                T[:3, :3] = _rotation(axis, self.floats(c, "angle", 1, [0.0])[0])
-            elif c.tag == "matrix":
-                v = self.floats(c, "value", (16, 9))
-                if len(v) == 16:
-                    T = np.array(v).reshape(4, 4)
-                else:
-                    T[:3, :3] = np.array(v).reshape(3, 3)
-            elif c.tag == "lookat":
-                o, t = (np.array(self.floats(c, k, 3)) for k in ("origin", "target"))
-                up = np.array(self.floats(c, "up", 3, [0.0, 1.0, 0.0]))
-                T = _lookat(o, t, up)
-                if T is None:
-                    raise self.err("degenerate lookat (origin = target, or up parallel to the view)", c)
-            else:
-                raise self.err(f"unsupported transform element <{c.tag}>", c,
-                               "ldbench supports matrix, translate, rotate, scale and lookat")
-            M = T @ M
+    def to_world(self, n) -> np.ndarray:
+        if not self.has(n, "to_world"):
+            return np.eye(4)
+        if n.props.type("to_world") != self.T.Transform:
+            raise self.err("property 'to_world' must be a transform", n)
+        M = np.array(n.props["to_world"].matrix, np.float64).reshape(4, 4)
         if not np.all(np.isfinite(M)):
-            raise self.err("non-finite transform", el)
+            raise self.err("non-finite transform", n)
         return M
 
-    def to_world(self, el):
-        c = [x for x in el if x.tag == "transform" and x.get("name") == "to_world"]
-        return self.transform(c[0]) if c else np.eye(4)
-
     # -- BSDFs ---------------------------------------------------------------------------------------
-    def albedo(self, el) -> tuple:
-        if el.tag == "ref":
-            tgt = self.lookup(el)
-            if tgt.tag != "bsdf":
-                raise self.err(f"reference to a <{tgt.tag}> where a bsdf is expected", el)
-            el = tgt
-        key = id(el)
-        if key in self._albedo_cache:
-            return self._albedo_cache[key]
-        t = el.get("type")
-        hint = "ldbench supports diffuse and twosided(diffuse), optionally in a mask (opacity)"
+    def albedo(self, n) -> tuple:
+        key = id(n)
+        if key in self._albedo:
+            return self._albedo[key]
+        t = n.props.plugin_name()
         if t == "diffuse":
-            for c in el:
-                if c.tag == "texture" and c.get("name") != "reflectance":
-                    raise self.err(f"unsupported texture type {c.get('type')!r}", c)
-            c = self.props(el).get("reflectance")
-            a = (0.5, 0.5, 0.5) if c is None else self.color(c, "the diffuse reflectance")
+            for name, c in self.children(n):
+                if name != "reflectance":
+                    raise self.err(f"unsupported {self.tag(c)} type {c.props.plugin_name()!r}", c)
+            a = self.color(n, "reflectance", "the diffuse reflectance") if self.has(n, "reflectance") \
+                else (0.5, 0.5, 0.5)
             if min(a) < 0 or max(a) > 1:
-                raise self.err(f"diffuse reflectance {a} outside [0, 1]", c)
+                raise self.err(f"diffuse reflectance {a} outside [0, 1]", n)
         elif t == "twosided":
-            inner = [c for c in el if c.tag in ("bsdf", "ref")]
+            inner = self.kind(n, "bsdf")
+            for _, c in self.children(n):
+                if self.tag(c) != "bsdf":
+                    raise self.err(f"unsupported {self.tag(c)} type {c.props.plugin_name()!r}", c)
             if not inner:
-                raise self.err("twosided bsdf without a nested bsdf", el, hint)
+                raise self.err("twosided bsdf without a nested bsdf", n, BSDF_HINT)
             if len(inner) > 2:
-                raise self.err("twosided bsdf with more than two nested bsdfs", el, hint)
+                raise self.err("twosided bsdf with more than two nested bsdfs", n, BSDF_HINT)
             albs = [self.albedo(c) for c in inner]
             if len(albs) == 2 and not np.allclose(albs[0], albs[1]):
-                raise self.err("twosided bsdf with different front and back bsdfs", el, hint)
+                raise self.err("twosided bsdf with different front and back bsdfs", n, BSDF_HINT)
             a = albs[0]
-            for c in el:
-                if c.tag == "texture":
-                    raise self.err(f"unsupported texture type {c.get('type')!r}", c)
         elif t == "mask":
-            a = self._mask(el)
+            a = self._mask(n)
         else:
-            raise self.err(f"unsupported bsdf type {t!r}", el, hint)
-        self._albedo_cache[key] = a
+            raise self.err(f"unsupported bsdf type {t!r}", n, BSDF_HINT)
+        self._albedo[key] = a
         return a
 
-    MASK_HINT = ('ldbench reads opacity as <bsdf type="mask"><float name="opacity" value="0.5"/> around a '
-                 'diffuse or twosided bsdf, with one opacity in [0, 1]')
-
-    def _mask(self, el) -> tuple:
-        """Albedo of a ``mask`` BSDF's nested BSDF; records the mask's opacity (``self._opacity``)."""
-        inner = [c for c in el if c.tag in ("bsdf", "ref")]
+    def _mask(self, n) -> tuple:
+        """Albedo of a ``mask`` BSDF's nested BSDF; records the mask's opacity."""
+        for name, c in self.children(n):
+            if self.tag(c) != "bsdf":
+                raise self.err(f"unsupported {self.tag(c)} type {c.props.plugin_name()!r} in a mask bsdf", c,
+                               MASK_HINT)
+        inner = self.kind(n, "bsdf")
         if len(inner) != 1:
-            raise self.err(f"mask bsdf with {len(inner)} nested bsdfs", el, self.MASK_HINT)
-        tgt = self.lookup(inner[0]) if inner[0].tag == "ref" else inner[0]
-        if tgt.tag == "bsdf" and (tgt.get("type") == "mask" or any(
-                c.tag == "bsdf" and c.get("type") == "mask" for c in tgt)):
-            raise self.err("nested mask bsdfs", el, self.MASK_HINT)
-        for c in el:
-            if c.tag not in ("bsdf", "ref") and c.get("name") != "opacity":
-                raise self.err(f"unsupported <{c.tag}> in a mask bsdf", c, self.MASK_HINT)
-        c = self.props(el).get("opacity")
-        if c is None:
+            raise self.err(f"mask bsdf with {len(inner)} nested bsdfs", n, MASK_HINT)
+        tgt = inner[0]
+        if tgt.props.plugin_name() == "mask" or any(c.props.plugin_name() == "mask" for c in self.kind(tgt, "bsdf")):
+            raise self.err("nested mask bsdfs", n, MASK_HINT)
+        if not self.has(n, "opacity"):
             alpha = 0.5  # Mitsuba's default
-        elif c.tag != "float":
-            raise self.err(f"unsupported <{c.tag}> as mask opacity", c, self.MASK_HINT)
+        elif n.props.type("opacity") != self.T.Float:
+            kind = {self.T.Color: "<rgb>", self.T.Spectrum: "<spectrum>"}.get(n.props.type("opacity"), "value")
+            raise self.err(f"unsupported {kind} as mask opacity", n, MASK_HINT)
         else:
-            alpha = self.floats(c, "value", 1)[0]
+            alpha = float(n.props["opacity"])
             if not 0.0 <= alpha <= 1.0:
-                raise self.err(f"mask opacity {alpha} outside [0, 1]", c, self.MASK_HINT)
-        self._opacity[id(el)] = alpha
-        return self.albedo(inner[0])
+                raise self.err(f"mask opacity {alpha} outside [0, 1]", n, MASK_HINT)
+        self._opacity[id(n)] = alpha
+        return self.albedo(tgt)
 
-    def opacity(self, el) -> float:
-        """α of a shape's BSDF (already read by :meth:`albedo`): a ``mask``'s opacity, else 1."""
-        if el.tag == "ref":
-            el = self.lookup(el)
-        if el.get("type") == "mask":
-            return self._opacity[id(el)]
-        if el.get("type") == "twosided":
-            alphas = [self.opacity(c) for c in el if c.tag in ("bsdf", "ref")]
+    def opacity(self, n) -> float:
+        """α of a BSDF already read by :meth:`albedo`: a ``mask``'s opacity, else 1."""
+        t = n.props.plugin_name()
+        if t == "mask":
+            return self._opacity[id(n)]
+        if t == "twosided":
+            alphas = [self.opacity(c) for c in self.kind(n, "bsdf")]
             if len(set(alphas)) > 1:
-                raise self.err("twosided bsdf with different front and back opacity", el, self.MASK_HINT)
+                raise self.err("twosided bsdf with different front and back opacity", n, MASK_HINT)
             return alphas[0] if alphas else 1.0
         return 1.0
 
     # -- shapes ----------------------------------------------------------------------------------------
-    def shape(self, el, index: int):
-        t = el.get("type")
+    def shape(self, n, index: int) -> Mesh:
+        t = n.props.plugin_name()
         if t not in SUPPORTED_SHAPES:
-            raise self.err(f"unsupported shape type {t!r}", el,
-                           f"ldbench supports {', '.join(SUPPORTED_SHAPES)}")
+            raise self.err(f"unsupported shape type {t!r}", n, f"ldbench supports {', '.join(SUPPORTED_SHAPES)}")
         bsdfs = []
-        for c in el:
-            if c.tag in ("bsdf", "ref"):
+        for _, c in self.children(n):
+            tag = self.tag(c)
+            if tag == "bsdf":
                 bsdfs.append(c)
-            elif c.tag == "emitter":
-                if c.get("type") == "area":
-                    self.warnings.append(
-                        f"area emitter of shape {el.get('id') or t + str(index)!r} ignored "
-                        f"(line {self.lines.get(id(c))} of {self.path}): ldbench lights are spot/point "
-                        f"emitters; the shape is kept as geometry")
-                else:
-                    raise self.err(f"unsupported emitter type {c.get('type')!r} inside a shape", c,
+            elif tag == "emitter":
+                if c.props.plugin_name() != "area":
+                    raise self.err(f"unsupported emitter type {c.props.plugin_name()!r} inside a shape", c,
                                    "only area emitters may be attached to shapes")
-            elif c.tag in ("texture", "medium", "sensor", "shape"):
-                raise self.err(f"unsupported <{c.tag}> inside a shape", c)
+                self.warnings.append(f"area emitter of shape {n.props.id() or t + str(index)!r} ignored "
+                                     f"({self.where(c)}): ldbench lights are spot/point emitters; "
+                                     f"the shape is kept as geometry")
+            else:
+                raise self.err(f"unsupported <{tag}> inside a shape", c)
         if len(bsdfs) > 1:
-            raise self.err("shape with more than one bsdf", el)
+            raise self.err("shape with more than one bsdf", n)
         albedo = self.albedo(bsdfs[0]) if bsdfs else (0.5, 0.5, 0.5)
         alpha = self.opacity(bsdfs[0]) if bsdfs else 1.0
-        M = self.to_world(el)
+        M = self.to_world(n)
         if t in ("obj", "ply"):
-            fn = self.string(el, "filename")
+            fn = self.string(n, "filename")
             if not fn:
-                raise self.err("shape without a filename", el)
-            p = Path(fn) if os.path.isabs(fn) else self.dir / fn
+                raise self.err("shape without a filename", n)
+            p = Path(fn) if os.path.isabs(fn) else self.dir / fn  # Mitsuba resolves it from the scene's folder
             if not p.is_file():
-                raise self.err(f"mesh file {p} not found", el)
+                raise self.err(f"mesh file {p} not found", n)
             try:
                 v, f = meshio.read_mesh(p)
             except LdbenchError as e:
-                raise self.err(str(e), el) from None
+                raise self.err(str(e), n) from None
         elif t == "rectangle":
             v, f = meshio.rectangle()
         elif t == "cube":
             v, f = meshio.box((-1, -1, -1), (1, 1, 1))
         elif t == "disk":
             v, f = meshio.disk()
-        else:  # sphere
+        elif t == "cylinder":  # the unit tube along +z mapped onto p0 -> p1 with the radius
+            v, f = meshio.tube()
+            p0 = self.vec3(n, "p0") if self.has(n, "p0") else np.zeros(3)
+            p1 = self.vec3(n, "p1") if self.has(n, "p1") else np.array([0.0, 0.0, 1.0])
+            radius = self.number(n, "radius", 1.0)
+            axis = p1 - p0
+            length = float(np.linalg.norm(axis))
+            if not radius > 0 or not length > 0:
+                raise self.err(f"cylinder needs a positive radius and p0 != p1, got radius {radius}", n)
+            e3 = axis / length
+            e1 = np.cross(np.eye(3)[int(np.argmin(np.abs(e3)))], e3)
+            e1 /= np.linalg.norm(e1)
+            F = np.eye(4)
+            F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = e1 * radius, np.cross(e3, e1) * radius, axis, p0
+            M = M @ F
+        else:  # sphere: Mitsuba's to_world · translate(center) · scale(radius)
             v, f = meshio.icosphere()
-            props = self.props(el)
-            center = self.vec3(props["center"]) if "center" in props else np.zeros(3)
-            radius = self.number(el, "radius", 1.0)
+            center = self.vec3(n, "center") if self.has(n, "center") else np.zeros(3)
+            radius = self.number(n, "radius", 1.0)
             if not radius > 0:
-                raise self.err(f"sphere radius must be positive, got {radius}", el)
+                raise self.err(f"sphere radius must be positive, got {radius}", n)
             S = np.eye(4)
             S[:3, :3] *= radius
             S[:3, 3] = center
             M = M @ S
         v = v @ M[:3, :3].T + M[:3, 3]
-        name = el.get("id") or f"{t}{index}"
-        return Mesh(name, v.astype(np.float32), f.astype(np.int32), albedo, alpha)
+        return Mesh(n.props.id() or f"{t}{index}", v.astype(np.float32), f.astype(np.int32), albedo, alpha)
 
     # -- sensor ----------------------------------------------------------------------------------------
-    def sensor(self, el):
-        t = el.get("type")
+    def sensor(self, n):
+        t = n.props.plugin_name()
         if t != "perspective":
-            raise self.err(f"unsupported sensor type {t!r}", el, "ldbench supports perspective sensors")
-        films = [c for c in el if c.tag == "film"]
+            raise self.err(f"unsupported sensor type {t!r}", n, "ldbench supports perspective sensors")
         w, h = DEFAULT_FILM
-        if films:
-            film = films[0]
-            for k in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
-                if k in self.props(film):
-                    raise self.err(f"unsupported film property {k!r}", film)
-            w = int(self.number(film, "width", w))
-            h = int(self.number(film, "height", h))
-            if w < 1 or h < 1:
-                raise self.err(f"film size {w}x{h} is not positive", film)
+        for _, c in self.children(n):
+            tag = self.tag(c)
+            if tag == "film":
+                for k in ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height"):
+                    if self.has(c, k):
+                        raise self.err(f"unsupported film property {k!r}", c)
+                w, h = int(self.number(c, "width", w)), int(self.number(c, "height", h))
+                if w < 1 or h < 1:
+                    raise self.err(f"film size {w}x{h} is not positive", c)
+            elif tag != "sampler":
+                raise self.err(f"unsupported <{tag}> inside a sensor", c)
         for k in ("principal_point_offset_x", "principal_point_offset_y"):
-            if self.number(el, k, 0.0) != 0.0:
-                raise self.err(f"unsupported sensor property {k!r}", el)
-        for c in el:
-            if c.tag in ("texture", "medium", "emitter", "shape", "bsdf"):
-                raise self.err(f"unsupported <{c.tag}> inside a sensor", c)
+            if self.number(n, k, 0.0) != 0.0:
+                raise self.err(f"unsupported sensor property {k!r}", n)
         aspect = w / h
-        fl = self.string(el, "focal_length")
-        axis = (self.string(el, "fov_axis", "x") or "x").lower()
-        if "fov" in self.props(el):
-            fov = self.number(el, "fov", 0.0)
+        axis = (self.string(n, "fov_axis", "x") or "x").lower()
+        if self.has(n, "fov"):
+            fov = self.number(n, "fov", 0.0)
             if not 0 < fov < 180:
-                raise self.err(f"fov {fov} must be in (0, 180) degrees", el)
+                raise self.err(f"fov {fov} must be in (0, 180) degrees", n)
         else:
-            fl = fl or "50mm"
+            fl = self.string(n, "focal_length", "50mm") or "50mm"
             try:
                 f = float(fl.strip().removesuffix("mm"))
             except ValueError:
-                raise self.err(f"bad focal_length {fl!r}", el) from None
+                raise self.err(f"bad focal_length {fl!r}", n) from None
             if not f > 0:
-                raise self.err(f"bad focal_length {fl!r}", el)
+                raise self.err(f"bad focal_length {fl!r}", n)
             fov, axis = 2 * math.degrees(math.atan(math.hypot(36.0, 24.0) / (2 * f))), "diagonal"
         if axis == "smaller":
             axis = "y" if aspect > 1 else "x"
@@ -466,55 +425,53 @@ class _Loader:
         elif axis == "diagonal":
             tan_y = tan_half / math.sqrt(1 + aspect * aspect)
         else:
-            raise self.err(f"unsupported fov_axis {axis!r}", el, "use x, y, diagonal, smaller or larger")
+            raise self.err(f"unsupported fov_axis {axis!r}", n, "use x, y, diagonal, smaller or larger")
         fov_y = 2 * math.degrees(math.atan(tan_y))
-        M = self.to_world(el)
+        M = self.to_world(n)
         A = M[:3, :3]
         sx, sy, sz = np.linalg.norm(A, axis=0)
         if min(sx, sy, sz) < 1e-12:
-            raise self.err("sensor to_world is singular", el)
+            raise self.err("sensor to_world is singular", n)
         U = A / np.array([sx, sy, sz])
         if np.abs(U.T @ U - np.eye(3)).max() > 1e-4 or max(sx, sy, sz) / min(sx, sy, sz) > 1 + 1e-4:
-            raise self.err("sensor to_world has shear or non-uniform scale", el,
+            raise self.err("sensor to_world has shear or non-uniform scale", n,
                            "ldbench cameras are look-at transforms (rotation + translation)")
         if np.linalg.det(U) < 0:
-            raise self.err("sensor to_world is mirrored (negative determinant)", el,
+            raise self.err("sensor to_world is mirrored (negative determinant)", n,
                            "ldbench cameras are look-at transforms (rotation + translation)")
         origin = M[:3, 3]
         cam = Camera(origin=tuple(origin), target=tuple(origin + U[:, 2]), up=tuple(U[:, 1]), fov_y=fov_y)
         return cam, (w, h)
 
     # -- emitters --------------------------------------------------------------------------------------
-    def emitter(self, el):
-        t = el.get("type")
+    def emitter(self, n):
+        t = n.props.plugin_name()
         if t not in ("spot", "point"):
-            self.warnings.append(f"emitter type {t!r} ignored (line {self.lines.get(id(el))} of {self.path}): "
-                                 f"ldbench lights are spot/point emitters")
+            self.warnings.append(f"emitter type {t!r} ignored ({self.where(n)}): ldbench lights are spot/point "
+                                 f"emitters")
             return None
-        for c in el:
-            if c.tag == "texture":
-                raise self.err(f"unsupported texture type {c.get('type')!r} in a {t} emitter", c)
-        props = self.props(el)
-        intensity = self.color(props["intensity"], "the intensity") if "intensity" in props else (1.0, 1.0, 1.0)
-        M = self.to_world(el)
+        for _, c in self.children(n):
+            raise self.err(f"unsupported {self.tag(c)} type {c.props.plugin_name()!r} in a {t} emitter", c)
+        intensity = self.color(n, "intensity", "the intensity") if self.has(n, "intensity") else (1.0, 1.0, 1.0)
+        M = self.to_world(n)
         if t == "point":
-            if "position" in props:
-                if any(c.tag == "transform" for c in el):
-                    raise self.err("point emitter with both position and to_world", el)
-                pos = self.vec3(props["position"])
+            if self.has(n, "position"):
+                if self.has(n, "to_world"):
+                    raise self.err("point emitter with both position and to_world", n)
+                pos = self.vec3(n, "position")
             else:
                 pos = M[:3, 3]
             return SpotLight(position=tuple(pos), target=tuple(pos + np.array([0.0, 0.0, 1.0])),
                              intensity=intensity, cutoff_angle=180.0, beam_width=180.0, up=(0.0, 1.0, 0.0))
-        cutoff = self.number(el, "cutoff_angle", 20.0)
-        beam = self.number(el, "beam_width", cutoff * 0.75)
+        cutoff = self.number(n, "cutoff_angle", 20.0)
+        beam = self.number(n, "beam_width", cutoff * 0.75)
         if not 0 < cutoff <= 180 or not 0 <= beam <= cutoff:
-            raise self.err(f"bad spot angles (cutoff_angle {cutoff}, beam_width {beam})", el)
+            raise self.err(f"bad spot angles (cutoff_angle {cutoff}, beam_width {beam})", n)
         pos = M[:3, 3]
         d = M[:3, :3] @ np.array([0.0, 0.0, 1.0])
         up = M[:3, :3] @ np.array([0.0, 1.0, 0.0])
         if np.linalg.norm(d) < 1e-12:
-            raise self.err("spot emitter to_world is singular", el)
+            raise self.err("spot emitter to_world is singular", n)
         d = d / np.linalg.norm(d)
         up = up - d * (up @ d)
         if np.linalg.norm(up) < 1e-9:
@@ -526,72 +483,43 @@ class _Loader:
 
     # -- scene -----------------------------------------------------------------------------------------
     def load(self) -> Scene:
-        self.substitute()
-        self.register_ids()
-        for el in self.root.iter():
-            if el.tag == "texture":
-                raise self.err(f"unsupported texture type {el.get('type')!r}", el,
-                               "ldbench supports constant colours (rgb, single-value spectrum, float)")
-        sensors = [c for c in self.root if c.tag == "sensor"]
+        self.defaults = _xml_layer(self.path)
+        self.parse()
+        for n in self.nodes:
+            if self.tag(n) == "texture":
+                raise self.err(f"unsupported texture type {n.props.plugin_name()!r}", n, COLOUR_HINT)
+        root = self.nodes[0]
+        sensors = self.kind(root, "sensor")
         if len(sensors) > 1:
             raise self.err(f"{len(sensors)} sensors (second one)", sensors[1],
                            "ldbench needs exactly one perspective sensor")
         if not sensors:
             raise LdbenchError(f"no <sensor> in {self.path}: ldbench needs one perspective sensor")
-        meshes, lights, nshape = [], [], 0
-        for el in self.root:
-            tag = el.tag
-            if tag in ("default", "integrator", "sensor"):
+        meshes, lights = [], []
+        for _, n in self.children(root):
+            tag = self.tag(n)
+            if tag in ("integrator", "sensor"):
                 continue
-            if tag in ("bsdf", "shape", "emitter", "sensor") and not el.get("type"):
-                raise self.err(f"<{tag}> without a type", el)
             if tag == "bsdf":
-                self.albedo(el)  # validate even when unused
+                self.albedo(n)  # validate even when unused
             elif tag == "shape":
-                meshes.append(self.shape(el, nshape))
-                nshape += 1
+                meshes.append(self.shape(n, len(meshes)))
             elif tag == "emitter":
-                light = self.emitter(el)
+                light = self.emitter(n)
                 if light is not None:
                     lights.append(light)
             else:
-                raise self.err(f"unsupported element <{tag}>", el,
+                raise self.err(f"unsupported element <{tag}>", n,
                                "ldbench reads default, integrator (ignored), sensor, bsdf, shape, emitter")
         cam, film = self.sensor(sensors[0])
         if not meshes:
             raise LdbenchError(f"no shapes in {self.path}")
         params = {"film": film}
-        if self.values:
-            params["xml_params"] = dict(sorted(self.values.items()))
+        values = {**self.defaults, **self.overrides}
+        if values:
+            params["xml_params"] = dict(sorted(values.items()))
         return Scene(Path(self.path).stem, meshes, cam, lights, params=params, source=self.path,
                      warnings=self.warnings)
-
-
-def _rotation(axis: np.ndarray, deg: float) -> np.ndarray:
-    """Right-handed rotation about ``axis`` by ``deg`` degrees, exactly Mitsuba's ``Transform4f.rotate``:
-    the axis is used as given (for a non-unit axis this is not a pure rotation, as in Mitsuba)."""
-    x, y, z = axis
-    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
-    C = 1 - c
-    return np.array([[x * x * C + c, x * y * C - z * s, x * z * C + y * s],
-                     [y * x * C + z * s, y * y * C + c, y * z * C - x * s],
-                     [z * x * C - y * s, z * y * C + x * s, z * z * C + c]])
-
-
-def _lookat(origin, target, up):
-    """Mitsuba's look-at matrix: columns (left, up', dir, origin); local +z looks at the target."""
-    d = target - origin
-    if np.linalg.norm(d) < 1e-12:
-        return None
-    d = d / np.linalg.norm(d)
-    left = np.cross(up, d)
-    if np.linalg.norm(left) < 1e-9:
-        return None
-    left /= np.linalg.norm(left)
-    new_up = np.cross(d, left)
-    M = np.eye(4)
-    M[:3, 0], M[:3, 1], M[:3, 2], M[:3, 3] = left, new_up, d, origin
-    return M
 
 
 def load_mitsuba_xml(path, **params) -> Scene:

@@ -1,6 +1,6 @@
 """Result records: machine and commit metadata, result rows, ``results.parquet`` + ``results.csv``.
 
-One row per (suite, scene, method, effect, params) (DESIGN.md, "Records and reports"). The columns
+One row per (suite, scene, method, effect, params) (docs/design.md, "Records and reports"). The columns
 are :data:`COLUMNS`, each with a type in :data:`COLUMN_TYPES`:
 
 * ``str``, ``int``, ``float``, ``bool`` scalars (missing values: None, NaN for floats);
@@ -71,6 +71,10 @@ COLUMN_TYPES: dict[str, str] = {
 }
 COLUMNS = tuple(COLUMN_TYPES)
 JSON_COLUMNS = tuple(c for c, t in COLUMN_TYPES.items() if t == "json")
+#: The columns every reader of a results table relies on (what a row is and whether it ran): a table
+#: without one of them is not ldbench's. :func:`check_columns` is the one check; :func:`read_results`
+#: (report, reproduce, compare, history, run directories) applies it to everything it reads.
+SCHEMA_COLUMNS = ("scene", "method", "effect", "effect_params", "params", "width", "height", "run_id", "status")
 
 _SUBPROCESS_TIMEOUT_S = 10
 
@@ -519,13 +523,35 @@ def write_results(rows: list[dict], out_dir) -> dict:
     return {"parquet": pq, "csv": csv}
 
 
+def check_columns(columns, what, required=SCHEMA_COLUMNS) -> None:
+    """Refuse a table without one of ``required`` (default :data:`SCHEMA_COLUMNS`): one
+    :class:`LdbenchError` line naming ``what`` (e.g. the file) and the first missing columns."""
+    have = set(columns)
+    missing = [c for c in required if c not in have]
+    if missing:
+        raise LdbenchError(f"{what} is not an ldbench results table: no column {missing[0]!r}"
+                           + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
+
+
+def check_not_partial(path) -> None:
+    """Refuse a folder (or a file in one) that a run is still writing or was killed writing: it carries
+    :data:`harness.rundir.MARKER` (``.DIR.partial-PID/``); its rows are not a finished run."""
+    from .rundir import MARKER
+
+    p = Path(path)
+    d = p if p.is_dir() else p.parent
+    if (d / MARKER).exists():
+        raise LdbenchError(f"{d} is an unfinished run (a run killed or still writing it, marked "
+                           f"{MARKER}); give the finished run directory")
+
+
 def _parse_json(v):
     if _is_missing(v) or v == "":
         return None
     return json.loads(v) if isinstance(v, str) else v
 
 
-def read_results(path_or_dir):
+def read_results(path_or_dir, *, unfinished: bool = False):
     """Read a results file (or a run directory's ``results.parquet``, else ``results.csv``).
 
     Columns get their :data:`COLUMN_TYPES` (floats as float64, ints as nullable ``Int64``, ``dirty``
@@ -535,11 +561,15 @@ def read_results(path_or_dir):
     Raises
     ------
     LdbenchError
-        If no results file is found, the file type is unknown, or the file cannot be parsed.
+        If no results file is found, the file type is unknown, the file cannot be parsed or lacks a
+        column of :data:`SCHEMA_COLUMNS` (:func:`check_columns`), or it belongs to an unfinished run
+        (:func:`check_not_partial`; ``unfinished=True``: the runner reading the run it is writing).
     """
     import pandas as pd
 
     p = Path(path_or_dir)
+    if not unfinished:
+        check_not_partial(p)
     if p.is_dir():
         for name in (RESULTS_PARQUET, RESULTS_CSV):
             if (p / name).is_file():
@@ -570,6 +600,7 @@ def read_results(path_or_dir):
             TypeError, KeyError, AttributeError) as e:  # a corrupt or foreign file: one line, not a traceback
         why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]
         raise LdbenchError(f"cannot read results {p}: {why}") from e
+    check_columns(df.columns, str(p))
     return df
 
 

@@ -12,52 +12,14 @@ module per paper, collected by :func:`registry`. An entry is data:
   keys of :data:`QUANTITIES`,
 * ``claims``: the paper's statements as comparisons between rows (:class:`Claim`), each with a verdict
   on our numbers: ``holds`` / ``does not hold on this machine`` / ``not measured`` (a row is missing or
-  failed) / for times, ``inconclusive`` or ``not measurable here`` (see "Timing verdicts" below),
+  failed) / for times, ``inconclusive`` or ``not measurable here`` (docs/reports.md, "Timing verdicts"),
 * ``scales``: suite overrides for ``--scale ci`` (tiny, for CI on llvmpipe) and ``--scale paper`` (the
   suite as written). A scale's parameter overrides are applied to the rows' ``match`` too, so the same
   rows find their counterparts at every scale.
 
-Adding a paper (e.g. niessner2010 Table 1) is a data addition:
-
-1. write the suite that runs our side, ``suites/<paper>-<table>.toml``;
-2. add ``harness/reproductions/<paper>.py`` defining ``REPRODUCTIONS = (Reproduction(...), ...)``:
-   the published rows (with the ``match`` that finds our row), the claims, the ``paper`` and ``ci``
-   scales and notes on what was read into the paper (``aalund2015.py`` is the example);
-3. ``ldbench reproduce --list`` shows it; ``tests/test_reproduce.py`` checks every entry's structure
-   (suite present, claim rows exist, both scales) without further code.
-
-No engine code changes: the module is found by :func:`registry` (pkgutil over the package).
-
-Timing verdicts
----------------
-A time claim compares two rows' medians (``total_ms``). On a GPU (timer queries) the verdict is
-``inconclusive`` when the medians differ by no more than the larger of the two rows' interquartile
-ranges. On a software rasterizer (either row's ``device`` is ``cpu-software``) frames are wall clock
-on shared CPU cores and the load changes between the jobs of one run: over 10 back-to-back runs of
-``aalund2015-fig8 --scale ci`` on a 2-core machine shared with other work, the median of one
-configuration varied by up to 2.1× (6× with two runs at once), far beyond any row's IQR, and the IQR
-rule let "HBAO gets slower as d_max grows" come out "holds" in 5 runs and "does not hold" in one.
-
-The rule on cpu-software: the verdict is ``not measurable here`` unless the medians differ by more
-than the run-to-run spread, the sum of the two rows' spreads. A row's spread is the full range
-(max − min) of its raw per-frame totals (``raw_ms``); for a row stored without them, twice its IQR
-(the range of three frames); with fewer than three frames it is unknown and the claim is not
-measurable here. For a verdict to flip, both medians would have to move by more than the largest
-variation seen within their own jobs, in opposite directions; over 16 such runs (6 of them two at a
-time) no verdict flipped under this rule: each claim gave its one verdict or ``not measurable here``.
-
-Quantities
-----------
-``time_ms`` ← ``total_ms`` (median frame time; GPU timer queries, or wall clock on a software
-rasterizer), ``memory_mb`` ← ``memory_bytes`` / 2**20, ``psnr`` (dB), ``ssim``, ``flip``, ``relmse``,
-the ray columns ``rays_per_s``, ``oracle_rays_per_s``, ``hit_agreement``, ``dist_err_p95``, and two
-families: ``stage:NAME`` (the median time of a stage, ms, from ``stage_ms``; ``stage:a+b`` sums stages,
-e.g. ``stage:count+fill`` for a build's two passes) and ``counter:NAME`` (a method counter, e.g.
-``counter:fragments``). Stage times get the timing verdicts of ``time_ms``, with the whole frame's
-noise.
-The ratio column is ours / published: on different hardware (and a stand-in scene) it measures the
-machine as much as the method, which is why the verdicts compare rows *within* our run (the paper's
-claims are relative statements) and never our absolute numbers with the published ones.
+Adding a paper is a data addition (a suite and a module in :mod:`harness.reproductions`, found by
+:func:`registry`; no engine change). The steps, the quantities a row may give and the timing verdict
+rules (and the measurements behind them) are in docs/reports.md, "Reproducing a paper table".
 """
 from __future__ import annotations
 

@@ -1,7 +1,9 @@
 """Run directories: written under a temporary name, replaced atomically, never someone else's folder.
 
-A run directory (``ldbench run --out DIR``) holds ``results.parquet`` and ``suite.json`` (see
-:func:`is_run_dir`). :class:`RunDir` is the only code that creates, replaces or deletes one:
+A run directory (``ldbench run --out DIR``) holds ``results.parquet`` and ``suite.json`` written by
+ldbench: a Parquet table with the results schema and a JSON object naming the suite and its job count
+(see :func:`is_run_dir`; two files of those names with other contents are someone else's).
+:class:`RunDir` is the only code that creates, replaces or deletes one:
 
 * **Refuse** (one-line :class:`~harness.errors.LdbenchError`) when DIR exists and is neither an
   ldbench run nor an empty folder, when it is a file or a symbolic link, when it is the current
@@ -47,10 +49,34 @@ RUN_FILES = ("results.parquet", "suite.json")
 MARKER = ".ldbench-partial"
 
 
+#: The keys of the ``suite.json`` ldbench writes (:func:`harness.runner.run_jobs`).
+SUITE_KEYS = ("name", "source", "jobs")
+
+
 def is_run_dir(path) -> bool:
-    """True if ``path`` is a directory (not a link) holding ``results.parquet`` and ``suite.json``."""
+    """True if ``path`` is a finished ldbench run: a directory (not a link, no :data:`MARKER`) holding
+    the ``suite.json`` ldbench writes (a JSON object with :data:`SUITE_KEYS`) and a ``results.parquet``
+    whose Parquet schema has the results columns (:func:`harness.records.check_columns`). Only the
+    files' headers are read."""
+    import json
+
     p = Path(path)
-    return p.is_dir() and not p.is_symlink() and all((p / f).is_file() for f in RUN_FILES)
+    if not p.is_dir() or p.is_symlink() or (p / MARKER).exists():
+        return False
+    if not all((p / f).is_file() and not (p / f).is_symlink() for f in RUN_FILES):
+        return False
+    try:
+        suite = json.loads((p / "suite.json").read_bytes()[:1 << 20])
+        if not isinstance(suite, dict) or not all(k in suite for k in SUITE_KEYS):
+            return False
+        import pyarrow.parquet as pq
+
+        from .records import check_columns
+
+        check_columns(pq.read_schema(p / "results.parquet").names, str(p))
+    except (OSError, ValueError, LdbenchError):  # unreadable, not JSON, not Parquet (ArrowInvalid), foreign
+        return False
+    return True
 
 
 def _replaceable(p: Path) -> bool:
@@ -107,7 +133,7 @@ class RunDir:
                 raise LdbenchError(f"--out {out} exists and is not a directory")
             if not _replaceable(out):
                 raise LdbenchError(f"--out {out} exists and is not an ldbench run (no "
-                                   f"{' and '.join(RUN_FILES)}); not replacing it")
+                                   f"{' and '.join(RUN_FILES)} written by ldbench); not replacing it")
         if self.parent.exists() and not self.parent.is_dir():
             raise LdbenchError(f"--out {out}: {self.parent} is not a directory")
 

@@ -1,11 +1,8 @@
 """Run a suite: for each job, set the method up, render warm-up and measured frames, score the last
 frame against the reference with its effect's metrics, and write records and images.
 
-Timing protocol (docs/design.md): upload and compilation (``setup``, and the upload of the effect's
-inputs) are outside the timed region; then ``warmup`` frames, then ``frames`` measured frames, each
-stage timed by :meth:`harness.gpu.Gpu.stage` and each frame by wall clock after ``finish()``. Raw samples
-are kept; median and IQR are reported. ``total_ms`` is the sum of a frame's stage times (GPU timer
-queries on a GPU, wall clock on llvmpipe); ``wall_ms`` is the frame's wall clock.
+Frames are timed by the timing protocol of docs/design.md (``setup`` and input uploads untimed, then
+``warmup`` and ``frames`` measured frames, stages by :meth:`harness.gpu.Gpu.stage`).
 
 Per (scene, effect, size, spp, seed) the harness builds the effect's inputs and its reference once
 (:class:`Prepared`) and hands the same objects to every method. A method's result is checked against
@@ -33,7 +30,7 @@ from typing import TYPE_CHECKING
 from .errors import LdbenchError
 from .naming import slug as _slug
 from .rundir import RunDir
-from .checks import camera_sees_geometry, unique_scene_names
+from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .suite import Job, Suite, resolve_sizes
 
 if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
@@ -152,6 +149,7 @@ def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) ->
     ref = effect.spec.reference(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs,
                                 cache=cache, progress=progress)
     camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
+    finite_reference(scene, ref, f"{effect.label()} at {w}x{h}")  # likewise
     return Prepared(scene, inputs, ref)
 
 
@@ -171,7 +169,9 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
     rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
     tmp = rundir.open()
     gpu = None
+    interrupts = _Interrupts()
     try:
+        interrupts.__enter__()
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
         suite.jobs = plan.jobs
@@ -186,8 +186,10 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
                                                     "jobs": len(suite.jobs)}, indent=1))
         if report:
-            from .report import write_report
-            write_report(tmp)
+            from .report import build_report
+            build_report(tmp, records.read_results(tmp, unfinished=True))
+        if interrupts.seen:  # a Ctrl-C whose KeyboardInterrupt some library caught: still no commit
+            raise KeyboardInterrupt
         rundir.commit()  # old run aside, new one in, old one deleted
     except BaseException:
         try:
@@ -196,7 +198,41 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         finally:
             rundir.abort()
         raise
+    finally:
+        interrupts.__exit__()
     return records.read_results(out_dir)
+
+
+class _Interrupts:
+    """Remembers a SIGINT (Ctrl-C) received while a run directory is written, so that a run is never
+    committed after one, even when code between the signal and the commit (a report library, a
+    cluster client) caught the KeyboardInterrupt. The signal itself still raises as before."""
+
+    def __init__(self):
+        self.seen = False
+        self._prev = None
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        prev = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is threading.main_thread() and callable(prev):
+            self._prev = prev
+            signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.seen = True
+        self._prev(signum, frame)  # Python's default handler raises KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self._prev is not None:
+            import signal
+
+            signal.signal(signal.SIGINT, self._prev)
+            self._prev = None
+        return False
 
 
 def release_inputs(prepared) -> None:
@@ -207,7 +243,30 @@ def release_inputs(prepared) -> None:
 
 
 def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
-    """One job: set up, time the frames, score the last one; returns its record row."""
+    """One job: set up, time the frames, score the last one; returns its record row.
+
+    Whatever the job raises (bad input, a driver fault, a bug in an adapter, in scoring or in saving
+    its images) becomes that row's ``error: ...`` status, so one job never loses the others' rows: the
+    run completes, as it does on the Ray executor. Only KeyboardInterrupt and SystemExit pass."""
+    from . import records
+
+    try:
+        return _run_job(ctx, job, prep)
+    except LdbenchError as e:
+        status = f"error: {e}"
+    except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
+        status = f"error: {error_text(e)}"
+    return records.make_row(**_job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, prep.scene,
+                                          getattr(prep.reference, "meta", {}), status))
+
+
+def error_text(e: BaseException) -> str:
+    """One line naming an unexpected exception: its type and the first line of its message."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    return f"{type(e).__name__}: {lines[0] if lines else ''}".rstrip(": ")[:300]
+
+
+def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     from methods.base import View, get_method
 
     from . import records
@@ -271,10 +330,26 @@ def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, sta
     return dict(run_id=run_id, suite=suite_name, **records.git_columns(git), scene=scene.name,
                 scene_hash=scene.content_hash(), triangles=scene.triangle_count,
                 scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
-                effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
+                effect=job.effect.name, effect_params=job.effect.key(),
+                params=params_used(cls, params, job.effect),
                 width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
                 warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
                 ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+
+
+def params_used(cls, params, effect) -> dict:
+    """The method's parameters as the job ran: those the effect supersedes (``EffectSpec.supersedes``,
+    e.g. cdi-vpl's rsm and miss_range on ``vpl_range``, whose VPLs the harness builds) carry the
+    effect's values, not the method's unused ones. Flat dict; a grouped parameter is found through
+    ``Params.renamed``."""
+    out = params.to_dict()
+    renamed = getattr(cls.Params, "renamed", None) or {}
+    ep = effect.params.to_dict()
+    for k in effect.spec.supersedes:
+        name = renamed.get(k, k)
+        if name in out:
+            out[name] = ep[k]
+    return out
 
 
 def failed_row(plan: RunPlan, job: Job, status: str, ref_meta: dict | None = None) -> dict:

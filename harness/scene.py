@@ -1,7 +1,7 @@
 """The scene model shared by the GPU methods and the Mitsuba references.
 
 A :class:`Scene` is triangle meshes with Lambertian albedo, one camera and spot/point lights, in the
-conventions of DESIGN.md: right-handed, y up, metres; triangles counter-clockwise from the front but
+conventions of docs/design.md: right-handed, y up, metres; triangles counter-clockwise from the front but
 treated as two-sided everywhere; camera = look-at + vertical field of view; image row 0 at the top.
 The *same* triangles go to the GPU and to Mitsuba, so analytic shapes are tessellated by the builders.
 
@@ -20,11 +20,34 @@ import numpy as np
 from .errors import LdbenchError
 
 
-def _vec3(v, what: str) -> np.ndarray:
+#: The largest coordinate (vertices, camera, lights; world units) a scene may hold: the GPU computes in
+#: float32, whose largest finite value is 3.4e38, and squares distances (3 · (2e18)² = 1.2e37 still
+#: fits). A vertex at 1e39 is finite in float64 but infinite once uploaded.
+MAX_COORDINATE = 1e18
+#: The largest light intensity (W/sr, per channel): products with albedos and 1/distance² stay finite in
+#: float32.
+MAX_INTENSITY = 1e30
+
+
+def _vec3(v, what: str, bound: float | None = None) -> np.ndarray:
     a = np.asarray(v, dtype=np.float64).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise LdbenchError(f"{what} must be 3 finite numbers, got {v!r}")
+    if bound is not None and not np.all(np.abs(a) <= bound):
+        raise LdbenchError(f"{what} {tuple(float(x) for x in a)} beyond ±{bound:g} (the GPU computes in float32)")
     return a
+
+
+def _coordinates(v, what: str) -> np.ndarray:
+    """``v`` as (N, 3) float32 after checking every value is finite and within :data:`MAX_COORDINATE`
+    (checked before the cast, so that an overflow is one line, not a numpy warning and an infinity)."""
+    a = np.asarray(v)
+    a = (a if a.dtype == np.float32 else a.astype(np.float64, copy=False)).reshape(-1)  # no copy of float32
+    if a.size and not np.abs(a).max() <= MAX_COORDINATE:  # a NaN maximum fails too
+        ok = np.abs(a) <= MAX_COORDINATE
+        raise LdbenchError(f"{what}: vertex coordinate {float(a[np.argmin(ok)]):g} is not finite or beyond "
+                           f"±{MAX_COORDINATE:g} (the GPU computes in float32)")
+    return np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 3)
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,7 +65,7 @@ class Mesh:
     opacity: float = 1.0
 
     def __post_init__(self):
-        v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        v = _coordinates(self.vertices, f"mesh {self.name!r}")
         f = np.ascontiguousarray(self.faces, dtype=np.int32).reshape(-1, 3)
         if len(f) and (f.min() < 0 or f.max() >= len(v)):
             raise LdbenchError(f"mesh {self.name!r}: face index out of range")
@@ -71,7 +94,8 @@ class Camera:
 
     def __post_init__(self):
         for k in ("origin", "target", "up"):
-            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"camera {k}")))
+            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"camera {k}",
+                                                                      MAX_COORDINATE)))
         if not 0.0 < self.fov_y < 180.0:
             raise LdbenchError(f"camera fov_y must be in (0, 180) degrees, got {self.fov_y}")
 
@@ -137,7 +161,10 @@ class SpotLight:
 
     def __post_init__(self):
         for k in ("position", "target", "intensity", "up"):
-            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"light {k}")))
+            bound = MAX_INTENSITY if k == "intensity" else MAX_COORDINATE
+            object.__setattr__(self, k, tuple(float(x) for x in _vec3(getattr(self, k), f"light {k}", bound)))
+        if min(self.intensity) < 0:
+            raise LdbenchError(f"light intensity {self.intensity} is negative (W/sr per channel, >= 0)")
         if not 0.0 < self.cutoff_angle <= 180.0:
             raise LdbenchError(f"light cutoff_angle must be in (0, 180], got {self.cutoff_angle}")
         bw = self.cutoff_angle * 0.75 if self.beam_width is None else float(self.beam_width)
@@ -228,3 +255,59 @@ class Scene:
         }
         h.update(json.dumps(meta, sort_keys=True).encode())
         return h.hexdigest()[:16]
+
+
+def duplicate_faces(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(M,) bool: the faces that repeat an earlier face of the same mesh exactly — the same three vertex
+    positions (bit for bit, −0 = +0), in any order and either winding, through any vertex indices."""
+    faces = np.asarray(faces).reshape(-1, 3)
+    if len(faces) < 2:
+        return np.zeros(len(faces), bool)
+    bits = (np.asarray(vertices, np.float32).reshape(-1, 3) + np.float32(0.0)).view(np.uint32).astype(np.uint64)
+    vid, _, _ = _equal_keys([(bits[:, 0] << np.uint64(32)) | bits[:, 1], bits[:, 2]])  # one id per position
+    t = np.sort(vid[faces], axis=1)
+    n = int(vid.max()) + 1
+    keys = [(t[:, 0] * n + t[:, 1]) * n + t[:, 2]] if n < 2_000_000 else [t[:, 0] * n + t[:, 1], t[:, 2]]
+    _, order, first = _equal_keys(keys)
+    dup = np.ones(len(faces), bool)
+    dup[order[first]] = False  # a stable sort: each group's first is its earliest face
+    return dup
+
+
+def _equal_keys(keys: list):
+    """Rows (one value per key array) grouped by value: (group id per row, the stable lexicographic order,
+    and per sorted position whether it starts a group)."""
+    order = np.argsort(keys[0], kind="stable") if len(keys) == 1 else np.lexsort(keys[::-1])
+    first = np.ones(len(order), bool)
+    first[1:] = np.logical_or.reduce([k[order][1:] != k[order][:-1] for k in keys])
+    gid = np.empty(len(order), np.int64)
+    gid[order] = np.cumsum(first) - 1
+    return gid, order, first
+
+
+def without_duplicate_triangles(scene: "Scene") -> "Scene":
+    """``scene`` with exact duplicate triangles removed within each mesh (:func:`duplicate_faces`; the
+    first copy kept, the order kept), and one line in ``scene.warnings`` saying how many.
+
+    One rule for coincident copies of a triangle, applied once where a scene is loaded, so that every
+    method and every reference see the same triangles: a mesh file that lists a triangle twice (scan
+    meshes do: the low-resolution Stanford bunny has 31) describes one surface. Without it, per-pixel
+    lists store both copies (an OIT composite applies the opacity twice), depth peeling keeps one, and
+    the OIT reference (which finds one hit per surface along a ray) counts it once. Copies in *different*
+    meshes stay: they are distinct surfaces (materials), ordered by the effect's tie rule."""
+    from dataclasses import replace
+
+    meshes, removed = [], []
+    for m in scene.meshes:
+        dup = duplicate_faces(m.vertices, m.faces)
+        if dup.any():
+            removed.append((m.name, int(dup.sum())))
+            m = replace(m, faces=m.faces[~dup])
+        meshes.append(m)
+    if not removed:
+        return scene
+    n = sum(k for _, k in removed)
+    where = ", ".join(f"{name!r}: {k}" for name, k in removed[:3]) + (", ..." if len(removed) > 3 else "")
+    line = (f"scene {scene.name!r}: {n} duplicate triangle{'s' if n != 1 else ''} removed (exact copies within "
+            f"one mesh; {where}): every method and the reference see each triangle once")
+    return replace(scene, meshes=meshes, warnings=[*scene.warnings, line])

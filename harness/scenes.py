@@ -686,7 +686,16 @@ def _is_mesh(spec: str) -> bool:
 
 def load_scene(spec, **params) -> Scene:
     """Build a scene from a built-in name (optionally ``name:key=value,...``), a Mitsuba 3 XML path,
-    or a mesh file path (the ``mesh`` scene). Bad input raises :class:`LdbenchError` naming it."""
+    or a mesh file path (the ``mesh`` scene). Bad input raises :class:`LdbenchError` naming it.
+    Exact duplicate triangles within a mesh are removed, with a line in ``scene.warnings``
+    (:func:`harness.scene.without_duplicate_triangles`: every method and reference see them once)."""
+    from .scene import without_duplicate_triangles
+
+    return without_duplicate_triangles(_load_scene(spec, **params))
+
+
+def _load_scene(spec, **params) -> Scene:
+    """:func:`load_scene` before the duplicate triangles are removed."""
     spec = os.fspath(spec) if isinstance(spec, os.PathLike) else spec
     if not isinstance(spec, str) or not spec.strip():
         raise LdbenchError(f"scene must be a name or a file path, got {spec!r}")

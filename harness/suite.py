@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .effects import Effect
+from .effects.base import effects_from_user
 from .errors import LdbenchError
 
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description"}
@@ -80,6 +81,40 @@ MAX_SPP = 1 << 20
 #: rays/s Mitsuba reaches on an H200, many hours on a CPU. Beyond it a typo (spp = 10^11) is far likelier
 #: than intent.
 MAX_REFERENCE_SAMPLES = 1 << 40
+#: Measured and warm-up frames per job: [1, 10^4] and [0, 10^4] (10^4 frames of a 100 ms method are
+#: already 17 minutes per job; more is a typo, and 10^20 ran until killed).
+MAX_FRAMES = MAX_WARMUP = 10_000
+#: Seeds are unsigned 32-bit: the GPU's random numbers and Mitsuba's sampler take a uint32, the records
+#: an int64 (a larger one rendered, then failed when it was recorded).
+MAX_SEED = (1 << 32) - 1
+
+
+#: Method parameters without a declared maximum: an integer (seeds, pool sizes, 0 = auto) is at most
+#: 2^31 - 1 (GLSL ints and buffer offsets hold no more), a float (biases, in pixels or texels) is finite.
+MAX_INT_PARAM = (1 << 31) - 1
+
+
+def method_params(cls, values: dict, method: str):
+    """``cls.Params`` from ``values`` (validated by the adapter's declared ranges), with every parameter
+    without a declared maximum checked as :data:`MAX_INT_PARAM` says."""
+    import dataclasses
+
+    params = cls.Params.from_dict(values, method=method)
+    todo = [(params, "")]
+    while todo:  # a parameter group (structure.source) is checked as its own fields, named group.field
+        obj, prefix = todo.pop()
+        for f in dataclasses.fields(obj):
+            v, name = getattr(obj, f.name), prefix + f.name
+            if "group" in f.metadata:
+                todo.append((v, name + "."))
+                continue
+            if f.metadata.get("hi") is not None:
+                continue
+            if _is_int(v) and v > MAX_INT_PARAM:
+                raise LdbenchError(f"parameter {name}={v} of method {method!r} above its maximum {MAX_INT_PARAM}")
+            if isinstance(v, float) and not math.isfinite(v):
+                raise LdbenchError(f"parameter {name}={v} of method {method!r} must be finite")
+    return params
 
 
 def _is_int(v) -> bool:
@@ -159,8 +194,8 @@ def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None) -
 
     wh = parse_size(size) if size is not None else None
     spp = None if spp is None else _int(spp, "spp", 1, MAX_SPP)
-    warmup = None if warmup is None else _int(warmup, "warmup", 0)
-    frames = None if frames is None else _int(frames, "frames", 1)
+    warmup = None if warmup is None else _int(warmup, "warmup", 0, MAX_WARMUP)
+    frames = None if frames is None else _int(frames, "frames", 1, MAX_FRAMES)
     jobs = []
     for j in suite.jobs:
         j = dataclasses.replace(
@@ -225,8 +260,8 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     spp = _int(run.get("spp", defaults["spp"]), "spp", 1, MAX_SPP)
     if w is not None:
         check_budget(w, h, spp)
-    warmup = _int(run.get("warmup", defaults["warmup"]), "warmup", 0)
-    frames = _int(run.get("frames", defaults["frames"]), "frames", 1)
+    warmup = _int(run.get("warmup", defaults["warmup"]), "warmup", 0, MAX_WARMUP)
+    frames = _int(run.get("frames", defaults["frames"]), "frames", 1, MAX_FRAMES)
     scene_params = run.get("scene_params", {}) or {}
     if not isinstance(scene_params, dict):
         raise LdbenchError("scene_params must be a table")
@@ -242,10 +277,9 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
         raise LdbenchError(f"effect parameter {sorted(both)[0]!r} given twice (top level and effect_params)")
     opts = {**top, **effect_params}
     for name in _names(run["effect"], "effect"):
-        for combo in _grid(opts) if opts else [{}]:
-            combo = {k: _float_or_inf(v) for k, v in combo.items()}
-            effects.append(Effect.parse(name, combo))
-    seed = _int(run.get("seed", 0), "seed", 0)
+        effects += effects_from_user(name, [{k: _float_or_inf(v) for k, v in combo.items()}
+                                            for combo in (_grid(opts) if opts else [{}])])
+    seed = _int(run.get("seed", 0), "seed", 0, MAX_SEED)
 
     methods = run.get("methods", "all")
     if methods != "all":
@@ -279,7 +313,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
                 raise LdbenchError(f"method {m!r} does not support effect {eff.name!r} "
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
             for p in _grid(_dotted(params.get(m, {}))):
-                cls.Params.from_dict(p, method=m)  # validate now, before any rendering
+                method_params(cls, p, m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames, seed))
     for m in params:
@@ -295,9 +329,11 @@ def load_suite(path) -> Suite:
 
     path = suite_path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))  # TOML is UTF-8, whatever the locale
     except OSError as e:
         raise LdbenchError(f"cannot read suite {path}: {e.strerror}")
+    except UnicodeDecodeError as e:
+        raise LdbenchError(f"suite {path} is not UTF-8 text (TOML): byte {e.start} cannot be decoded")
     except tomllib.TOMLDecodeError as e:
         raise LdbenchError(f"malformed TOML in {path}: {e}")
     return suite_from_dict(data, name=path.stem, base_dir=path.parent, source=str(path))

@@ -1,4 +1,4 @@
-"""The method-adapter contract (DESIGN.md, "Method adapter contract") and the adapter registry.
+"""The method-adapter contract (docs/design.md, "Method adapter contract") and the adapter registry.
 
 An adapter is a sub-package ``methods/<folder>/`` whose ``__init__.py`` defines a :class:`Method`
 subclass with ``name``, ``paper``, ``effects`` and a ``Params`` dataclass. Adapters are discovered by

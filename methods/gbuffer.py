@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.gpu import GLSL_DIR, read_texture
 
 VERTEX_ATTRS = (("in_position", 3), ("in_normal", 3), ("in_material", 1))  # float32 each
@@ -107,7 +108,7 @@ class GBuffer:
             self._allocate(view.width, view.height)
         self.prog["view_proj"].write(mat_bytes(self.view_proj(view)))
         self.prog["eye"].value = tuple(view.camera.origin)
-        self.geo.albedo.bind_to_storage_buffer(0)
+        self.geo.albedo.bind_to_storage_buffer(B.ALBEDO)
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.disable(ctx.CULL_FACE)

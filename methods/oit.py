@@ -5,7 +5,7 @@
   framebuffers they own per size, the peel program's camera uniforms and the depth-complexity counters.
 - :class:`OITMethod`: the common part of the three adapters — the scene's triangles on the GPU
   (:class:`~methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
-  opacity; SSBO binding :data:`B_MATERIALS`, ``oit_material[]`` in ``methods/glsl/oit.glsl``), the camera's
+  opacity; SSBO binding ``B.OIT_MATERIALS``, ``oit_material[]`` in ``methods/glsl/oit.glsl``), the camera's
   clip transform and depth row, the output texture (RGBA32F: composite colour, alpha = 1 where the
   method saw at least one fragment) and its read-back as a :class:`~methods.base.Result`.
 - Depth: every method orders fragments by the *linear view depth* dot(depth_row, (p, 1)) = (p − eye)·forward,
@@ -18,13 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.effects.oit import BACKGROUND
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, Result
 from methods.gbuffer import SceneGeometry
-
-B_MATERIALS = 11  # SSBO binding of the material table (methods/glsl/oit.glsl)
 
 
 def material_table(scene) -> np.ndarray:
@@ -76,7 +75,7 @@ class OITMethod(Method):
                             ("size", (view.width, view.height))):
             if name in prog:
                 prog[name].value = value
-        self.materials.bind_to_storage_buffer(B_MATERIALS)
+        self.materials.bind_to_storage_buffer(B.OIT_MATERIALS)
 
     def result(self, counters, invariants=()) -> Result:
         out = self.out

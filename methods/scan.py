@@ -10,6 +10,7 @@ of n elements costs 2·⌈log₁₀₂₄ n⌉ − 1 dispatches. Sums are 32-bit
 """
 from __future__ import annotations
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
@@ -58,15 +59,15 @@ class Scan:
         nb = -(-n // BLOCK)
         sums = self._sum_buffer(level, nb)
         gx, gy = groups_2d(nb)
-        buffer.bind_to_storage_buffer(0)
-        sums.bind_to_storage_buffer(1)
+        buffer.bind_to_storage_buffer(B.SCAN_DATA)
+        sums.bind_to_storage_buffer(B.SCAN_SUMS)
         self.blocks["n"].value = n
         self.blocks.run(gx, gy)
         self.gpu.ctx.memory_barrier()
         if nb > 1:
             self.run(sums, nb, level + 1)
-            buffer.bind_to_storage_buffer(0)
-            sums.bind_to_storage_buffer(1)
+            buffer.bind_to_storage_buffer(B.SCAN_DATA)
+            sums.bind_to_storage_buffer(B.SCAN_SUMS)
             self.add["n"].value = n
             self.add.run(gx, gy)
             self.gpu.ctx.memory_barrier()

@@ -1,4 +1,4 @@
-"""Mitsuba 3 ground truth for ldbench (DESIGN.md, "Effects").
+"""Mitsuba 3 ground truth for ldbench (docs/design.md, "Effects").
 
 ```python
 from references import render_reference

@@ -7,7 +7,10 @@ effect's ``key()``, width, height, the effective spp, seed, the Mitsuba version,
 the render. Both files are written atomically (temporary file in the same folder + ``os.replace``),
 the EXR first, so a JSON file always describes a complete EXR. The EXR header carries the key
 (``ldbench_key``); an entry is used only when the file name, the JSON and the EXR header all name the
-same key. A missing, unreadable or mismatching entry is a cache miss, never an error.
+same key, and its pixels are what was stored: the JSON and the EXR header (``ldbench_pixels``) carry
+the SHA-256 of the float32 mean, variance and mask (:func:`pixels_digest`), and every mean and
+variance value is finite. A missing, unreadable, mismatching or damaged entry is a cache miss, never
+an error.
 
 ``cache_dir`` defaults to ``$LDBENCH_CACHE``, else ``<repo>/.cache/references/`` in a checkout, else the user
 cache (:func:`default_cache_dir`).
@@ -27,7 +30,7 @@ from harness.errors import LdbenchError
 from .exr import image_channels, read_exr, read_exr_header, write_exr
 
 # Bump whenever an integrator changes what it computes (invalidates every cached reference).
-REFERENCE_VERSION = 2  # 2: secondary rays start nudged towards the camera (edge pixels)
+REFERENCE_VERSION = 3  # 3: secondary rays at Mitsuba's spawn offset of the crease point (2: nudged to the camera)
 
 
 def default_cache_dir() -> Path:
@@ -78,6 +81,16 @@ def _write_json_atomic(path: Path, obj: dict) -> None:
         raise
 
 
+def pixels_digest(mean, variance, mask) -> str:
+    """SHA-256 of an entry's pixel data as stored (float32 mean, variance and mask, with their shapes)."""
+    h = hashlib.sha256()
+    for a in (mean, variance, mask):
+        a = np.ascontiguousarray(np.asarray(a, np.float32))
+        h.update(repr(a.shape).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def store(cache_dir, key: str, fields: dict, mean, variance, mask, meta: dict) -> Path:
     """Write the entry; returns the EXR path. Raises LdbenchError if the folder is not writable."""
     d = Path(cache_dir)
@@ -88,10 +101,11 @@ def store(cache_dir, key: str, fields: dict, mean, variance, mask, meta: dict) -
     ch = image_channels(mean, "mean")
     ch.update(image_channels(variance, "variance"))
     ch["mask"] = mask.astype(np.float32)
+    digest = pixels_digest(mean, variance, ch["mask"])
     exr = d / f"{key}.exr"
-    write_exr(exr, ch, header={"ldbench_key": key})
+    write_exr(exr, ch, header={"ldbench_key": key, "ldbench_pixels": digest})
     doc = {"key": key, "fields": fields, "meta": {k: v for k, v in meta.items() if k != "cached"},
-           "channels": mean.shape[2], "shape": [int(mean.shape[0]), int(mean.shape[1])]}
+           "channels": mean.shape[2], "shape": [int(mean.shape[0]), int(mean.shape[1])], "pixels": digest}
     try:
         _write_json_atomic(d / f"{key}.json", doc)
     except OSError as e:
@@ -109,14 +123,21 @@ def load(cache_dir, key: str, fields: dict):
         doc = json.loads(js.read_text())
         if doc.get("key") != key or cache_key(doc.get("fields", {})) != key:
             return None
-        if read_exr_header(exr).get("ldbench_key") != key:  # e.g. another entry's EXR copied over it
+        header = read_exr_header(exr)
+        if header.get("ldbench_key") != key:  # e.g. another entry's EXR copied over it
             return None
         ch = read_exr(exr)
         names = "Y" if int(doc["channels"]) == 1 else "RGB"
         mean = np.stack([ch[f"mean.{c}"] for c in names], -1).astype(np.float32)
         var = np.stack([ch[f"variance.{c}"] for c in names], -1).astype(np.float32)
-        mask = ch["mask"] > 0.5
+        mask_f = np.asarray(ch["mask"], np.float32)
+        mask = mask_f > 0.5
         if list(mean.shape[:2]) != doc["shape"] or mean.shape[:2] != (fields["height"], fields["width"]):
+            return None
+        digest = pixels_digest(mean, var, mask_f)  # pixels edited or damaged since they were stored
+        if not (doc.get("pixels") == header.get("ldbench_pixels") == digest):
+            return None
+        if not (np.isfinite(mean).all() and np.isfinite(var).all()):
             return None
     except (LdbenchError, OSError, ValueError, KeyError, TypeError):
         return None

@@ -2,7 +2,7 @@
 
 Everything here runs under the Mitsuba variant set by the caller (:func:`references.choose_variant`).
 
-Scene (DESIGN.md, "Scenes"): one ``mi.Mesh`` per :class:`harness.scene.Mesh` (the very same float32
+Scene (docs/design.md, "Scenes"): one ``mi.Mesh`` per :class:`harness.scene.Mesh` (the very same float32
 triangles, no vertex normals, so Mitsuba's shading normal is the geometric face normal), BSDF
 ``twosided(diffuse(albedo))``; a spot light is Mitsuba's ``spot`` (``to_world = look_at(position,
 target, up)``, ``intensity`` RGB in W/sr, ``cutoff_angle``, ``beam_width``), a point light
@@ -15,8 +15,8 @@ Estimators (all samples of a batch in one wavefront; ``x`` = primary hit, ``n`` 
 flipped to face the camera, ``ω`` cosine-distributed about ``n`` with pdf cos θ/π):
 
 - ``ao``: per sample ``V = 1 − ρ(t)``, ``t`` = distance to the first hit of the ray
-  ``x + ε n → ω`` with ``maxt = d_max``; ρ = 1 (step) or 1 − (t/d_max)² (quadratic) when it hits,
-  V = 1 when it escapes. The pdf cancels cos θ/π, so the pixel value is the sample mean of V.
+  ``o → ω`` (o = :func:`spawn_origin`) with ``maxt = d_max``; ρ = 1 (step) or 1 − (t/d_max)² (quadratic)
+  when it hits, V = 1 when it escapes. The pdf cancels cos θ/π, so the pixel value is the sample mean of V.
   Background pixels are 1.
 - ``direct``: deterministic: Σ over lights of ``bsdf.eval(x, ω_l)`` (Mitsuba's ``twosided`` diffuse:
   albedo/π · cos θ, zero when the light is behind the side the camera sees) × the emitter's
@@ -25,9 +25,11 @@ flipped to face the camera, ``ω`` cosine-distributed about ``n`` with pdf cos �
   where L_direct is the ``direct`` term above evaluated at x₂ with outgoing direction towards x₁
   (so n₂ is the normal facing x₁). Escaping samples give 0; background pixels are 0.
 
-``ε`` offsets along the facing normal are Mitsuba's own ``(1 + max|p|) · RayEpsilon`` (as in
-``Interaction.spawn_ray``). Random numbers: one PCG32 stream per (pixel, sample index, seed), seeded
-through TEA hashing, so results do not depend on how samples are split into batches.
+Secondary rays start at :func:`spawn_origin` (:func:`harness.conventions.spawn_origin`): ε along the
+facing normal, Mitsuba's own ``(1 + max|p|) · RayEpsilon`` (as in ``Interaction.spawn_ray``), from the
+hit's crease point (:func:`spawn_points`: the hit itself unless within a few ε of its triangle's edges).
+Random numbers: one PCG32 stream per (pixel, sample index, seed), seeded through TEA hashing, so results
+do not depend on how samples are split into batches.
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ import math
 
 import numpy as np
 
+from harness import conventions as conv
 from harness.errors import LdbenchError
 
 RENDERABLE = ("ao", "direct", "indirect")
@@ -130,10 +133,21 @@ def np3(v) -> np.ndarray:
     return np.stack([np1(v[i]) for i in range(3)], axis=-1)
 
 
-def _offset(mi, dr, p, n):
-    """Mitsuba's spawn offset: p + n · (1 + max|p|) · RayEpsilon (n already on the ray's side)."""
+def spawn_origin(mi, dr, p, n):
+    """:func:`harness.conventions.spawn_origin`: p + n · (1 + max|p|) · RayEpsilon (Mitsuba's spawn offset;
+    n already on the ray's side)."""
     mag = (1.0 + dr.max(dr.abs(p))) * mi.math.RayEpsilon
     return p + n * mag
+
+
+def spawn_points(si) -> np.ndarray:
+    """(N, 3) float32 :func:`harness.conventions.crease_point` of Mitsuba's hits ``si`` (the triangle from
+    ``si.uv`` = barycentrics, ``si.dp_du``, ``si.dp_dv`` = its edges: meshes without texture coordinates)."""
+    x = np3(si.p).astype(np.float64)
+    ok = np.isfinite(x).all(1) & np1(si.is_valid()).astype(bool)
+    uv = np.stack([np1(si.uv[0]), np1(si.uv[1])], -1)
+    x[ok] = conv.crease_point(x[ok], np3(si.dp_du)[ok], np3(si.dp_dv)[ok], uv[ok])
+    return np.ascontiguousarray(x, np.float32)
 
 
 def _rng2(mi, dr, pixel, sample, seed_key):
@@ -187,7 +201,7 @@ def sample_values(mi, dr, mscene, effect, p, n, albedo, lane_pixel, lane_sample,
     u = _rng2(mi, dr, lane_pixel, lane_sample, seed_key)
     frame = mi.Frame3f(n)
     w = frame.to_world(mi.warp.square_to_cosine_hemisphere(u))
-    ray = mi.Ray3f(_offset(mi, dr, p, n), w)
+    ray = mi.Ray3f(spawn_origin(mi, dr, p, n), w)
     if effect.name == "ao":
         if math.isinf(effect.d_max):
             return dr.select(mscene.ray_test(ray), 0.0, 1.0)

@@ -23,6 +23,8 @@ from .variant import choose_variant
 
 
 def _epsilons():
+    """Mitsuba's (RayEpsilon, ShadowEpsilon) of the variant in use: ``harness.conventions``' values for the
+    float32 variants."""
     with _variant_active(choose_variant()) as mi:
         return float(mi.math.RayEpsilon), float(mi.math.ShadowEpsilon)
 

@@ -125,10 +125,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
                 continue
             n = _int.facing_normal(dr, si, ray.d)
             alb = si.bsdf().eval_diffuse_reflectance(si, valid) if effect.name == "indirect" else None
-            # Nudge the hit a few ray-epsilons back towards the camera: a pixel centre that lands exactly
-            # on an edge where two walls meet would otherwise start its secondary rays *in* the other
-            # wall's plane, and they would escape through it (AO = 1 on Cornell box edges).
-            p_hit = mi.Point3f(si.p) - mi.Vector3f(ray.d) * ((1.0 + dr.max(dr.abs(si.p))) * mi.math.RayEpsilon * 16)
+            p_hit = _int._vec(mi, mi.Point3f, _int.spawn_points(si))  # crease points; sample_values spawns
             dr.eval(valid, p_hit, n, alb)
             m = _int.np1(valid).astype(bool)
             mask[c0:c1] = m
@@ -279,8 +276,9 @@ def primary_hits(scene, width: int, height: int) -> dict:
     """Mitsuba's primary hits through pixel centres, for validating G-buffers and in tests.
 
     Returns ``mask`` (H×W bool), ``position`` (H×W×3 float32, world space, 0 on background),
-    ``normal`` (H×W×3, geometric normal facing the camera), ``distance`` (H×W, ray t; inf on
-    background) and ``albedo`` (H×W×3).
+    ``spawn`` (where secondary rays start before their offset: ``position`` moved off triangle edges,
+    :func:`harness.conventions.crease_point`), ``normal`` (H×W×3, geometric normal facing the camera),
+    ``distance`` (H×W, ray t; inf on background) and ``albedo`` (H×W×3).
     """
     variant = choose_variant()
     import drjit as dr
@@ -299,6 +297,7 @@ def primary_hits(scene, width: int, height: int) -> dict:
         return {
             "mask": m.reshape(H, W),
             "position": z3(_int.np3(si.p)),
+            "spawn": z3(_int.spawn_points(si)),
             "normal": z3(_int.np3(n)),
             "distance": np.where(m, _int.np1(si.t), np.inf).astype(np.float32).reshape(H, W),
             "albedo": z3(_int.np3(mi.Color3f(alb))),

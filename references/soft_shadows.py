@@ -5,7 +5,8 @@ Per pixel, at the camera's hit x₁: the unshadowed direct light of the scene's 
 x₁ towards the camera, a₁/π · I · falloff · cos / d² (:func:`references.integrators.direct_light` without
 its shadow ray), times, per sample, the visibility of a point y uniform by area on the sphere of radius
 ``light_radius`` around the light's position (z = 1 − 2u₀, φ = 2π u₁): 1 if y is above x₁'s tangent plane
-and ``ray_test`` from x₁ + ε n₁ towards y (maxt = |y − x₁'|(1 − ShadowEpsilon)) finds nothing, else 0.
+and ``ray_test`` from o = ``spawn_origin`` (x₁ + ε n₁) towards y
+(maxt = |y − o|(1 − ShadowEpsilon)) finds nothing, else 0.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ def soft_shadow_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed
     phi = 2.0 * dr.pi * u.y
     c = mi.Point3f(*[float(x) for x in scene.lights[0].position])
     y = c + float(effect.light_radius) * mi.Vector3f(rr * dr.cos(phi), rr * dr.sin(phi), z)
-    o = _int._offset(mi, dr, lanes["p"], lanes["n"])
+    o = _int.spawn_origin(mi, dr, lanes["p"], lanes["n"])
     v = y - o
     dist = dr.norm(v)
     w = v / dist

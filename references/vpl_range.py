@@ -19,7 +19,8 @@ from .variant import choose_variant
 
 
 def rsm_hits(scene, R: int) -> dict:
-    """Mitsuba's first hits of the RSM rays: ``mask``, ``position``, ``normal`` (facing the light),
+    """Mitsuba's first hits of the RSM rays: ``mask``, ``position``, ``spawn`` (its crease point, where the
+    VPL's rays start before their offset), ``normal`` (facing the light),
     ``albedo``, ``direction`` (light → texel centre), each (R², ·), row-major, row 0 at the top."""
     from harness.effects.vpl_range import rsm_camera
 
@@ -37,7 +38,7 @@ def rsm_hits(scene, R: int) -> dict:
         alb = si.bsdf().eval_diffuse_reflectance(si, valid)
         dr.eval(valid, si.p, n, alb)
         m = _int.np1(valid).astype(bool)
-        return {"mask": m, "position": _int.np3(si.p), "normal": _int.np3(n),
+        return {"mask": m, "position": _int.np3(si.p), "spawn": _int.spawn_points(si), "normal": _int.np3(n),
                 "albedo": _int.np3(mi.Color3f(alb)), "direction": np.asarray(d, np.float64)}
 
 
@@ -65,7 +66,7 @@ def make_vpls(scene, params, seed: int):
     area = omega * dist2 / np.maximum(np.abs((n * w).sum(1)), MIN_COS)
     ray_eps, _ = _epsilons()
     dirs = vpl_directions(n, w, texel, primary=params.primary, cone_angle=params.cone_angle, seed=seed)
-    o = np.repeat(ray_origins(y, n, w, ray_eps), RAYS_PER_VPL, axis=0)
+    o = np.repeat(ray_origins(hits["spawn"][keep].astype(np.float64), n, ray_eps), RAYS_PER_VPL, axis=0)
     cap = float(params.miss_range) * scene.diagonal()
     f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
     nn = np.repeat(n, RAYS_PER_VPL, axis=0)

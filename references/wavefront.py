@@ -4,8 +4,10 @@ with the per-sample estimator given as a function.
 
 :func:`render_estimator` traces the pixel-centre primary rays, keeps the hit pixels and evaluates
 ``estimator(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key) -> Color3f`` for all (pixel, sample)
-lanes of a wavefront, where ``lanes`` holds per-lane Dr.Jit arrays: ``p`` (the hit nudged 16 ray-epsilons
-towards the camera, as render_reference does), ``n`` (geometric normal facing the camera), ``albedo``,
+lanes of a wavefront, where ``lanes`` holds per-lane Dr.Jit arrays: ``p`` (the hit's crease point,
+:func:`references.integrators.spawn_points`; secondary rays start at
+:func:`references.integrators.spawn_origin` of it, as in render_reference), ``n`` (geometric normal facing the
+camera), ``albedo``,
 ``d`` (the camera ray's direction) and ``direct`` (the unshadowed direct light leaving the hit towards
 the camera, when ``needs_direct``). Random numbers: :func:`references.integrators._rng2` (one PCG32
 stream per pixel, sample index and seed). Mean and variance of the mean as in :mod:`references.render`;
@@ -43,8 +45,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estim
             per_pixel = {"n": _int.facing_normal(dr, si, ray.d),
                          "albedo": mi.Color3f(si.bsdf().eval_diffuse_reflectance(si, valid)),
                          "d": mi.Vector3f(ray.d),
-                         "p": mi.Point3f(si.p) - mi.Vector3f(ray.d) * ((1.0 + dr.max(dr.abs(si.p)))
-                                                                      * mi.math.RayEpsilon * 16)}
+                         "p": _int._vec(mi, mi.Point3f, _int.spawn_points(si))}
             if needs_direct:
                 per_pixel["direct"] = _int.direct_light(mi, dr, mscene, si, valid, shadows=False)
             dr.eval(valid, *per_pixel.values())

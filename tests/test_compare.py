@@ -327,3 +327,97 @@ def test_ray_metrics_gated_with_their_own_tolerances(tmp_path):
     assert [c.metric for c in far.regressions] == ["dist_err_p95"]
     nan = C.compare_frames(base, _df(tmp_path, [_rays_row("r", self_hit_rate=math.nan)]))
     assert [c.metric for c in nan.regressions] == ["self_hit_rate"]
+
+
+# ---- what the gate must not miss (each check broken once on purpose, and these tests failed) ------------
+
+def test_ray_metric_tolerance_is_the_larger_of_absolute_and_relative(tmp_path):
+    """dist_err_p95 may grow by max(1e-4, 10 % of the baseline): +5 % passes, +12 % fails (the relative
+    side governs); hit_agreement may drop by max(0.002, 0): 0.0015 passes, 0.0025 fails (the absolute)."""
+    base = _df(tmp_path, [_rays_row("b")])
+    cases = {("dist_err_p95", 0.0544 * 1.05): 0, ("dist_err_p95", 0.0544 * 1.12): 1,
+             ("hit_agreement", 0.976 - 0.0015): 0, ("hit_agreement", 0.976 - 0.0025): 1}
+    for (col, v), want in cases.items():
+        comp = C.compare_frames(base, _df(tmp_path, [_rays_row("r", **{col: v})]))
+        assert comp.exit_code == want, (col, v, C.to_markdown(comp))
+
+
+def test_improved_needs_the_minimum_effect_too(tmp_path):
+    """A consistent 3 % speed-up is significant (p < 0.01 with 15 + 15 frames of 0.5 % jitter) but below the
+    10 % minimum effect: ``ok``, not ``improved``; 20 % faster is ``improved``. Likewise a PSNR gain
+    inside the tolerance is ``ok``."""
+    base = _run(tmp_path, "base", jitter=0.005)
+    for ms, want in ((9.7, "ok"), (8.0, "improved")):
+        run = _run(tmp_path, f"fast{ms}", jitter=0.005, ms=ms)
+        comp = C.compare_paths(base, run)
+        times = [c for c in comp.checks if c.metric == "time"]
+        assert {c.verdict for c in times} == {want}, [(c.verdict, c.change) for c in times]
+    t = C.time_check([10.0 * (1 + 0.001 * i) for i in range(15)], [9.7 * (1 + 0.001 * i) for i in range(15)],
+                     C.Thresholds())
+    assert t["p_faster"] < 0.01 and t["verdict"] == "ok", t
+    run = _run(tmp_path, "sharper", {("cornell", "hbao", "ao"): {"psnr": 30.3}}, psnr=30.0)
+    chk = next(c for c in C.compare_paths(_run(tmp_path, "b2", psnr=30.0), run).checks
+               if c.metric == "psnr" and "hbao" in c.benchmark)
+    assert chk.verdict == "ok", chk
+
+
+def _full_params(method):
+    from methods.base import get_method
+    return get_method(method).Params().to_dict()
+
+
+def test_a_new_parameter_with_its_default_orphans_no_baseline_row(tmp_path, capsys, monkeypatch):
+    """Rows store every parameter, defaults included. A baseline recorded before a parameter existed (its
+    params lack it) still matches a run that records it at its default; so does one that recorded a
+    parameter under its old name (``Params.renamed``); a parameter the adapter no longer has leaves the
+    baseline row missing."""
+    from methods.base import get_method
+
+    full = {m: _full_params(m) for _, m, _ in BENCH}
+    older = {m: {k: v for k, v in p.items() if k != sorted(p)[0]} for m, p in full.items()}  # one dropped
+    assert all(len(older[m]) == len(full[m]) - 1 for m in full if full[m])
+    base = _run(tmp_path, "base", {b: {"params": older[b[1]]} for b in BENCH})
+    run = _run(tmp_path, "run", {b: {"params": full[b[1]]} for b in BENCH})
+    rc, out, err = _cli(capsys, base, run)
+    assert rc == 0 and "3 matched, 0 missing, 0 new" in out, out + err
+    assert "Configurations that differ" not in (run / "compare.md").read_text()
+    # a non-default value still tells configurations apart
+    hb = dict(full["hbao"], directions=full["hbao"]["directions"] + 4)
+    other = _run(tmp_path, "other", {b: {"params": hb if b[1] == "hbao" else full[b[1]]} for b in BENCH})
+    rc, out, _ = _cli(capsys, base, other)
+    assert rc == 1 and "1 missing, 1 new" in out
+    # an old name maps through Params.renamed
+    cls = get_method("hbao").Params
+    monkeypatch.setattr(cls, "renamed", {"old_directions": "directions"}, raising=False)
+    renamed = {k if k != "directions" else "old_directions": v for k, v in full["hbao"].items()}
+    old = _run(tmp_path, "old", {b: {"params": renamed if b[1] == "hbao" else full[b[1]]} for b in BENCH})
+    rc, out, _ = _cli(capsys, old, run)
+    assert rc == 0 and "3 matched, 0 missing" in out, out
+    # a parameter the adapter no longer has: the configuration is gone, the row is missing
+    gone = _run(tmp_path, "gone", {b: {"params": {**full[b[1]], "removed_knob": 3} if b[1] == "hbao"
+                                       else full[b[1]]} for b in BENCH})
+    rc, out, _ = _cli(capsys, gone, run)
+    assert rc == 1 and "1 missing, 1 new" in out
+
+
+def test_a_nan_baseline_is_said_and_fails_unless_allowed(tmp_path, capsys):
+    """A baseline whose PSNR and SSIM are NaN (a broken baseline) compares nothing: the check is
+    ``unchecked``, a warning says so, the gate fails; ``--allow-nan-baseline`` lets it pass."""
+    base = _run(tmp_path, "base", {("cornell", "hbao", "ao"): {"psnr": math.nan, "ssim": math.nan}})
+    run = _run(tmp_path, "run")
+    rc, out, err = _cli(capsys, base, run)
+    assert rc == 1 and "UNCHECKED" in out and "hbao" in out, out
+    assert "NaN quality metrics for 1 benchmark" in err and "--allow-nan-baseline" in err
+    assert "❌ unchecked" in (run / "compare.md").read_text()
+    rc, out, err = _cli(capsys, base, run, "--allow-nan-baseline")
+    assert rc == 0 and "allowed by --allow-nan-baseline" in err, out + err
+    # ray metrics: a NaN baseline with a value now is unchecked; NaN on both sides is a metric the
+    # configuration leaves undefined (distances of shadow rays), unless nothing at all was compared
+    b = _df(tmp_path, [_rays_row("b", hit_agreement=math.nan)])
+    comp = C.compare_frames(b, _df(tmp_path, [_rays_row("r")]))
+    assert [(c.metric, c.verdict) for c in comp.regressions] == [("hit_agreement", "unchecked")]
+    b = _df(tmp_path, [_rays_row("b", dist_err_p95=math.nan)])
+    assert C.compare_frames(b, _df(tmp_path, [_rays_row("r", dist_err_p95=math.nan)])).exit_code == 0
+    cols = dict(hit_agreement=math.nan, dist_err_p95=math.nan, self_hit_rate=math.nan)
+    comp = C.compare_frames(_df(tmp_path, [_rays_row("b", **cols)]), _df(tmp_path, [_rays_row("r", **cols)]))
+    assert comp.exit_code == 1 and {c.verdict for c in comp.regressions} == {"unchecked"}

@@ -217,3 +217,22 @@ def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
     assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--executor", "ray",
                  "--out", str(tmp_path / "r")]) == 130
     assert capsys.readouterr().err == "ldbench: interrupted\n"
+
+
+def test_ctrl_c_during_the_report_of_a_ray_run_never_commits(cluster, tmp_path, monkeypatch):
+    """SIGINT while the report of a finished Ray run is written, its KeyboardInterrupt caught by the
+    code it interrupted: the run is still not committed (KeyboardInterrupt, exit 130 at the CLI)."""
+    import harness.report
+
+    def swallowing_report(*a, **k):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            pass
+
+    monkeypatch.setattr(harness.report, "build_report", swallowing_report)
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs(_suite(d_max=("inf",)), out, progress=False, report=True,
+                 executor=RayExecutor())
+    assert not out.exists() and not list(tmp_path.glob(".run*")), list(tmp_path.iterdir())

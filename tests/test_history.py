@@ -43,7 +43,7 @@ def test_add_is_idempotent_and_one_file_per_machine(tmp_path, capsys):
     assert main(["history", "add", str(r1), "--history-dir", str(hist)]) == 0  # again: no duplicates
     key = R.machine_key(GPU)
     f = hist / f"{key}.parquet"
-    assert sorted(p.name for p in hist.iterdir()) == [f.name]
+    assert sorted(p.name for p in hist.iterdir() if p.name != H.LOCK_NAME) == [f.name]
     assert len(pd.read_parquet(f)) == 2
     H.add_run(r2, hist)
     H.add_run(r2 / "results.parquet", hist)  # a results file works too
@@ -135,3 +135,30 @@ def test_rays_history_follows_hit_agreement(tmp_path):
     res = H.plot_history(hist)
     cps = [c for c in res["change_points"] if c["metric"] == "hit_agreement"]
     assert len(cps) == 1 and cps[0]["index"] == 8 and cps[0]["change"] < -0.02
+
+
+def test_concurrent_adds_keep_every_run(tmp_path):
+    """Four `history add` processes started together into one history directory: all exit 0 and the
+    file holds all four runs (without the lock each read the file before the others wrote it)."""
+    import os
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    hist, go = tmp_path / "hist", tmp_path / "go"
+    runs = [_write_run(tmp_path / f"r{i}", f"run-{i}", day=i + 1) for i in range(4)]
+    script = ("import os, sys, time\n"
+              "from harness.cli import main\n"
+              "while not os.path.exists(sys.argv[2]): time.sleep(0.005)\n"
+              "sys.exit(main(['history', 'add', sys.argv[1], '--history-dir', sys.argv[3]]))\n")
+    env = dict(os.environ, PYTHONPATH=str(root))
+    procs = [subprocess.Popen([sys.executable, "-c", script, str(r), str(go), str(hist)], cwd=root, env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for r in runs]
+    time.sleep(3)  # every process has imported pandas and waits
+    go.write_text("")
+    results = [(p.wait(timeout=120), p.stderr.read()) for p in procs]
+    assert all(rc == 0 for rc, _ in results), results
+    g = H.load_history(hist)[R.machine_key(GPU)]
+    assert sorted(g["run_id"].unique()) == [f"run-{i}" for i in range(4)] and len(g) == 8

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.gbuffer import SceneGeometry, face_normals
 from methods.structures import StructureSpec, fill_uint, make_structure
@@ -147,9 +148,9 @@ def test_lock_free_insert_under_contention(gpu):
         fill_uint(gpu, heads, 1, 0xFFFFFFFF)
         cs = gpu.compute(STRESS, {"LL_PAGES": 1, "LL_PAGE_SHIFT": 30})
         cs["n_inserts"].value, cs["n_lists"].value, cs["capacity"].value = n, 1, n
-        counters.bind_to_storage_buffer(0)
-        heads.bind_to_storage_buffer(1)
-        nodes.bind_to_storage_buffer(3)
+        counters.bind_to_storage_buffer(B.COUNTERS)
+        heads.bind_to_storage_buffer(B.HEADS)
+        nodes.bind_to_storage_buffer(B.NODES0)
         cs.run(-(-n // 64))
         gpu.ctx.finish()
         nd = np.frombuffer(nodes.read(), np.dtype([("d", "<f4"), ("n", "<u4")]))

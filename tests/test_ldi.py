@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from testkit import LAYER_H, LAYER_W, box, expected_lists, layer_transforms, plane, quad, quads_scene
+from harness.bindings import B
 from harness.effects import Effect
 from harness.effects.rays import RayBatch
 from harness.errors import LdbenchError
-from harness.scene import Camera, Scene
+from harness.scene import Camera, Mesh, Scene
 from methods.base import View, get_method
 from methods.directions import cube_cell, cube_directions, cube_k
 from methods.ldi import Ldi, LdiParams
@@ -121,8 +122,8 @@ def test_compaction_against_cumsum(gpu):
         s.offsets.write(np.zeros(1, np.uint32).tobytes(), offset=4 * n)
         Scan(gpu).run(s.offsets, n + 1)
         s.source._ends["n"].value = n
-        s.offsets.bind_to_storage_buffer(1)
-        s.source.scratch["count"].bind_to_storage_buffer(14)
+        s.offsets.bind_to_storage_buffer(B.HEADS)
+        s.source.scratch["count"].bind_to_storage_buffer(B.PEEL_COUNT)
         s.source._ends.run(20)
         gpu.ctx.memory_barrier()
         off = np.frombuffer(s.offsets.read(size=4 * (n + 1)), np.uint32).astype(np.int64)
@@ -208,6 +209,10 @@ def test_peel_invariants_report_truncation(gpu):
         m.ls.build()
         st = m.ls.stats()
         assert st["peel_truncated"] and any("max_layers" in v for v in m.ls.invariants(st))
+        # exactly max_layers layers peeled, never one more: no list holds a third fragment
+        assert st["peel_layers"] == 2 and st["max_list_length"] == 2, st
+        m.ls.build()  # a rebuild peels the same
+        assert m.ls.stats()["peel_layers"] == 2
     finally:
         m.release()
 
@@ -331,6 +336,28 @@ def test_walk_matches_cpu_dda(gpu, seed, kw):
         assert c["crossings_max"] > 4 and c["crossings_mean"] > 0.5
         if kw.get("max_crossings"):
             assert c["rays_ended_max_crossings"] > 0 and c["crossings_max"] == kw["max_crossings"]
+    finally:
+        m.release()
+
+
+def test_walk_is_bounded_whatever_the_floats(gpu):
+    """max_crossings = 0 (the default) bounds the walk by the grid (size.x + size.y crossings), not by
+    float progress: a NaN origin and tmax (no progress along t, no pixel change) ended after 2^15
+    crossings on a 16² grid before the bound, and may never end on another GPU. Finite rays keep their
+    walk (the CPU DDA test above)."""
+    scene = random_scene(0)
+    m = _ldi(gpu, scene, directions=6, resolution=16)
+    nan = np.float32("nan")
+    o = np.array([[nan, nan, nan], [nan, nan, nan], [0.1, 0.2, 0.3]], np.float32)
+    d = np.array([[0, 0, 1], [0, 1, 0], [0, 0, 1]], np.float32)
+    n = np.array([[0, 0, 1], [0, 1, 0], [0, 0, 1]], np.float32)
+    tmax = np.array([nan, nan, np.inf], np.float32)
+    batch = RayBatch(o, d, tmax, n, np.zeros(3, np.uint32), 1, 1, "diffuse", occlusion=False)
+    try:
+        t, st, _ = _trace(gpu, m, batch)
+        assert np.all(st[:2, 0] <= 2 * 16 + 1), st[:, 0]
+        assert np.all(st[:2, 1] >> 31 == 1) and np.all(np.isinf(t[:2]))  # ended: a miss
+        assert st[2, 0] <= 16 and not st[2, 1] >> 31
     finally:
         m.release()
 
@@ -499,3 +526,65 @@ def test_grazing_rays(gpu):
             normal = [0.0, 1.0, 0.0]
         ratio = np.abs(t - want) * np.abs(batch.direction @ normal) / m.pixel / _depth_bound(eps, v, normal)
         assert ratio[hit].max() <= 1.0, ratio[hit].max()
+
+
+def test_walk_steps_x_first_through_pixel_corners(gpu):
+    """The DDA's tie rule (docs/ldi.md: x steps first when both pixel boundaries are crossed at the same t).
+    In the +x LDI of 6 directions (u = −z, w = y: exact axes, centre 0) rays from (x0, 0, 0) start exactly on
+    a pixel corner, and d ∝ (2, 1, −1) moves one pixel in u and in w per unit: every crossing is a tie. A
+    wall x = X covers only the pixels right of the diagonal (i − j ≥ 1 from the start pixel, its edge half a
+    pixel from every pixel centre); x first visits them (for a zero-length step at each corner), y first
+    visits those left of it, and passes the wall to the far side of the room (x = 4)."""
+    ppu = 64 / (2 * math.sqrt(48.0))  # the room's bounding sphere: radius 4√3 (the wall lies inside)
+    d = np.array([2.0, 1.0, -1.0]) / math.sqrt(6.0)
+    X = -3.0 + 10 / ppu  # 5 corners (2 pixels of depth each) from the first origin: a corner's depth
+    m = _ldi(gpu, _tie_room(X, ppu), directions=6, resolution=64, epsilon=1.0)
+    try:
+        v = np.frombuffer(m.axes_buf.read(), np.float32).reshape(-1, 3, 4)[0, :, :3]
+        assert np.array_equal(v, [[0, 0, -1], [0, 1, 0], [1, 0, 0]]) and np.all(m.centre == 0)
+        assert m.radius == pytest.approx(math.sqrt(48.0), rel=1e-7)
+        x0 = np.array([-3.0, -2.0, -1.5])
+        o = np.stack([x0, 0 * x0, 0 * x0], 1)
+        batch = _batch(o, np.tile(d, (3, 1)), np.tile(d, (3, 1)))
+        assert batch.direction[0, 1] == -batch.direction[0, 2]  # g_u = g_w exactly: ties at every corner
+        t, st, _ = _trace(gpu, m, batch)
+        want = (X - x0) / batch.direction[:, 0]
+        assert np.all(np.abs(t - want) <= math.sqrt(6.0) / ppu), (t, want)  # within one corner step
+        assert np.all(st[:, 1] & 0x7FFFFFFF == 0)
+    finally:
+        m.release()
+
+
+def _tie_room(X, ppu):
+    """A room [-4, 4]³ and, at x = X, a wall over the +x LDI's pixels right of the diagonal through its
+    centre (pixel coordinates (a, b) ↦ world (X, b / ppu, −a / ppu): the half-plane a − b ≥ 1/2)."""
+    pts = [(-9.5, -10.0), (17.5, 17.0), (17.5, -10.0)]
+    wedge = Mesh("wedge", np.array([[X, b / ppu, -a / ppu] for a, b in pts], np.float32), np.array([[0, 1, 2]]))
+    return Scene("tie_room", [box((-4, -4, -4), (4, 4, 4), "room"), wedge], Camera((0, 0, 3), (0, 0, 0)), [])
+
+
+def test_prebuilt_ldis_answer_as_the_per_frame_build(gpu):
+    """``prebuild``: the LDIs built once in setup (untimed); a frame is the trace alone and answers as the
+    per-frame build does, frame after frame."""
+    from harness.scenes import load_scene
+
+    sc = load_scene("cornell")
+    e = Effect("rays", rays_per_pixel=1)
+    batch = e.spec.inputs(sc, 16, 16, e.params, 0)
+    out = {}
+    for pre in (False, True):
+        m = _ldi(gpu, sc, directions=24, resolution=32, prebuild=pre)
+        try:
+            batch.upload(gpu)
+            ts = []
+            for _ in range(2):
+                gpu.begin_frame()
+                r = m.frame(View(sc.camera, 16, 16), e, batch)
+                stages, _ = gpu.end_frame()
+                ts.append(r.resolve().arrays["t"])
+            out[pre] = (ts, set(stages))
+        finally:
+            m.release()
+    np.testing.assert_array_equal(out[True][0][0], out[False][0][0])
+    np.testing.assert_array_equal(out[True][0][1], out[True][0][0])
+    assert out[True][1] == {"trace"} and {"peel", "trace"} <= out[False][1], (out[True][1], out[False][1])

@@ -1,10 +1,19 @@
 """Order-independent transparency (yang2010 §4.1): the exact reference against closed forms, the three
 adapters (ll-oit, depth-peeling, dual-depth-peeling) against the reference to float precision on small
-scenes with intersecting triangles, the tie rule, the first-n-layers variant, overflow, and every kernel
-broken once on purpose."""
-from __future__ import annotations
+scenes with intersecting triangles, the tie rule, the first-n-layers variant, overflow, duplicate
+triangles within a mesh (removed at scene load).
 
-from pathlib import Path
+Every kernel broken once on purpose (an edit of the GLSL, then restored), each failing a behaviour test
+here: the depth-only order (no tie rule) in oit.glsl fails the tie-rule and slow-path tests; no insertion
+sort, and transmittance T *= α, in resolve.glsl fail ``test_methods_equal_the_exact_reference`` and first-n
+layers; the slow path taking an equal copy twice (i >= li) fails the slow path on ties (max_list = 1) and
+first-n with max_list = 4; the first-n selection keeping the farthest fails first-n (n = 1); the first-n
+slow path compositing every layer fails first-n with max_list = 4; depth peeling keeping the wrong side,
+colour not premultiplied, no background transmittance; dual peeling's front transmittance, back-layer
+flag, back alpha, final composite, and the fragment count (2 per fragment in count.glsl) each fail
+``test_methods_equal_the_exact_reference``; duplicates kept at load, or matched only in one vertex order,
+fail the duplicate tests."""
+from __future__ import annotations
 
 import numpy as np
 import pytest
@@ -179,8 +188,10 @@ def test_long_lists_take_the_exact_slow_path(gpu, scenes, refs):
     r = run(gpu, scenes["intersecting"], "ll-oit", max_list=1)
     assert_matches(r, refs["intersecting"], "ll-oit max_list=1")
     assert r.counters["slow_path_lists"] > 0
-    r = run(gpu, scenes["ties"], "ll-oit", max_list=2)
-    assert_matches(r, refs["ties"], "ll-oit max_list=2 on ties")
+    for n in (1, 2):  # the slow path's tie rule: equal (depth, material) copies taken in list order, once each
+        r = run(gpu, scenes["ties"], "ll-oit", max_list=n)
+        assert_matches(r, refs["ties"], f"ll-oit max_list={n} on ties")
+        assert r.counters["slow_path_lists"] > 0
 
 
 @pytest.mark.parametrize("method,params", [("ll-oit", {}), ("ll-oit", {"max_list": 4}), ("depth-peeling", {})])
@@ -193,6 +204,24 @@ def test_first_n_layers(gpu, scenes, method, params):
         r = run(gpu, sc, method, max_layers=n, **params)
         assert_matches(r, render_oit(sc, W, H, max_layers=n), f"{method} max_layers={n} {params}")
         assert r.invariants == []
+
+
+@pytest.mark.parametrize("params", [{"pool": "count"}, {"pool": "lazy"}, {"pool": "grow", "pool_capacity": 8},
+                                    {"aggregate_atomics": True}], ids=["count", "lazy", "grow-small", "aggregate"])
+def test_ll_oit_pool_policies_and_aggregated_counter(gpu, scenes, refs, params):
+    """Every pool policy (a counting pass; sized from the previous frame; grown from 8 nodes and rebuilt) and
+    the per-subgroup aggregated node counter store every fragment: the composite equals the reference."""
+    for name in ("intersecting", "stack"):
+        cls = get_method("ll-oit")
+        m = cls(cls.Params(**params))
+        m.setup(gpu, scenes[name])
+        try:
+            for _ in range(2):  # lazy sizes the second frame from the first
+                r = m.frame(View(scenes[name].camera, W, H), Effect("oit")).resolve()
+        finally:
+            m.release()
+        assert_matches(r, refs[name], f"ll-oit {params} on {name}")
+        assert r.invariants == [] and r.counters["fragments_stored"] == refs[name].meta["fragments"]
 
 
 def test_overflow_is_a_degraded_row(tmp_path):
@@ -217,70 +246,69 @@ def test_effect_declaration():
     assert all("oit" in get_method(m).effects for m in METHODS)
 
 
-# ---- every kernel broken once ------------------------------------------------------------------------
+# ---- coincident copies within one mesh: removed at scene load, one rule for methods and reference -------
 
-def broken(method: str, tmp_path: Path, file: str, old: str, new: str):
-    """An unregistered copy of ``method`` whose ``file`` (its own, or the shared oit.glsl placed beside its
-    shaders, which #include finds first) has ``old`` replaced by ``new``."""
-    cls = get_method(method)
-    folder = Path(__import__(cls.__module__, fromlist=["x"]).__file__).parent
-    src_file = folder / file if (folder / file).exists() else Path(__file__).parents[1] / "methods/glsl" / file
-    src = src_file.read_text()
-    assert old in src, old
-    tmp_path.mkdir(parents=True, exist_ok=True)
-    (tmp_path / file).write_text(src.replace(old, new))
-    for f in folder.glob("*.glsl"):
-        if not (tmp_path / f.name).exists():
-            (tmp_path / f.name).write_text(f.read_text())
-
-    class Broken(cls):
-        name = ""
-
-        def shader(self, name):
-            return tmp_path / name
-
-    return Broken
+def duplicates_scene():
+    """The tie scene's quad as one semi-transparent mesh that lists its triangles more than once: an exact
+    copy, a copy with its vertices rotated, one with the winding reversed, one through other vertex
+    indices at the same positions (4 duplicates of 2 triangles), over the opaque back quad."""
+    x0, x1, y0, y1, z = -0.53, 0.71, -0.61, 0.43, 0.5
+    v = np.array([[x0, y0, z], [x1, y0, z], [x1, y1, z], [x0, y1, z], [x0, y0, z], [x1, y1, z]], np.float32)
+    f = np.array([[0, 1, 2], [0, 2, 3], [0, 1, 2], [2, 3, 0], [0, 2, 1], [4, 5, 3]])
+    glass = Mesh("glass", v, f, *TIE_A)
+    back = quad(0.0, -1.0, 1.0, -1.0, 1.0, "back", (0.2, 0.3, 0.9), 1.0)
+    return Scene("duplicates", [back, glass], Camera((0.11, 0.07, 4.0), (0.0, 0.0, 0.0), fov_y=40.0))
 
 
-BREAKS = [
-    # (method, file, old, new, scene, params)
-    ("ll-oit", "oit.glsl", "return za < zb || (za == zb && ma < mb);", "return za < zb;", "ties", {}),
-    ("ll-oit", "resolve.glsl", "while (b > 0u && oit_before(za, ma, z[b - 1u], m[b - 1u]))", "while (false)",
-     "intersecting", {}),
-    ("ll-oit", "resolve.glsl", "T *= 1.0 - a.a;", "T *= a.a;", "intersecting", {}),
-    ("ll-oit", "resolve.glsl", "(zi == lz && mi == lm && i > li)", "(zi == lz && mi == lm && i >= li)",
-     "ties", {"max_list": 1}),
-    ("ll-oit", "resolve.glsl", "if (oit_before(z[b], m[b], z[s], m[s])) s = b;",
-     "if (oit_before(z[s], m[s], z[b], m[b])) s = b;", "stack", {"max_layers": 2}),
-    ("ll-oit", "resolve.glsl", "for (uint k = 0u; k < layers; ++k) {", "for (uint k = 0u; k < n; ++k) {",
-     "stack", {"max_layers": 2, "max_list": 4}),
-    ("depth-peeling", "peel.glsl", "k <= depth_step(", "k >= depth_step(", "intersecting", {}),
-    ("depth-peeling", "composite.glsl", "out_accum = vec4(c.rgb * c.a, c.a);", "out_accum = vec4(c.rgb, c.a);",
-     "intersecting", {}),
-    ("depth-peeling", "composite.glsl", "a.rgb + a.a * background", "a.rgb + background", "intersecting", {}),
-    ("dual-depth-peeling", "peel.glsl", "front.rgb + T * c.a * c.rgb", "front.rgb + c.a * c.rgb", "intersecting", {}),
-    ("dual-depth-peeling", "peel.glsl", "out_back = vec4(c.rgb, c.a + 1.0);", "out_back = vec4(c.rgb, c.a);",
-     "intersecting", {}),
-    ("dual-depth-peeling", "blend.glsl", "f.rgb + (1.0 - f.a) * b", "f.rgb + b", "intersecting", {}),
-    ("dual-depth-peeling", "blend.glsl", "out_color = vec4(c.rgb, c.a - 1.0);", "out_color = vec4(c.rgb, c.a);",
-     "intersecting", {}),
-]
+def test_duplicate_triangles_are_removed_once_for_every_method(gpu):
+    """As listed, ll-oit composites the quad 3 times where the reference (one hit per surface along a ray)
+    counts it once; without the duplicates every method equals the reference, and the scene says how
+    many it dropped."""
+    from harness.scene import duplicate_faces, without_duplicate_triangles
+
+    sc = duplicates_scene()
+    assert duplicate_faces(sc.meshes[1].vertices, sc.meshes[1].faces).tolist() == [False, False, True, True, True,
+                                                                                   True]
+    ref = render_oit(sc, W, H)
+    assert np.abs(run(gpu, sc, "ll-oit").image - ref.mean).max() > 0.1  # the disagreement the rule removes
+    clean = without_duplicate_triangles(sc)
+    assert clean.triangle_count == sc.triangle_count - 4 and clean.meshes[0] is sc.meshes[0]
+    assert clean.warnings == ["scene 'duplicates': 4 duplicate triangles removed (exact copies within one mesh; "
+                              "'glass': 4): every method and the reference see each triangle once"]
+    np.testing.assert_array_equal(render_oit(clean, W, H).mean, ref.mean)  # the reference's own rule
+    for method in METHODS:
+        assert_matches(run(gpu, clean, method), ref, f"{method} without duplicates")
+    assert without_duplicate_triangles(clean) is clean  # nothing left: unchanged, no line
 
 
-@pytest.mark.parametrize("method,file,old,new,scene,params", BREAKS,
-                         ids=[f"{b[0]}-{b[1]}-{i}" for i, b in enumerate(BREAKS)])
-def test_a_broken_kernel_fails(gpu, scenes, refs, tmp_path, method, file, old, new, scene, params):
-    ref = refs[scene] if not params.get("max_layers") else render_oit(scenes[scene], W, H, params["max_layers"])
-    intact = broken(method, tmp_path / "intact", file, old, old)  # the copying itself changes nothing
-    assert_matches(run(gpu, scenes[scene], method, method_cls=intact, **params), ref, f"copied {method}")
-    cls = broken(method, tmp_path, file, old, new)
-    r = run(gpu, scenes[scene], method, method_cls=cls, **params)
-    with pytest.raises(AssertionError):
-        assert_matches(r, ref, f"broken {method}")
+def test_a_loaded_mesh_with_duplicates_says_so_once(tmp_path, capsys):
+    """A mesh file listing a triangle twice: loading removes the copy, the run prints one line on stderr."""
+    from harness.cli import main
+
+    obj = tmp_path / "twice.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 3 1 2\nf 1 3 2\n")
+    sc = load_scene(str(obj))
+    assert sum(len(m.faces) for m in sc.meshes if m.name == "twice") == 2
+    assert len(sc.warnings) == 1 and "2 duplicate triangles removed" in sc.warnings[0]
+    rc = main(["run", "--scene", str(obj), "--method", "ll-oit", "--effect", "oit", "--size", "8x8",
+               "--warmup", "0", "--frames", "1", "--out", str(tmp_path / "run"), "--no-report", "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 0 and err.count("duplicate triangles removed") == 1, err
 
 
-def test_a_broken_fragment_count_fails(gpu, scenes, refs, tmp_path):
-    """dual-depth-peeling's depth-complexity counters come from count.glsl: counting 2 per fragment shows."""
-    cls = broken("dual-depth-peeling", tmp_path, "count.glsl", "out_count = 1.0;", "out_count = 2.0;")
-    c = run(gpu, scenes["intersecting"], "dual-depth-peeling", method_cls=cls).counters
-    assert c["fragments"] == 2 * refs["intersecting"].meta["fragments"]
+def test_duplicate_faces_against_a_set_of_sorted_triangles():
+    """The vectorised rule against the plain one: a face repeats an earlier one when the set of its three
+    vertex positions was seen before (−0 and +0 being one position)."""
+    from harness.scene import duplicate_faces
+
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        v = rng.integers(-1, 2, (30, 3)).astype(np.float32) * np.float32(0.5)
+        v[::7] *= np.float32(-1.0)  # some −0
+        f = rng.integers(0, 30, (500, 3))
+        seen, want = set(), []
+        for tri in f:
+            key = tuple(sorted(tuple(float(x) + 0.0 for x in v[i]) for i in tri))
+            want.append(key in seen)
+            seen.add(key)
+        assert duplicate_faces(v, f).tolist() == want

@@ -44,19 +44,21 @@ def xml(tmp_path, bsdf: str) -> str:
     return str(p)
 
 
-@pytest.mark.parametrize("bsdf,albedo,alpha", [
-    ('<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf>', 0.5, 0.3),
+@pytest.mark.parametrize("bsdf,albedo,alpha,hash_", [  # hashes: those of the earlier hand-written XML parser
+    ('<bsdf type="mask"><float name="opacity" value="0.3"/><bsdf type="diffuse"/></bsdf>', 0.5, 0.3,
+     "12c433f11d6a4255"),
     ('<bsdf type="mask"><float name="opacity" value="0.7"/><bsdf type="twosided"><ref id="red"/></bsdf></bsdf>',
-     0.8, 0.7),
+     0.8, 0.7, "ecc891e64c996918"),
     ('<bsdf type="twosided"><bsdf type="mask"><float name="opacity" value="0.2"/><ref id="red"/></bsdf></bsdf>',
-     0.8, 0.2),
-    ('<bsdf type="mask"><bsdf type="diffuse"/></bsdf>', 0.5, 0.5),  # Mitsuba's default opacity
-    ('<ref id="red"/>', 0.8, 1.0),
+     0.8, 0.2, "b1e6947cf2e4766f"),
+    ('<bsdf type="mask"><bsdf type="diffuse"/></bsdf>', 0.5, 0.5, "3cfc6a9d9b0576b5"),  # Mitsuba's default opacity
+    ('<ref id="red"/>', 0.8, 1.0, "85c8d53f3a5a3d12"),
 ])
-def test_xml_mask_opacity(tmp_path, bsdf, albedo, alpha):
+def test_xml_mask_opacity(tmp_path, bsdf, albedo, alpha, hash_):
     sc = load_mitsuba_xml(xml(tmp_path, bsdf))
     assert sc.meshes[0].albedo[0] == pytest.approx(albedo) and sc.meshes[0].opacity == pytest.approx(alpha)
     assert sc.meshes[1].opacity == 1.0
+    assert sc.content_hash() == hash_
 
 
 @pytest.mark.parametrize("bsdf,words", [
@@ -115,7 +117,7 @@ def test_transparent_dragon_not_fetched_is_one_line(tmp_path, monkeypatch):
 
 
 def test_yang2010_published_numbers_and_rows():
-    """Table 1 and §4.1.3 of shared/papers/yang2010.md; every row is produced by the suite at both scales."""
+    """Table 1 and §4.1.3 of yang2010 (docs/oit.md); every row is produced by the suite at both scales."""
     from harness.reproduce import registry, scale_match, scale_suite, suite_file
     from harness.suite import load_suite
 

@@ -1,4 +1,5 @@
 import dataclasses
+import json
 import math
 import shutil
 import subprocess
@@ -169,3 +170,26 @@ def test_timing_fields_explicit_total():
     t = R.timing_fields({"a": [1.0, 2.0, 3.0], "total": [10.0, 20.0, 30.0]})
     assert t["total_ms"] == 20.0 and t["total_ms_iqr"] == 10.0 and math.isnan(t["wall_ms"])
     assert t["stage_ms"] == {"a": 2.0} and t["frames"] == 3
+
+
+def test_params_record_the_values_used():
+    """A cdi-vpl vpl_range row records the rsm and miss_range its VPLs were built with (the effect's),
+    not the method's indirect-only defaults; other effects and methods keep their own."""
+    from harness.effects import Effect
+    from harness.runner import _job_fields
+    from harness.scenes import load_scene
+    from harness.suite import Job
+
+    scene = load_scene("cornell")
+    machine = R.machine_info({})
+
+    def params(method, effect, **given):
+        job = Job("cornell", (), method, tuple(sorted(given.items())), effect, 16, 16, 4, 0, 1)
+        row = _job_fields("r", "s", {}, machine, job, scene, {}, "ok")
+        return R.make_row(**row)["params"]
+
+    vr = json.loads(params("cdi-vpl", Effect("vpl_range", rsm=32, miss_range=1.0), rsm=256))
+    assert (vr["rsm"], vr["miss_range"], vr["cone_angle"]) == (32, 1.0, 45.0), vr
+    ind = json.loads(params("cdi-vpl", Effect("indirect")))
+    assert (ind["rsm"], ind["miss_range"]) == (256, 0.5)
+    assert json.loads(params("ldi", Effect("rays", rays_per_pixel=4)))["rays_per_pixel"] == 0

@@ -37,7 +37,7 @@ def test_registry_entries_are_complete():
 
 
 def test_published_numbers_transcribed():
-    """Figure 8/9 captions of aalund2015 (shared/papers/aalund2015.md)."""
+    """Figure 8/9 captions of aalund2015 (docs/reports.md)."""
     f8 = {r["id"]: r for r in REGISTRY["aalund2015-fig8"].rows}
     assert f8["ldm"]["time_ms"] == 512.4 and f8["hbao"]["time_ms"] == 903.6
     assert f8["ldm"]["memory_mb"] == 805.5

@@ -1,4 +1,4 @@
-"""One place for each rule (issue 17 §6): the device class, file names and keys, effect parameters."""
+"""One place for each rule: the device class, file names and keys, effect parameters."""
 import json
 import math
 

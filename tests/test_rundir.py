@@ -1,5 +1,6 @@
 """Run directories (harness/rundir.py): users' folders are never deleted, replacement is atomic, one
 writer at a time, and killed runs leave nothing that a later run does not clean up."""
+import json
 import os
 import subprocess
 import sys
@@ -16,10 +17,17 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def make_run(d: Path, tag: str = "old") -> Path:
+    """The files of a finished run as ldbench writes them (one row, ``tag`` as its suite's name)."""
+    from harness import records
+
     d.mkdir(parents=True, exist_ok=True)
-    (d / "results.parquet").write_text(tag)
-    (d / "suite.json").write_text("{}")
+    records.write_results([records.make_row(run_id=tag, suite=tag)], d)
+    (d / "suite.json").write_text(json.dumps({"name": tag, "source": "", "jobs": 1}))
     return d
+
+
+def tag(d: Path) -> str:
+    return json.loads((d / "suite.json").read_text())["name"]
 
 
 def dead_pid() -> int:
@@ -29,12 +37,37 @@ def dead_pid() -> int:
 
 
 def test_is_run_dir(tmp_path):
+    """A run is recognised by what only ldbench writes, not by two file names."""
     assert not is_run_dir(tmp_path)
-    (tmp_path / "results.parquet").write_text("x")
-    assert not is_run_dir(tmp_path)
-    (tmp_path / "suite.json").write_text("{}")
+    (tmp_path / "results.parquet").write_text("")
+    (tmp_path / "suite.json").write_text("")
+    assert not is_run_dir(tmp_path)  # two empty files of those names: someone else's
+    (tmp_path / "suite.json").write_text('{"name": "x", "source": "", "jobs": 1}')
+    assert not is_run_dir(tmp_path)  # ... with our suite.json, but no Parquet results
+    import pandas as pd
+    pd.DataFrame({"a": [1]}).to_parquet(tmp_path / "results.parquet")
+    assert not is_run_dir(tmp_path)  # a Parquet file of other columns
+    make_run(tmp_path)
     assert is_run_dir(tmp_path)
+    (tmp_path / "suite.json").write_bytes(b"\xff\xfe{}")
+    assert not is_run_dir(tmp_path)
+    make_run(tmp_path)
+    (tmp_path / MARKER).write_text("1")
+    assert not is_run_dir(tmp_path)  # an unfinished run
     assert not is_run_dir(tmp_path / "results.parquet")
+
+
+def test_two_empty_files_are_not_a_run_and_stay(tmp_path):
+    """--out on a folder holding empty results.parquet and suite.json beside the user's files: refused,
+    nothing deleted."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    for f in ("results.parquet", "suite.json"):
+        (out / f).write_text("")
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(LdbenchError, match="not an ldbench run"):
+        RunDir(out).open()
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "results.parquet", "suite.json"]
 
 
 def test_new_run_commits_and_leaves_nothing_else(tmp_path):
@@ -42,7 +75,7 @@ def test_new_run_commits_and_leaves_nothing_else(tmp_path):
     with RunDir(out) as tmp:
         assert tmp.name == f".run.partial-{os.getpid()}" and tmp.parent == tmp_path
         make_run(tmp, "new")
-    assert is_run_dir(out) and (out / "results.parquet").read_text() == "new"
+    assert is_run_dir(out) and tag(out) == "new"
     assert not (out / MARKER).exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]  # no lock, partial or old folder
 
@@ -62,7 +95,7 @@ def test_replaces_a_run_atomically(tmp_path, monkeypatch):
     pid = os.getpid()
     # old aside first, then the new one in: no moment where DIR holds a half-deleted run
     assert renames == [("run", f".run.old-{pid}", True), (f".run.partial-{pid}", "run", False)]
-    assert (out / "results.parquet").read_text() == "new"
+    assert tag(out) == "new"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
@@ -112,7 +145,7 @@ def test_abort_removes_only_its_partial(tmp_path):
         with RunDir(out) as tmp:
             make_run(tmp, "new")
             raise KeyboardInterrupt
-    assert (out / "results.parquet").read_text() == "old"
+    assert tag(out) == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
@@ -155,9 +188,9 @@ def test_old_run_of_a_killed_commit_is_restored(tmp_path):
     old = make_run(tmp_path / f".run.old-{dead_pid()}", "old")
     rd = RunDir(tmp_path / "run")
     rd.open()
-    assert not old.exists() and (tmp_path / "run" / "results.parquet").read_text() == "old"
+    assert not old.exists() and tag(tmp_path / "run") == "old"
     rd.abort()
-    assert (tmp_path / "run" / "results.parquet").read_text() == "old"
+    assert tag(tmp_path / "run") == "old"
 
 
 def test_concurrent_cli_run_into_same_out_exits_2(tmp_path):

@@ -1,6 +1,6 @@
 """Registered real scenes (harness/scene_registry.py + .toml, harness/scenes.build_registered).
 
-Tests marked ``needs_shared_scenes`` use the mirror beside the checkout (../shared/scenes, or
+Tests marked ``needs_shared_scenes`` use the scene mirror of tests/conftest.py (beside the checkout, or
 $LDBENCH_SHARED/scenes); without it they skip and the session ends with one loud line saying so.
 """
 import gzip

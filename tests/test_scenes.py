@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from harness.errors import LdbenchError
-from harness.scene import Scene
+from harness.scene import Camera, Mesh, Scene, SpotLight
 from harness.scenes import BUILDERS, list_scenes, load_scene
 
 from conftest import SHARED_SCENES as SHARED
@@ -298,3 +298,33 @@ def test_hairball_tubes_face_outwards_and_stay_in_the_box():
 def test_params_rebuild_the_scene(name, params):
     sc = load_scene(name, **params)
     assert load_scene(sc.name, **sc.params).content_hash() == sc.content_hash()
+
+
+@pytest.mark.parametrize("make,words", [
+    (lambda: Mesh("m", [[0, 0, 0], [1e39, 0, 0], [0, 1, 0]], [[0, 1, 2]]), "beyond"),  # finite in float64 only
+    (lambda: Mesh("m", [[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]], [[0, 1, 2]]), "not finite"),
+    (lambda: Mesh("m", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], (1.5, 0.5, 0.5)), "albedo"),
+    (lambda: Mesh("m", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], (-0.1, 0.5, 0.5)), "albedo"),
+    (lambda: Mesh("m", [[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]], (np.nan, 0.5, 0.5)), "albedo"),
+    (lambda: SpotLight((0, 1, 0), (0, 0, 0), intensity=(-5, 5, 5)), "negative"),
+    (lambda: SpotLight((0, 1, 0), (0, 0, 0), intensity=(np.nan, 5, 5)), "intensity"),
+    (lambda: SpotLight((0, 1, 0), (0, 0, 0), intensity=(1e39, 5, 5)), "intensity"),
+    (lambda: SpotLight((0, 1e39, 0), (0, 0, 0)), "position"),
+    (lambda: Camera((0, 0, 1e39), (0, 0, 0)), "origin"),
+    (lambda: Camera((0, 0, 4), (0, 0, 0), fov_y=float("nan")), "fov_y"),
+])
+def test_values_the_gpu_cannot_hold_or_physics_forbids(make, words):
+    """Checked on the Scene objects, whatever built them (a builder, an XML loader): one line, and no
+    numpy overflow warning on the way."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(LdbenchError, match=words):
+            make()
+
+
+def test_large_but_float32_safe_coordinates_are_kept():
+    m = Mesh("m", [[0, 0, 0], [1e17, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    assert m.vertices.dtype == np.float32 and m.vertices[1, 0] == np.float32(1e17)
+    assert SpotLight((0, 1, 0), (0, 0, 0), intensity=(0, 0, 0)).intensity == (0.0, 0.0, 0.0)

@@ -9,7 +9,8 @@ import pytest
 from harness.checks import camera_sees_geometry, unique_scene_names
 from harness.cli import build_parser, suite_from_args
 from harness.errors import LdbenchError
-from harness.suite import DEFAULT_SIZE, MAX_SPP, parse_size, resolve_sizes, suite_from_dict
+from harness.suite import (DEFAULT_SIZE, MAX_FRAMES, MAX_SEED, MAX_SPP, MAX_WARMUP, parse_size, resolve_sizes,
+                           suite_from_dict)
 from methods.base import _coerce, get_method
 
 
@@ -42,6 +43,21 @@ def suite(head=None, **run):
     ({}, {"params": {"hbao": 3}}, "params"),
     # parameters for a method this [[run]] does not run (the command line rejects them too)
     ({}, {"params": {"direct-raster": {"shadow_size": 64}}}, "direct-raster"),
+    # every integer has an upper bound, checked before anything renders
+    ({"frames": 10 ** 20}, {}, "frames must be <= 10000"),
+    ({"frames": MAX_FRAMES + 1}, {}, "frames"),
+    ({"warmup": MAX_WARMUP + 1}, {}, "warmup must be <="),
+    ({}, {"seed": 2 ** 63}, "seed must be <= 4294967295"),
+    ({}, {"seed": MAX_SEED + 1}, "seed"),
+    ({}, {"seed": -1}, "seed"),
+    ({}, {"effect": "rays", "methods": ["ldi"], "effect_params": {"rays_per_pixel": 1025}}, "rays_per_pixel"),
+    ({}, {"methods": ["ldm"], "params": {"ldm": {"visibility_bias": float("inf")}}}, "visibility_bias=inf .* finite"),
+    # effect parameters the effect does not use: one rule, naming the effect's parameters
+    ({}, {"effect": "rays", "methods": ["ldi"], "d_max": 0.5}, "'rays' does not use parameter 'd_max'.*ray_kind"),
+    ({}, {"effect": "rays", "methods": ["ldi"], "effect_params": {"ray_kind": ["diffuse", "glossy"],
+                                                                  "light_radius": 0.2}}, "light_radius"),
+    ({}, {"effect_params": {"ray_kind": "ao"}}, "'ao' does not use parameter 'ray_kind'.*d_max, falloff"),
+    ({}, {"effect": ["ao", "direct"], "methods": "all", "d_max": 0.5}, "'direct' does not use parameter 'd_max'"),
 ])
 def test_suite_rejects(head, run, needle):
     with pytest.raises(LdbenchError, match="(?s).*" + needle.replace("^", r"\^")):
@@ -93,6 +109,9 @@ ADHOC = ("--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "
     (["--spp", "0"], "spp"),
     (["--spp", str(10 ** 11)], "spp"),
     (["--size", "1x1"], "size"),
+    (["--frames", str(10 ** 20)], "frames must be <="),
+    (["--set", f"hbao.seed={2 ** 31}"], "seed=2147483648 of method 'hbao' above its maximum"),
+    (["--warmup", str(10 ** 20)], "warmup must be <="),
 ])
 def test_command_line_rejects(tmp_path, extra, needle):
     with pytest.raises(LdbenchError, match=needle):
@@ -101,6 +120,31 @@ def test_command_line_rejects(tmp_path, extra, needle):
     f.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["hbao"]\n')
     with pytest.raises(LdbenchError, match=needle):
         run_args(str(f), *extra)
+
+
+def test_a_sweep_may_give_a_parameter_some_of_its_kinds_use():
+    """ray_kind = [diffuse, glossy, shadow] with light_radius: shadow uses it (the bundled suites do this)."""
+    s = suite(effect="rays", methods=["ldi"], effect_params={"ray_kind": ["diffuse", "shadow"], "light_radius": 0.2})
+    assert sorted(j.effect.ray_kind for j in s.jobs) == ["diffuse", "shadow"]
+
+
+@pytest.mark.parametrize("extra,needle", [
+    (["--seed", str(2 ** 63)], "seed must be <="),
+    (["--seed", "-1"], "seed must be >="),
+    (["--effect-set", "d_max=0.5"], "does not use parameter 'd_max'"),
+    (["--d-max", "0.5", "--ray-kind", "glossy"], "with ray_kind='glossy' does not use parameter 'd_max'"),
+])
+def test_command_line_rejects_rays(extra, needle):
+    with pytest.raises(LdbenchError, match=needle):
+        run_args("--scene", "cornell", "--method", "ldi", "--effect", "rays", *extra)
+
+
+def test_retries_bounded():
+    pytest.importorskip("ray")
+    from harness.executors.ray import MAX_RETRIES, RayExecutor
+
+    with pytest.raises(LdbenchError, match=f"--retries must be <= {MAX_RETRIES}"):
+        RayExecutor(retries=MAX_RETRIES + 1)
 
 
 def test_command_line_overrides_a_suite(tmp_path):

@@ -13,6 +13,8 @@ An effect spec declares, as data and a few hooks:
 ``gate``               (non-image effects) the metrics the nightly gate checks: (column, "higher"|"lower"
                        is better, absolute tolerance, relative tolerance); image effects are gated on
                        PSNR/SSIM against their reference's noise (:mod:`harness.compare`)
+``supersedes``         effect parameters that replace a method's parameter of the same name on this
+                       effect (the harness builds the inputs from them): the row records the effect's
 ``inputs()``           arrays the harness builds deterministically from (scene, view, seed) and hands
                        identically to the method and to the reference (None for pure image effects)
 ``reference()``        the ground truth for those inputs
@@ -47,6 +49,7 @@ class EffectSpec:
     reference_backend: str = ""
     metrics: tuple = ()
     gate: tuple = ()
+    supersedes: tuple = ()
 
     # ---- identity -----------------------------------------------------------------------------------
     def key(self, params) -> dict:
@@ -260,6 +263,29 @@ class Effect:
 
 def _rebuild(name, params):
     return Effect(name, **params)
+
+
+def effects_from_user(name: str, combos: list) -> list:
+    """The effects of parameters a user gave (the command line: one dict; a suite's sweep: one dict per
+    combination), under one rule: every parameter given must be one the effect uses, with at least one
+    of the values it is swept over, else one line naming the effect's parameters. An effect uses what
+    its :meth:`EffectSpec.key` records (the key identifies its result: a parameter missing from it
+    changes nothing), so ``--d-max`` on ``rays`` of kind diffuse is refused like ``--ray-kind`` on ``ao``."""
+    spec = get_spec(name)
+    fields = spec.Params.field_names()
+    combos = [dict(c) for c in combos] or [{}]
+    known = f"its parameters: {', '.join(fields)}" if fields else "it takes none"
+    for k in sorted(set().union(*combos)):
+        if k not in fields:
+            raise LdbenchError(f"effect {name!r} does not use parameter {k!r} ({known})")
+    effects = [Effect(name, **c) for c in combos]
+    for k in sorted(set().union(*combos)):
+        if not any(k in e.key() for e in effects):
+            uses = sorted({u for e in effects for u in e.key() if u != "effect"}, key=fields.index)
+            with_ = ", ".join(f"{o}={v!r}" for o, v in sorted({(o, c[o]) for c in combos for o in c if o != k}))
+            raise LdbenchError(f"effect {name!r}{' with ' + with_ if with_ else ''} does not use parameter {k!r} "
+                               f"(it uses: {', '.join(uses) or 'none'}; {known})")
+    return effects
 
 
 def effect_from_key(key: dict) -> Effect:

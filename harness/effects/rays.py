@@ -6,10 +6,13 @@ arrays to the method and to the oracle:
 1. **Primary hits**: Mitsuba's exact intersection of the pixel-centre camera rays (the reference's own
    primary hits), so both sides start from the same surface points x with the same geometric normal n
    flipped to face the camera.
-2. **Origin offset**: o = x − 16 ε d_cam + ε n with ε = (1 + max|x|) · Mitsuba's ``RayEpsilon``
-   (8.94e-5 for float32 variants): nudged back towards the camera (a pixel centre exactly on a crease
-   would otherwise start inside the neighbouring wall's plane), then off the surface along n. It is
-   the offset of the ``ao`` reference.
+2. **Origin** (:func:`harness.conventions.spawn_origin`): o = x' + ε n with ε = (1 + max|x'|) · Mitsuba's
+   ``RayEpsilon`` (8.94e-5 for float32 variants), Mitsuba's ``spawn_ray`` offset, where x' is x except
+   within a few ε of an edge of its triangle (:func:`harness.conventions.crease_point`, the hits'
+   ``spawn``): a pixel centre exactly on a crease would otherwise start inside the neighbouring wall's
+   plane. It is the origin of the ``ao`` and ``indirect`` references. A ray into the surface (a shadow
+   ray towards a light point below the tangent plane) starts on the camera's side and meets the surface
+   at once.
 3. ``rays_per_pixel`` rays per hit pixel, of one ``ray_kind``:
 
    ==========  =========================================================================  ===============
@@ -23,7 +26,8 @@ arrays to the method and to the oracle:
    ao          cosine-distributed about n                                                 ``d_max``
    ==========  =========================================================================  ===============
 
-   Random numbers: numpy's PCG64 seeded with (seed, kind), two uniforms per ray, pixel-major order.
+   Random numbers, frame and warps: :mod:`harness.conventions` (numpy's PCG64 seeded with (seed, kind),
+   two uniforms per ray, pixel-major order; its docstring says how to regenerate a batch).
 
 **Inputs** (:class:`RayBatch`): ``origin``, ``direction`` (unit), ``tmax`` (float32, ∞ allowed) and
 ``normal`` (n at the origin, for methods whose self-intersection rule needs it), ``pixel`` (the
@@ -69,6 +73,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from harness import conventions as conv
 from harness.errors import LdbenchError
 from methods.base import ParamsBase, param
 
@@ -133,56 +138,34 @@ class RayBatch:
         self._gpu.clear()
 
 
-def _frame(n: np.ndarray):
-    """Orthonormal tangents (t, b) of unit normals n (N, 3) (Duff et al. 2017)."""
-    s = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (s + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t = np.stack([1 + s * n[:, 0] ** 2 * a, s * b, -s * n[:, 0]], -1)
-    bb = np.stack([b, s + n[:, 1] ** 2 * a, -n[:, 1]], -1)
-    return t, bb
-
-
-def _around(axis: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    t, b = _frame(axis)
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t ** 2))
-    return (t * (sin_t * np.cos(phi))[:, None] + b * (sin_t * np.sin(phi))[:, None]
-            + axis * cos_t[:, None])
-
-
 def build_batch(hits: dict, cam_dirs: np.ndarray, params: RaysParams, seed: int, *, light=None,
                 ray_epsilon: float, shadow_epsilon: float) -> RayBatch:
-    """The ray batch from primary hits (``references.primary_hits``) and the camera ray directions."""
+    """The ray batch from primary hits (``references.primary_hits``: ``spawn`` points, else ``position``) and
+    the camera ray directions."""
     H, W = hits["mask"].shape
     pix = np.flatnonzero(hits["mask"].reshape(-1)).astype(np.uint32)
     k = params.rays_per_pixel
-    x = hits["position"].reshape(-1, 3)[pix].astype(np.float64)
+    x = hits.get("spawn", hits["position"]).reshape(-1, 3)[pix].astype(np.float64)
     n = hits["normal"].reshape(-1, 3)[pix].astype(np.float64)
     dc = cam_dirs.reshape(-1, 3)[pix].astype(np.float64)
-    eps = (1.0 + np.abs(x).max(1)) * ray_epsilon
-    o = x - dc * (16.0 * eps)[:, None] + n * eps[:, None]
+    o = conv.spawn_origin(x, n, ray_epsilon)
     o, n, dc = (np.repeat(a, k, axis=0) for a in (o, n, dc))
     pixel = np.repeat(pix, k)
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), KINDS.index(params.ray_kind)]))
-    u = rng.random((len(pixel), 2))
-    phi = 2.0 * np.pi * u[:, 1]
+    u = conv.batch_uniforms(seed, KINDS.index(params.ray_kind), len(pixel))
     tmax = np.full(len(pixel), np.inf)
     if params.ray_kind in ("diffuse", "ao"):
-        d = _around(n, np.sqrt(1.0 - u[:, 0]), phi)
+        d = conv.cosine_direction(n, u)
         if params.ray_kind == "ao":
             tmax[:] = params.d_max
     elif params.ray_kind == "glossy":
         r = dc - 2.0 * (dc * n).sum(1, keepdims=True) * n
-        d = _around(r, u[:, 0] ** (1.0 / (params.exponent + 1.0)), phi)
+        d = conv.phong_direction(r, params.exponent, u)
         below = (d * n).sum(1) < 0
         d[below] -= 2.0 * (d[below] * n[below]).sum(1, keepdims=True) * n[below]
     else:  # shadow
         if light is None:
             raise LdbenchError("shadow rays need a light")
-        z = 1.0 - 2.0 * u[:, 0]
-        rr = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-        p = np.asarray(light.position, np.float64) + params.light_radius * np.stack(
-            [rr * np.cos(phi), rr * np.sin(phi), z], -1)
+        p = conv.sphere_point(light.position, params.light_radius, u)
         d = p - o
         dist = np.linalg.norm(d, axis=1)
         d /= np.maximum(dist, 1e-30)[:, None]

@@ -15,10 +15,12 @@ identically to the method and to the oracle):
    ``"reflected"``: the mirror direction of ω_i about n) and five around it at ``cone_angle`` from p, at
    azimuths φ₀ + 2πk/5 in the frame of p (Duff et al. 2017); φ₀ = 2π · hash(texel, seed) (:func:`hash01`,
    the same integer hash in numpy and GLSL, so the method's own VPLs for ``indirect`` get the same rays).
-   Origin: y moved 16 ε back towards the light and ε off the surface along n, ε = (1 + max|y|) ·
-   Mitsuba's ``RayEpsilon`` (as the ``rays`` effect does towards the camera). t_max = the miss range.
-3. **Range** of a VPL: the ``range_mode`` (``mean`` or ``max``) of its six distances, each clamped to the
-   **miss range** ``miss_range`` × scene diagonal, which is also the range of a ray that hits nothing.
+   Origin (:func:`harness.conventions.spawn_origin`, as the ``rays`` effect): y' + ε n, ε = (1 + max|y'|) ·
+   Mitsuba's ``RayEpsilon``, y' = y except within a few ε of its triangle's edges
+   (:func:`harness.conventions.crease_point`). t_max = the miss range.
+3. **Range** of a VPL (:func:`harness.conventions.reduce_range`): the ``range_mode`` (``mean`` or ``max``)
+   of its six distances, each clamped to the **miss range** ``miss_range`` × scene diagonal, which is also
+   the range of a ray that hits nothing.
 
 **A method returns** ``arrays["range"]`` (N,) and ``arrays["t"]`` (6N,) (inf = miss; NaN = no answer,
 counted wrong).
@@ -48,6 +50,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from harness import conventions as conv
+from harness.conventions import hash01, hash32, tangent_frame as frame  # noqa: F401 (re-exported)
 from harness.errors import LdbenchError
 from methods.base import ParamsBase, param
 
@@ -75,37 +79,8 @@ class VplRangeParams(ParamsBase):
 
 
 # ---------------------------------------------------------------------------------------------------
-# the definition, in numpy (the GLSL twin is methods/cdi_vpl/vpl.glsl)
-
-
-def hash32(x: np.ndarray) -> np.ndarray:
-    """Chris Wellons' ``lowbias32`` integer hash (uint32 → uint32), as in GLSL."""
-    x = np.asarray(x, np.uint32).copy()
-    with np.errstate(over="ignore"):
-        x ^= x >> np.uint32(16)
-        x *= np.uint32(0x7FEB352D)
-        x ^= x >> np.uint32(15)
-        x *= np.uint32(0x846CA68B)
-        x ^= x >> np.uint32(16)
-    return x
-
-
-def hash01(texel: np.ndarray, seed: int) -> np.ndarray:
-    """A uniform number in [0, 1) per texel: the top 24 bits of hash32(texel + hash32(seed))."""
-    s = hash32(np.array([int(seed) & 0xFFFFFFFF], np.uint32))[0]
-    with np.errstate(over="ignore"):
-        h = hash32(np.asarray(texel, np.uint32) + s)
-    return (h >> np.uint32(8)).astype(np.float64) * (1.0 / (1 << 24))
-
-
-def frame(n: np.ndarray):
-    """Orthonormal tangents (t, b) of unit vectors n (N, 3) (Duff et al. 2017)."""
-    s = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (s + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t = np.stack([1 + s * n[:, 0] ** 2 * a, s * b, -s * n[:, 0]], -1)
-    bb = np.stack([b, s + n[:, 1] ** 2 * a, -n[:, 1]], -1)
-    return t, bb
+# the definition, in numpy (the GLSL twin is methods/cdi_vpl/vpl.glsl; hash, frame, origin and reduction
+# are harness/conventions.py's)
 
 
 def primary_direction(normal: np.ndarray, incident: np.ndarray, primary: str) -> np.ndarray:
@@ -131,19 +106,14 @@ def vpl_directions(normal, incident, texel, *, primary: str, cone_angle: float, 
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
-def ray_origins(position, normal, incident, ray_epsilon: float) -> np.ndarray:
-    """The rays' common origin per VPL: y − 16 ε ω_i + ε n, ε = (1 + max|y|) · RayEpsilon."""
-    y = np.asarray(position, np.float64)
-    eps = (1.0 + np.abs(y).max(1)) * ray_epsilon
-    return y - np.asarray(incident, np.float64) * (16.0 * eps)[:, None] + np.asarray(normal, np.float64) * eps[:, None]
+def ray_origins(position, normal, ray_epsilon: float) -> np.ndarray:
+    """The rays' common origin per VPL: :func:`harness.conventions.spawn_origin` (y is the crease point)."""
+    return conv.spawn_origin(position, normal, ray_epsilon)
 
 
 def reduce_ranges(t: np.ndarray, cap: float, mode: str) -> np.ndarray:
-    """Per-VPL range from the six distances (6N,) (inf/NaN = miss → ``cap``; every distance ≤ cap)."""
-    t = np.asarray(t, np.float64).reshape(-1, RAYS_PER_VPL)
-    with np.errstate(invalid="ignore"):
-        c = np.where(np.isfinite(t), np.minimum(t, cap), cap)
-    return (c.mean(1) if mode == "mean" else c.max(1)).astype(np.float32)
+    """Per-VPL range from the six distances (6N,): :func:`harness.conventions.reduce_range`."""
+    return conv.reduce_range(t, cap, mode, RAYS_PER_VPL)
 
 
 def rsm_up(light) -> tuple:
@@ -251,6 +221,7 @@ class VplRange(EffectSpec):
     reference_backend = "Mitsuba 3: RSM by ray_intersect from the light; oracle ray_intersect_preliminary on the same rays"
     metrics = VPL_METRICS
     gate = (("range_within_5pct", "higher", 0.002, 0.0), ("range_err_p95", "lower", 1e-4, 0.10))
+    supersedes = ("rsm", "primary", "cone_angle", "range_mode", "miss_range")  # the VPLs are the harness's
 
     def stochastic(self, params):
         return False

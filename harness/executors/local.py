@@ -1,8 +1,13 @@
 """The local executor: every job in this process, one after the other, on the driver's GL context
-(``ldbench run`` without ``--executor``). References first (each once), then the jobs in suite order."""
+(``ldbench run`` without ``--executor``). References first (each once), then the jobs in suite order.
+
+Faults, as on the Ray executor: bad input (LdbenchError) while preparing stops the run; any other
+exception of a reference marks its jobs ``error: reference failed: ...``, of a job that job's row
+(:func:`~harness.runner.run_job`); the other rows are kept and the run completes."""
 from __future__ import annotations
 
-from ..runner import RunContext, _progress, prepare, prepare_key, release_inputs, run_job
+from ..errors import LdbenchError
+from ..runner import RunContext, _progress, error_text, failed_row, prepare, prepare_key, release_inputs, run_job
 
 
 class LocalExecutor:
@@ -12,11 +17,18 @@ class LocalExecutor:
         ctx = RunContext(gpu=gpu, machine=plan.machine, git=plan.git, run_id=plan.run_id,
                          suite_name=plan.suite_name, out=out)
         prepared: dict = {}
+        failed: dict = {}  # key -> why its reference could not be made
         try:
             keys = plan.keys()
             for key in _progress(keys, len(keys), "references", progress):
-                prepared[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=progress)
-            return [run_job(ctx, job, prepared[prepare_key(job)])
+                try:
+                    prepared[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=progress)
+                except LdbenchError:
+                    raise
+                except Exception as e:  # noqa: BLE001 - its jobs' rows say so
+                    failed[key] = f"error: reference failed: {error_text(e)}"
+            return [failed_row(plan, job, failed[prepare_key(job)]) if prepare_key(job) in failed
+                    else run_job(ctx, job, prepared[prepare_key(job)])
                     for job in _progress(plan.jobs, len(plan.jobs), "runs", progress)]
         finally:
             release_inputs(prepared)

@@ -4,6 +4,8 @@
 cluster                ``--address ADDR`` joins a running cluster (``auto``, ``HOST:6379``,
                        ``ray://HOST:10001``); without it a local cluster is started and shut down
                        at the end. A process that already called ``ray.init`` keeps its cluster.
+                       A HOST:PORT that accepts no TCP connection within :data:`CONNECT_TIMEOUT_S`
+                       is one line, exit 2, before anything is written.
 workers                one Ray actor per GPU of the cluster (``num_gpus=1``; on a cluster without
                        GPUs, one per CPU: llvmpipe), alive for the whole run. Like the serial run's
                        process, a worker keeps its GL context, compiled shaders and Mitsuba's compiled
@@ -55,6 +57,11 @@ INSTALL_HINT = "the Ray executor needs Ray: pip install 'ldbench[ray]'"
 STAGE = ".stage"  # inside the partial run directory; gone before the commit
 TOKEN = "token"
 CANCEL_WAIT_S = 20.0
+#: How long joining a cluster (``--address``) may take: a TCP connection to its address first, then
+#: ``ray.init``; beyond it the run stops with one line (exit 2) before anything is rendered.
+CONNECT_TIMEOUT_S = 10.0
+#: ``--retries`` at most: a call that failed 100 times will not succeed on the 101st.
+MAX_RETRIES = 100
 
 
 def import_ray():
@@ -259,14 +266,34 @@ class RayExecutor:
                  stage_in_run_dir: bool = True):
         if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
             raise LdbenchError(f"--retries must be an integer >= 0, got {retries!r}")
+        if retries > MAX_RETRIES:
+            raise LdbenchError(f"--retries must be <= {MAX_RETRIES}, got {retries}")
         if group_size is not None and (not isinstance(group_size, int) or group_size < 1):
             raise LdbenchError(f"group size must be an integer >= 1, got {group_size!r}")
         self.address, self.retries, self.group_size = address, retries, group_size
         self.stage_in_run_dir = stage_in_run_dir  # False: workers always return their files (tests)
         self.stats: dict = {}  # of the last run: workers, their processes, calls
         import_ray()  # before anything is written: a missing extra is one line
+        self._reachable()  # likewise a cluster address nothing answers at
 
     # -- cluster
+    def _reachable(self) -> None:
+        """Refuse an ``--address HOST:PORT`` (or ``ray://HOST:PORT``) nothing answers within
+        :data:`CONNECT_TIMEOUT_S`: ``ray.init`` would otherwise retry for minutes."""
+        import socket
+
+        addr = self.address or ""
+        hostport = addr[len("ray://"):] if addr.startswith("ray://") else addr
+        host, sep, port = hostport.rpartition(":")
+        if not sep or not port.isdigit():
+            return  # "auto", or a form Ray resolves itself
+        try:
+            socket.create_connection((host.strip("[]") or "127.0.0.1", int(port)), timeout=CONNECT_TIMEOUT_S).close()
+        except (OSError, ValueError, OverflowError) as e:
+            why = "no answer" if isinstance(e, TimeoutError) else (getattr(e, "strerror", None) or str(e))
+            raise LdbenchError(f"cannot join the Ray cluster at {addr}: {why} within {CONNECT_TIMEOUT_S:.0f} s "
+                               f"(is a head node running there? ray start --head)") from None
+
     def _connect(self, ray) -> bool:
         """Join or start a cluster; True when this call started (and so must shut down) one."""
         if ray.is_initialized():

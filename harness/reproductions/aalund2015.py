@@ -142,6 +142,7 @@ def _fig8_pair(scene: str, d_max: float, label: str) -> tuple:
     ldm = {"scene": scene, "method": "ldm", "effect": "ao", "falloff": "quadratic",
            "params": {"directions": 512, "resolution": 200}}
     hbao = {"scene": scene, "method": "hbao", "effect": "ao", "falloff": "quadratic"}
+    gtao = {"scene": scene, "method": "gtao", "effect": "ao", "falloff": "quadratic"}
     return (
         {"id": f"ldm-{scene}", "label": f"Fig. 8(a) LDMs — {label}",
          "paper_setup": "Crytek Sponza, 512 LDMs of 200×200, d_max = 1280 m (attenuated)",
@@ -153,6 +154,8 @@ def _fig8_pair(scene: str, d_max: float, label: str) -> tuple:
          "paper_setup": "as (a), d_max → 0 (no numbers published)", "match": {**ldm, "d_max": SMALL_D_MAX}},
         {"id": f"hbao-small-{scene}", "label": f"HBAO, small d_max — {label}",
          "paper_setup": "as (c), d_max → 0 (no numbers published)", "match": {**hbao, "d_max": SMALL_D_MAX}},
+        {"id": f"gtao-{scene}", "label": f"GTAO (Jimenez et al. 2016, not in the paper) — {label}",
+         "paper_setup": "— (today's screen-space baseline, XeGTAO's High preset)", "match": {**gtao, "d_max": d_max}},
     )
 
 

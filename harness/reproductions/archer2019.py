@@ -181,7 +181,7 @@ TABLE2 = Reproduction(
         "The memory rows build the CDI once and release the scene's triangles (cdi = 'static'): memory_bytes is "
         "then the CDI (offsets, depths, scan sums, axes) plus the outputs of ≤ 256 VPLs. MB read as 2^20 bytes.",
         "The paper's 'linear in directions' is an affine growth (a fixed raster cost plus a per-direction cost); "
-        "the claims check it cannot be worse than linear. scripts/gpu/issue11.sh also fits a line to the rows.",
+        "the claims check it cannot be worse than linear. scripts/gpu/cdi-vpl-tables.sh also fits a line to the rows.",
     ),
 )
 

@@ -13,7 +13,7 @@ the same machine (Dr.Jit kernel times on CUDA; wall clock on a CPU).
 
 The premise of the paper (approximate rays pay off because exact incoherent rays are slow, 20–40 M rays/s
 in 2009) is a comparison inside one row (ours against the oracle) that the engine's claims, which compare
-two rows, cannot express; :func:`premise` evaluates it (used by scripts/gpu/issue10.sh and docs/ldi.md), as
+two rows, cannot express; :func:`premise` evaluates it (used by scripts/gpu/ldi-build-trace.sh and docs/ldi.md), as
 it does the two published absolute ranges (build 1–23 s, memory 15–60 MB).
 """
 from __future__ import annotations
@@ -138,7 +138,7 @@ NIESSNER2010_TABLE1 = Reproduction(
         "machine, so the verdicts compare our rows with each other. On a CPU (llvmpipe) every time claim is "
         "'not measurable here' unless the difference exceeds the run-to-run spread.",
         "Not expressible as a claim between two rows (evaluated by harness.reproductions.niessner2010.premise and "
-        "scripts/gpu/issue10.sh): LDI rays ≥ 2× the oracle at ≥ 0.95 hit agreement for diffuse rays at 128²; "
+        "scripts/gpu/ldi-build-trace.sh): LDI rays ≥ 2× the oracle at ≥ 0.95 hit agreement for diffuse rays at 128²; "
         "the build takes 1–23 s; memory 15–60 MB for 150 × 128².",
     ),
 )

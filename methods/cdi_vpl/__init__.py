@@ -79,12 +79,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
+from methods.invariants import layered_invariants
 from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
-B_LUT, B_RANGES, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
 
@@ -251,7 +252,7 @@ class CdiVpl(Method):
         self.cdi_struct.bind()
         bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None:
-            self.lut_buf.bind_to_storage_buffer(B_LUT)
+            self.lut_buf.bind_to_storage_buffer(B.CDI_LUT)
 
     def _build_cdi(self):
         if self.params.cdi == "frame":
@@ -295,10 +296,10 @@ class CdiVpl(Method):
         hits = self._out["t"]
         for a, b in self._chunks(n_items, RAY_BYTES * rays_per_item):
             k = rays_per_item
-            rays_buf.bind_to_storage_buffer(B_RAYS, offset=a * k * RAY_BYTES, size=(b - a) * k * RAY_BYTES)
-            hits.bind_to_storage_buffer(B_HITS, offset=a * k * 4, size=(b - a) * k * 4)
+            rays_buf.bind_to_storage_buffer(B.RAYS, offset=a * k * RAY_BYTES, size=(b - a) * k * RAY_BYTES)
+            hits.bind_to_storage_buffer(B.HITS, offset=a * k * 4, size=(b - a) * k * 4)
             if "ranges" in self._out:
-                self._out["ranges"].bind_to_storage_buffer(B_RANGES, offset=a * 4, size=(b - a) * 4)
+                self._out["ranges"].bind_to_storage_buffer(B.VPL_RANGES, offset=a * 4, size=(b - a) * 4)
             cs["n_items"].value = b - a
             cs.run(min(-(-(b - a) // 64), MAX_GROUPS))
         self.gpu.ctx.memory_barrier()
@@ -329,7 +330,7 @@ class CdiVpl(Method):
                 cs["seed"].value = int(batch.seed) & 0xFFFFFFFF
                 cs["r_min"].value = p.vpl.r_min * diag
                 cs["r_max"].value = p.vpl.r_max * diag
-                self._out["ranges"].bind_to_storage_buffer(B_RANGES)
+                self._out["ranges"].bind_to_storage_buffer(B.VPL_RANGES)
                 cs.run(min(-(-n // 64), MAX_GROUPS))
                 gpu.ctx.memory_barrier()
         else:  # exact: Mitsuba once per batch (untimed), then a copy per frame
@@ -399,7 +400,7 @@ class CdiVpl(Method):
         return c
 
     def _invariants(self, c: dict) -> list:
-        return self.cdi_struct.invariants(c) if self._uses_cdi() else []
+        return layered_invariants(self.cdi_struct, c) if self._uses_cdi() else []
 
     def release(self):
         self.lighting = None

@@ -38,7 +38,7 @@ uniform float cdi_spread;
 #if defined(CDI_GRID_LOOKUP)
 uniform ivec2 cdi_grid;
 #elif defined(CDI_TABLE_LOOKUP)
-layout(std430, binding = 12) readonly buffer CdiLut { uvec4 cdi_lut[]; };
+layout(std430, binding = B_CDI_LUT) readonly buffer CdiLut { uvec4 cdi_lut[]; };
 uniform int cdi_lut_res;
 #endif
 void cdi_try(uint k, vec3 d, inout float bc, inout uint best, inout float sigma) {

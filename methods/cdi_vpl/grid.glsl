@@ -20,7 +20,7 @@ void main() {
 }
 #else
 struct Vpl { vec4 pos_range; vec4 normal_area; vec4 flux; };
-layout(std430, binding = 14) readonly buffer Vpls { Vpl vpls[]; };
+layout(std430, binding = B_VPLS) readonly buffer Vpls { Vpl vpls[]; };
 layout(local_size_x = 64) in;
 uniform uint n_vpls;
 void main() {

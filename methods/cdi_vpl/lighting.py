@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from harness.bindings import B
+from harness.conventions import RAY_EPSILON
 from harness.effects.vpl_range import RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera, vpl_directions
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
@@ -20,9 +22,7 @@ from methods.gbuffer import mat_bytes
 from methods.structures import fill_uint
 from methods.scan import Scan
 
-B_RANGES, B_VPLS, B_GRID_OFF, B_GRID_IDX, B_GRID_MASK, B_TABLE, B_GRID_OVERFLOW = 13, 14, 15, 16, 17, 18, 19
 VPL_BYTES = 48
-RAY_EPSILON = 8.940697e-05  # Mitsuba's float32 RayEpsilon (the exact baseline's ray origins)
 
 
 class VplLighting:
@@ -88,7 +88,7 @@ class VplLighting:
         prog["light_view_proj"].write(mat_bytes(self.light_vp))
         set_spot_uniforms(prog, self.light)
         prog["texel_plane"].value = (2.0 * math.tan(math.radians(self.light.cutoff_angle)) / self.R) ** 2
-        self.m.geo.albedo.bind_to_storage_buffer(0)
+        self.m.geo.albedo.bind_to_storage_buffer(B.ALBEDO)
         self.rsm_fbo.use()
         self.rsm_fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
@@ -116,8 +116,8 @@ class VplLighting:
         if self.m.params.vpl.range == "cdi":
             self.m.bind_cdi(cs)
         if self.table is not None:
-            self.table.bind_to_storage_buffer(B_TABLE)
-        self.vpls.bind_to_storage_buffer(B_VPLS)
+            self.table.bind_to_storage_buffer(B.VPL_TABLE)
+        self.vpls.bind_to_storage_buffer(B.VPLS)
         cs.run(-(-self.side // 8), -(-self.side // 8))
         self.gpu.ctx.memory_barrier()
 
@@ -126,11 +126,11 @@ class VplLighting:
                         ("grid_dims", self.dims), ("grid_capacity", self.grid_cap), ("n_vpls", self.n_vpls)):
             if name in cs:
                 cs[name].value = v
-        self.grid_off.bind_to_storage_buffer(B_GRID_OFF)
-        self.grid_idx.bind_to_storage_buffer(B_GRID_IDX)
-        self.grid_mask.bind_to_storage_buffer(B_GRID_MASK)
-        self.grid_overflow.bind_to_storage_buffer(B_GRID_OVERFLOW)
-        self.vpls.bind_to_storage_buffer(B_VPLS)
+        self.grid_off.bind_to_storage_buffer(B.GRID_OFF)
+        self.grid_idx.bind_to_storage_buffer(B.GRID_IDX)
+        self.grid_mask.bind_to_storage_buffer(B.GRID_MASK)
+        self.grid_overflow.bind_to_storage_buffer(B.GRID_OVERFLOW)
+        self.vpls.bind_to_storage_buffer(B.VPLS)
 
     def grid_mask_pass(self, view):
         gpu = self.gpu
@@ -180,7 +180,7 @@ class VplLighting:
         for name, unit in (("g_position", 0), ("g_normal", 1), ("g_albedo", 2)):
             cs[name].value = unit
         self.m.gbuf.bind(0)
-        self.out.bind_to_image(0, read=False, write=True)
+        self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
         cs.run(-(-w // 8), -(-h // 8))
         gpu.ctx.memory_barrier()
 
@@ -230,7 +230,7 @@ class VplLighting:
             n = N[valid]
             dirs = vpl_directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
                                   seed=0)
-            o = np.repeat(ray_origins(y, n, w, RAY_EPSILON), RAYS_PER_VPL, axis=0)
+            o = np.repeat(ray_origins(y, n, RAY_EPSILON), RAYS_PER_VPL, axis=0)
             f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
             k = len(o)
             batch = RayBatch(f4(o), f4(dirs.reshape(-1, 3)), np.full(k, self.cap, np.float32),

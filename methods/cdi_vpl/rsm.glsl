@@ -23,7 +23,7 @@ void main() {
 #elif defined(FRAGMENT_SHADER)
 uniform SpotLight light;
 uniform float texel_plane;      // (2 tan(cut-off) / R)²
-layout(std430, binding = 0) readonly buffer Albedo { vec4 albedo[]; };
+layout(std430, binding = B_ALBEDO) readonly buffer Albedo { vec4 albedo[]; };
 in vec3 v_world;
 flat in vec3 v_normal;
 flat in uint v_material;

@@ -7,11 +7,11 @@
 #include "grid_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 struct Vpl { vec4 pos_range; vec4 normal_area; vec4 flux; };
-layout(std430, binding = 14) readonly buffer Vpls { Vpl vpls[]; };
+layout(std430, binding = B_VPLS) readonly buffer Vpls { Vpl vpls[]; };
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
-layout(rgba32f, binding = 0) writeonly uniform image2D out_image;
+layout(rgba32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(out_image);

@@ -4,7 +4,7 @@
 //   CDI_VPL      (`vpl_range`) one invocation per VPL i: its six rays rays[6i .. 6i+5] -> ray_t, and
 //                vpl_range_out[i] = mean (range_max = 0) or max of min(t, cap), a miss counting cap.
 //   CDI_RANDOM   (`vpl_range`, range = random) vpl_range_out[i] = (r_min + u (r_max - r_min)),
-//                u = vpl_hash01(i, seed): no ray is cast.
+//                u = hash01(i, seed): no ray is cast.
 #include "rays.glsl"
 #include "vpl.glsl"
 #if !defined(CDI_RANDOM)
@@ -13,7 +13,7 @@
 layout(local_size_x = 64) in;
 uniform uint n_items;      // items of this dispatch; grid-stride loops (a dispatch has at most 65535 groups)
 #define FOR_ITEMS(i) for (uint i = gl_GlobalInvocationID.x; i < n_items; i += gl_NumWorkGroups.x * 64u)
-layout(std430, binding = 13) writeonly buffer VplRangeOut { float vpl_range_out[]; };
+layout(std430, binding = B_VPL_RANGES) writeonly buffer VplRangeOut { float vpl_range_out[]; };
 
 #if !defined(CDI_RANDOM)
 float cdi_ray(uint r) {
@@ -31,7 +31,7 @@ float cdi_ray(uint r) {
 uniform uint seed;
 uniform float r_min, r_max;     // world units
 void main() {
-    FOR_ITEMS(i) vpl_range_out[i] = r_min + vpl_hash01(i, seed) * (r_max - r_min);
+    FOR_ITEMS(i) vpl_range_out[i] = r_min + hash01(i, seed) * (r_max - r_min);
 }
 #elif defined(CDI_VPL)
 uniform float cap;
@@ -42,10 +42,9 @@ void main() {
         for (uint k = 0u; k < 6u; ++k) {
             float t = cdi_ray(6u * i + k);
             ray_t[6u * i + k] = t;
-            float c = t < cap ? t : cap;
-            acc = range_max != 0 ? max(acc, c) : acc + c;
+            acc = range_accumulate(acc, t, cap, range_max);
         }
-        vpl_range_out[i] = range_max != 0 ? acc : acc / 6.0;
+        vpl_range_out[i] = range_finish(acc, range_max);
     }
 }
 #else

@@ -2,7 +2,7 @@
 // vpl_step: every step-th texel in x and y, its flux and area × step²). A texel with a surface inside the
 // cone is a VPL {position, range; normal, area; flux}; range 0 marks none. The range:
 //   VPL_RANGE_CDI     six rays through the CDI (vpl.glsl, cdi_trace.glsl), mean or max of min(t, cap)
-//   VPL_RANGE_RANDOM  r_min + u (r_max - r_min), u = vpl_hash01(texel, seed)
+//   VPL_RANGE_RANDOM  r_min + u (r_max - r_min), u = hash01(texel, seed)
 //   VPL_RANGE_TABLE   vpl_table[j], precomputed (the exact baseline: Mitsuba on the same rays, in setup)
 // The texel index is row-major with row 0 at the top, as the harness's RSM (its hash and rays match).
 #include "vpl.glsl"
@@ -11,9 +11,9 @@
 #endif
 layout(local_size_x = 8, local_size_y = 8) in;
 struct Vpl { vec4 pos_range; vec4 normal_area; vec4 flux; };
-layout(std430, binding = 14) writeonly buffer Vpls { Vpl vpls[]; };
+layout(std430, binding = B_VPLS) writeonly buffer Vpls { Vpl vpls[]; };
 #if defined(VPL_RANGE_TABLE)
-layout(std430, binding = 18) readonly buffer VplTable { float vpl_table[]; };
+layout(std430, binding = B_VPL_TABLE) readonly buffer VplTable { float vpl_table[]; };
 #endif
 uniform sampler2D rsm_position;
 uniform sampler2D rsm_normal;
@@ -47,20 +47,19 @@ void main() {
     vec3 wi = normalize(p.xyz - light_position);
     vec3 pd = primary_reflected != 0 ? normalize(reflect(wi, n)) : n;
     vec3 t, b;
-    vpl_frame(pd, t, b);
-    float phi0 = VPL_TWO_PI * vpl_hash01(texel, seed);
+    tangent_frame(pd, t, b);
+    float phi0 = VPL_TWO_PI * hash01(texel, seed);
     float acc = 0.0;
     for (uint k = 0u; k < 6u; ++k) {
         vec3 d = vpl_ray_dir(k, pd, t, b, phi0, cos_a, sin_a);
         float sigma;
         uint dir = cdi_nearest(d, sigma);
         float th = cdi_trace(dir, sigma, p.xyz, n);
-        float c = (th >= 0.0 && th < cap) ? th : cap;
-        acc = range_max != 0 ? max(acc, c) : acc + c;
+        acc = range_accumulate(acc, th, cap, range_max);
     }
-    range = range_max != 0 ? acc : acc / 6.0;
+    range = range_finish(acc, range_max);
 #elif defined(VPL_RANGE_RANDOM)
-    range = r_min + vpl_hash01(texel, seed) * (r_max - r_min);
+    range = r_min + hash01(texel, seed) * (r_max - r_min);
 #else
     range = vpl_table[j];
 #endif

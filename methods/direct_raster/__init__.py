@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from harness.bindings import B
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.lights import CubeShadowMap, set_spot_uniforms
@@ -66,7 +67,7 @@ class DirectRaster(Method):
             self.shadow.atlas.use(3)
             for name, unit in (("g_position", 0), ("g_normal", 1), ("g_albedo", 2), ("shadow_atlas", 3)):
                 self.shade[name].value = unit
-            out.bind_to_image(0, read=False, write=True)
+            out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             self.shade.run((w + 7) // 8, (h + 7) // 8)
             ctx.memory_barrier()  # imageStore results visible to the read-back
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),

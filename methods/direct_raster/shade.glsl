@@ -4,7 +4,7 @@
 #include "cube_shadow.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) writeonly uniform image2D out_image;
+layout(rgba32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;

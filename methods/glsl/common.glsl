@@ -1,4 +1,4 @@
-// Shared definitions: the spot light of DESIGN.md (Mitsuba 3 `spot`), G-buffer bindings.
+// Shared definitions: the spot light of docs/design.md (Mitsuba 3 `spot`), G-buffer bindings.
 #ifndef LDBENCH_COMMON_GLSL
 #define LDBENCH_COMMON_GLSL
 

@@ -1,7 +1,7 @@
 // fill_data[0 .. n) = value (grid-stride loop: any n with a bounded dispatch). Clears list heads and
 // per-list counters.
 layout(local_size_x = 256) in;
-layout(std430, binding = 0) writeonly buffer FillData { uint fill_data[]; };
+layout(std430, binding = B_FILL) writeonly buffer FillData { uint fill_data[]; };
 uniform uint n;
 uniform uint value;
 void main() {

@@ -19,7 +19,7 @@ void main() {
 
 #elif defined(FRAGMENT_SHADER)
 uniform vec3 eye;
-layout(std430, binding = 0) readonly buffer Albedo { vec4 albedo[]; };
+layout(std430, binding = B_ALBEDO) readonly buffer Albedo { vec4 albedo[]; };
 in vec3 v_position;
 flat in vec3 v_normal;
 flat in float v_material;

@@ -22,12 +22,12 @@
 #endif
 #define LS_END 0xFFFFFFFFu
 
-// binding 2: per-layer raster transform (the structure's set_layers)
+// B_LAYERS: per-layer raster transform (the structure's set_layers)
 struct LSLayer {
     mat4 clip;        // world -> clip space of the layer's raster
     vec4 depth_row;   // stored depth = dot(depth_row, vec4(p, 1))
 };
-layout(std430, binding = 2) readonly buffer LSLayers { LSLayer ls_layers[]; };
+layout(std430, binding = B_LAYERS) readonly buffer LSLayers { LSLayer ls_layers[]; };
 
 #if LS_LAYOUT == 1
 #include "linked_list.glsl"

@@ -11,17 +11,17 @@ layout(local_size_x = 256) in;
 uniform uint n;
 
 #if defined(COMPACT_ENDS)
-layout(std430, binding = 14) readonly buffer PeelCount { uint pl_count[]; };
+layout(std430, binding = B_PEEL_COUNT) readonly buffer PeelCount { uint pl_count[]; };
 void main() {
     uint stride = gl_NumWorkGroups.x * 256u;
     for (uint i = gl_GlobalInvocationID.x; i < n; i += stride) la_off[i] += pl_count[i];
 }
 #elif defined(COMPACT_SCATTER)
-layout(std430, binding = 15) readonly buffer PeelLoc { uvec2 pl_loc[]; };
-layout(std430, binding = 16) readonly buffer PeelFrag { uvec2 pl_frag[]; };
-layout(std430, binding = 18) readonly buffer Vertices { float vtx[]; };   // 3 x (position, normal, material)
+layout(std430, binding = B_PEEL_LOC) readonly buffer PeelLoc { uvec2 pl_loc[]; };
+layout(std430, binding = B_PEEL_FRAG) readonly buffer PeelFrag { uvec2 pl_frag[]; };
+layout(std430, binding = B_PEEL_VERTICES) readonly buffer Vertices { float vtx[]; };   // 3 x (position, normal, material)
 #if defined(LS_PL_ALBEDO)
-layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
+layout(std430, binding = B_LS_ALBEDO) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
 #endif
 void main() {
     uint stride = gl_NumWorkGroups.x * 256u;

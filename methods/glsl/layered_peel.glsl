@@ -30,8 +30,8 @@ uniform ivec2 ls_size;
 flat in uint v_layer;
 flat in uint v_prim;
 in float v_depth;
-layout(std430, binding = 12) coherent buffer PeelPrev { uvec2 pl_prev[]; };
-layout(std430, binding = 13) coherent buffer PeelCand { uvec2 pl_cand[]; };
+layout(std430, binding = B_PEEL_PREV) coherent buffer PeelPrev { uvec2 pl_prev[]; };
+layout(std430, binding = B_PEEL_CAND) coherent buffer PeelCand { uvec2 pl_cand[]; };
 
 void main() {
 #if defined(GL_ARB_ES3_1_compatibility) || __VERSION__ >= 450

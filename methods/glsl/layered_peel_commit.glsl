@@ -5,12 +5,12 @@
 layout(local_size_x = 256) in;
 uniform uint n_lists;
 uniform uint capacity;   // scratch entries
-layout(std430, binding = 12) buffer PeelPrev { uvec2 pl_prev[]; };
-layout(std430, binding = 13) buffer PeelCand { uvec2 pl_cand[]; };
-layout(std430, binding = 14) buffer PeelCount { uint pl_count[]; };
-layout(std430, binding = 15) writeonly buffer PeelLoc { uvec2 pl_loc[]; };
-layout(std430, binding = 16) writeonly buffer PeelFrag { uvec2 pl_frag[]; };
-layout(std430, binding = 17) buffer PeelCounters { uint pl_counters[4]; };
+layout(std430, binding = B_PEEL_PREV) buffer PeelPrev { uvec2 pl_prev[]; };
+layout(std430, binding = B_PEEL_CAND) buffer PeelCand { uvec2 pl_cand[]; };
+layout(std430, binding = B_PEEL_COUNT) buffer PeelCount { uint pl_count[]; };
+layout(std430, binding = B_PEEL_LOC) writeonly buffer PeelLoc { uvec2 pl_loc[]; };
+layout(std430, binding = B_PEEL_FRAG) writeonly buffer PeelFrag { uvec2 pl_frag[]; };
+layout(std430, binding = B_PEEL_COUNTERS) buffer PeelCounters { uint pl_counters[4]; };
 
 void main() {
     uint stride = gl_NumWorkGroups.x * 256u;

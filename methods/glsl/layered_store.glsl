@@ -6,7 +6,7 @@
 //
 // LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
 // LS_EMIT         linear, sort assembly (methods/structures/linear.py): append (list, depth, payload) to the
-//                 pairs (binding 4; one atomicAdd per subgroup with LL_AGGREGATE) and count la_off[list]++
+//                 pairs (B_PAIRS; one atomicAdd per subgroup with LL_AGGREGATE) and count la_off[list]++
 // otherwise       linked: insert (LL_SORTED: lock-free sorted insert, else yang2010's atomicExchange);
 //                 linear: fill (slot = atomicAdd(la_off[list], 1))
 // Payload words (LS_PAYLOAD > 0; LS_PL_NORMAL / LS_PL_ALBEDO / LS_PL_MATERIAL = the word index of each):
@@ -15,12 +15,12 @@
 #define LDBENCH_LAYERED_STORE_GLSL
 
 #if LS_PAYLOAD > 0 && defined(LS_PL_ALBEDO)
-layout(std430, binding = 9) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
+layout(std430, binding = B_LS_ALBEDO) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
 #endif
 
 #if defined(LS_EMIT) && LS_LAYOUT == 2
 #define LS_PAIR_WORDS (2 + LS_PAYLOAD)
-layout(std430, binding = 4) writeonly buffer LSPairs { uint ls_pairs[]; };
+layout(std430, binding = B_PAIRS) writeonly buffer LSPairs { uint ls_pairs[]; };
 #include "atomics.glsl"
 uint ls_reserve_pair() {   // next pair slot
     uint n;

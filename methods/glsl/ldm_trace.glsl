@@ -57,7 +57,7 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 // LDM_LUT: the candidates of d's cell of a half cube (methods/directions.py nearest_axis_table,
 // ol_table_row); otherwise a scan of all N axes.
 #if defined(LDM_LUT)
-layout(std430, binding = 13) readonly buffer LdmLut { uvec4 ldm_lut[]; };
+layout(std430, binding = B_LDM_LUT) readonly buffer LdmLut { uvec4 ldm_lut[]; };
 uniform int ldm_lut_res;
 #endif
 uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {

@@ -20,7 +20,7 @@
 #define LA_QUAL readonly
 #endif
 
-// binding 0: counters (indices shared with methods/structures/linear.py)
+// B_COUNTERS: counters (indices shared with methods/structures/linear.py)
 #define LA_C_COUNTED 0u     // fragments of the count pass
 #define LA_C_SORT_LONG 1u   // lists longer than LA_MAX_LIST met by the sort pass (sorted in global memory)
 #define LA_C_NONEMPTY 2u    // statistics pass: non-empty lists
@@ -35,12 +35,12 @@
 #else
 #define LA_COUNTERS_QUAL readonly
 #endif
-layout(std430, binding = 0) LA_COUNTERS_QUAL buffer LACounters { uint la_counters[16]; };
-layout(std430, binding = 1) LA_QUAL buffer LAOffsets { uint la_off[]; };
+layout(std430, binding = B_COUNTERS) LA_COUNTERS_QUAL buffer LACounters { uint la_counters[16]; };
+layout(std430, binding = B_HEADS) LA_QUAL buffer LAOffsets { uint la_off[]; };
 
-layout(std430, binding = 3) LA_QUAL buffer LADepth { float la_depth[]; };
+layout(std430, binding = B_NODES0) LA_QUAL buffer LADepth { float la_depth[]; };
 #if LS_PAYLOAD > 0
-layout(std430, binding = 7) LA_QUAL buffer LAPayload { uint la_payload[]; };
+layout(std430, binding = B_PAYLOAD) LA_QUAL buffer LAPayload { uint la_payload[]; };
 #endif
 
 // Clamped to the capacity: with a "fixed" pool that overflowed, slots past it were never written.

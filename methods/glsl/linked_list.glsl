@@ -38,7 +38,7 @@
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
 
-// binding 0: counters (indices shared with methods/structures/linked.py)
+// B_COUNTERS: counters (indices shared with methods/structures/linked.py)
 #define LL_C_NODES 0u       // nodes handed out; saturates at the capacity (an overflowing alloc undoes its add)
 #define LL_C_SORT_LONG 1u   // lists longer than LL_MAX_LIST met by the sort pass
 #define LL_C_NONEMPTY 2u    // statistics pass: non-empty lists
@@ -55,25 +55,25 @@
 #else
 #define LL_COUNTERS_QUAL readonly
 #endif
-layout(std430, binding = 0) LL_COUNTERS_QUAL buffer LLCounters { uint ll_counters[16]; };
-layout(std430, binding = 1) LL_QUAL buffer LLHeads { uint ll_head[]; };
+layout(std430, binding = B_COUNTERS) LL_COUNTERS_QUAL buffer LLCounters { uint ll_counters[16]; };
+layout(std430, binding = B_HEADS) LL_QUAL buffer LLHeads { uint ll_head[]; };
 
 struct LLNode {
     float depth;
     uint next;
 };
-layout(std430, binding = 3) LL_QUAL buffer LLNodes0 { LLNode ll_nodes0[]; };
+layout(std430, binding = B_NODES0) LL_QUAL buffer LLNodes0 { LLNode ll_nodes0[]; };
 #if LL_PAGES > 1
-layout(std430, binding = 4) LL_QUAL buffer LLNodes1 { LLNode ll_nodes1[]; };
+layout(std430, binding = B_NODES1) LL_QUAL buffer LLNodes1 { LLNode ll_nodes1[]; };
 #endif
 #if LL_PAGES > 2
-layout(std430, binding = 5) LL_QUAL buffer LLNodes2 { LLNode ll_nodes2[]; };
+layout(std430, binding = B_NODES2) LL_QUAL buffer LLNodes2 { LLNode ll_nodes2[]; };
 #endif
 #if LL_PAGES > 3
-layout(std430, binding = 6) LL_QUAL buffer LLNodes3 { LLNode ll_nodes3[]; };
+layout(std430, binding = B_NODES3) LL_QUAL buffer LLNodes3 { LLNode ll_nodes3[]; };
 #endif
 #if LS_PAYLOAD > 0
-layout(std430, binding = 7) LL_QUAL buffer LLPayload { uint ll_payload[]; };
+layout(std430, binding = B_PAYLOAD) LL_QUAL buffer LLPayload { uint ll_payload[]; };
 #endif
 
 uint ll_capacity_bound() { return ll_counters[LL_C_CAPACITY]; }

@@ -7,7 +7,7 @@
 #define LDBENCH_ORTHO_LAYERS_GLSL
 
 struct OrthoAxis { vec4 u; vec4 w; vec4 v; };
-layout(std430, binding = 11) readonly buffer OrthoAxes { OrthoAxis ol_axes[]; };
+layout(std430, binding = B_ORTHO_AXES) readonly buffer OrthoAxes { OrthoAxis ol_axes[]; };
 uniform vec3 ol_centre;
 uniform float ol_radius;
 uniform ivec2 ol_size;

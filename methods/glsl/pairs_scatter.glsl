@@ -7,7 +7,7 @@
 #include "linear_arrays.glsl"
 #define LS_PAIR_WORDS (2 + LS_PAYLOAD)
 layout(local_size_x = 256) in;
-layout(std430, binding = 4) readonly buffer LSPairs { uint ls_pairs[]; };
+layout(std430, binding = B_PAIRS) readonly buffer LSPairs { uint ls_pairs[]; };
 void main() {
     uint cap = la_counters[LA_C_CAPACITY];
     uint n = min(la_counters[LA_C_EMITTED], cap);

@@ -4,7 +4,7 @@
 #ifndef LDBENCH_RAYS_GLSL
 #define LDBENCH_RAYS_GLSL
 struct Ray { vec4 o_tmax; vec4 d; vec4 n; };
-layout(std430, binding = 20) readonly buffer RayBatch { Ray rays[]; };
-layout(std430, binding = 21) writeonly buffer RayHits { float ray_t[]; };
+layout(std430, binding = B_RAYS) readonly buffer RayBatch { Ray rays[]; };
+layout(std430, binding = B_HITS) writeonly buffer RayHits { float ray_t[]; };
 const float RAY_MISS = uintBitsToFloat(0x7f800000u);
 #endif

@@ -5,8 +5,8 @@
 //   SCAN_ADD:    scan_data[i] += scan_sums[i / 1024] (the scanned block totals).
 // Workgroups are numbered over a 2D dispatch (x < 65535), so n is only bounded by the buffer.
 layout(local_size_x = 256) in;
-layout(std430, binding = 0) buffer ScanData { uint scan_data[]; };
-layout(std430, binding = 1) buffer ScanSums { uint scan_sums[]; };
+layout(std430, binding = B_SCAN_DATA) buffer ScanData { uint scan_data[]; };
+layout(std430, binding = B_SCAN_SUMS) buffer ScanSums { uint scan_sums[]; };
 uniform uint n;
 shared uint partial[256];
 

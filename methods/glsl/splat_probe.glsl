@@ -17,7 +17,7 @@ void main() {
 }
 
 #elif defined(FRAGMENT_SHADER)
-layout(std430, binding = 0) buffer Probe { uint probe[]; };
+layout(std430, binding = B_PROBE) buffer Probe { uint probe[]; };
 in float v_value;
 uniform int probe_width;
 uniform int probe_mode;

@@ -27,8 +27,8 @@
 
 layout(local_size_x = 64) in;
 // geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
-layout(std430, binding = 8) readonly buffer SplatVertices { float sp_vtx[]; };
-layout(std430, binding = 10) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
+layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
+layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
 uniform uint n_triangles;

@@ -80,6 +80,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
@@ -175,7 +176,7 @@ class HBAO(Method):
                  d_max=1.0 if unbounded else float(effect.d_max), g_position=0, g_normal=1, noise=3)
             self.gbuf.bind(0)
             self.noise.use(3)
-            self.ao.bind_to_image(0, read=False, write=True)
+            self.ao.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             pr.run(*groups)
         if p.blur:
             with self.gpu.stage("blur"):
@@ -185,7 +186,7 @@ class HBAO(Method):
                 for axis, src, dst in (((1, 0), self.ao, self.ao_tmp), ((0, 1), self.ao_tmp, self.ao)):
                     self.gpu.ctx.memory_barrier()
                     src.use(4)
-                    dst.bind_to_image(0, read=False, write=True)
+                    dst.bind_to_image(B.OUT_IMAGE, read=False, write=True)
                     b["axis"].value = axis
                     b.run(*groups)
         self.gpu.ctx.memory_barrier()

@@ -6,7 +6,7 @@
 // the same plane (any slope) blend freely; samples across depth discontinuities do not. Background
 // pixels are neither blurred nor used. sigma = (radius + 1) / 2, as in NVIDIA's HBAO blur.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) writeonly uniform image2D out_ao;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;
 uniform sampler2D in_ao;
 uniform sampler2D g_position;
 uniform sampler2D g_normal;

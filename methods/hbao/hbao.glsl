@@ -37,7 +37,7 @@
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) writeonly uniform image2D out_ao;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;
 uniform sampler2D g_position;   // world position, w = 1 where hit
 uniform sampler2D g_normal;     // camera-facing geometric normal (world)
 uniform sampler2D noise;        // 4x4: r = rotation in [0,1), g = start jitter in [0,1)

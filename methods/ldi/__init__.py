@@ -12,8 +12,7 @@ currently do not exploit this": ``share_opposite = false`` builds them all, for 
 time). A ray's LDI is the cube cell of its direction (O(1); the angularly nearest direction in 93–94 %
 of directions, never more than 19.4°/15.7°/10.0° away for k = 4/5/8). For odd k the paper's
 axis-aligned cube has directions in the planes x = 0, y = 0, z = 0: their LDIs see axis-aligned walls
-edge-on (not at all), and rays grazing such walls miss them (glossy light on Cornell at 150 directions:
-0.82 of the reference, 0.93 rotated; docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
+edge-on (not at all), and rays grazing such walls miss them (measured in docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
@@ -68,19 +67,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
+from harness.conventions import RAY_EPSILON, SHADOW_EPSILON
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
+from methods.invariants import layered_invariants
 from methods.lights import CubeShadowMap, set_spot_uniforms
 from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
 PAYLOAD = ("normal", "albedo")
 
-B_STATS, B_RAYS, B_HITS = 12, 20, 21  # 11: the axes (bind_ortho_layers)
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
-RAY_EPSILON, SHADOW_EPSILON = 8.940697e-05, 8.940697e-04  # Mitsuba's float32 RayEpsilon, ShadowEpsilon
 
 
 @contextmanager
@@ -263,14 +263,14 @@ class Ldi(Method):
         cs["n_rays"].value = n
         with gpu.stage("trace"):
             self._bind_ldis(cs)
-            batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
+            batch.upload(gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
             cs.run(-(-n // 64))
             gpu.ctx.memory_barrier()
         self._last = ("rays", batch)
         hits = self.hits
         return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
-                      memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self.ls.invariants)
+                      memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=lambda c: layered_invariants(self.ls, c))
 
     def ray_stats(self, batch) -> np.ndarray:
         """(N, 2) uint32 per ray of ``batch``: pixel crossings, LDI index | ended << 31 (untimed dispatch)."""
@@ -280,8 +280,8 @@ class Ldi(Method):
             cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self.ls.defines(), "LDI_STATS": 1})
             cs["n_rays"].value = n
             self._bind_ldis(cs)
-            batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
-            out.bind_to_storage_buffer(B_STATS)
+            batch.upload(self.gpu).bind_to_storage_buffer(B.RAYS)
+            out.bind_to_storage_buffer(B.LDI_STATS)
             cs.run(-(-n // 64))
             self.gpu.ctx.memory_barrier()
             return np.frombuffer(self.gpu.read(out), np.uint32).reshape(n, 2).copy()
@@ -360,12 +360,12 @@ class Ldi(Method):
         self._last = ("image", view, effect)
         out = self.out
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
-                      counters=self._counters, invariants=self.ls.invariants)
+                      counters=self._counters, invariants=lambda c: layered_invariants(self.ls, c))
 
     def _dispatch(self, cs, target, effect, w, h):
         """The gather pass, ``samples_per_dispatch`` rays per pixel per dispatch (gather.glsl)."""
         spp, chunk = self.spp_for(effect), self.params.image.samples_per_dispatch or self.spp_for(effect)
-        target.bind_to_image(0, read=True, write=True)
+        target.bind_to_image(B.OUT_IMAGE, read=True, write=True)
         for base in range(0, spp, chunk):
             cs["sample_base"].value = base
             cs["sample_count"].value = chunk
@@ -388,7 +388,7 @@ class Ldi(Method):
                         cs[name].value = unit
                 cs["axis"].value = axis
                 cs["radius"].value = r
-                dst.bind_to_image(0, read=False, write=True)
+                dst.bind_to_image(B.OUT_IMAGE, read=False, write=True)
                 cs.run((w + 7) // 8, (h + 7) // 8)
                 gpu.ctx.memory_barrier()
 
@@ -400,7 +400,7 @@ class Ldi(Method):
         try:
             cs = self._gather_program(effect, stats=True)
             self._set_gather_uniforms(cs, view, effect)
-            out.bind_to_storage_buffer(B_STATS)
+            out.bind_to_storage_buffer(B.LDI_STATS)
             self._dispatch(cs, scratch, effect, w, h)
             return np.frombuffer(self.gpu.read(out), np.uint32).reshape(-1, 4).copy()
         finally:

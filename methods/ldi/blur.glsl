@@ -3,7 +3,7 @@
 // neither blurred nor used; no edge stopping, as in the paper). One axis per dispatch; with FINAL the
 // result is multiplied by the pixel's albedo (indirect = a1 * blurred E). radius 0: FINAL only.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) writeonly uniform image2D out_image;
+layout(rgba32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;
 uniform sampler2D in_image;
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;

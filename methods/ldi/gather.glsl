@@ -1,8 +1,8 @@
 // Image effects of the LDI adapter: one invocation per G-buffer pixel x1 (normal n1 facing the camera,
 // albedo a1), N secondary rays traced through the LDIs (ldi_trace.glsl). Random numbers: a PCG hash of
-// (pixel, sample, seed). Secondary rays start at x1 - 16 eps d_cam + eps n1, eps = (1 + max|x1|) * Mitsuba's
-// RayEpsilon: the origin of the references and of the rays effect's batches (nudged towards the camera so
-// that a pixel centre on a crease does not start inside the other wall's plane).
+// (pixel, sample, seed) (sample_stream); origin, frame and warps of conventions.glsl (spawn_origin, the
+// offset of the references and of the rays effect's batches; the G-buffer has no triangle, so no crease
+// point).
 //
 // The samples of a pixel may be split over several dispatches (samples_per_dispatch): each sample has its own
 // random stream, sums are kept in the output image between dispatches, the last one writes the value.
@@ -21,11 +21,12 @@
 //   towards points uniform (by area) on the sphere of light_radius around the light that reach it
 //   (t_max = distance * (1 - shadow_eps)). Writes the final radiance.
 #include "common.glsl"
+#include "conventions.glsl"
 #include "cube_shadow.glsl"
 #include "ldi_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(rgba32f, binding = 0) uniform image2D out_image;   // sums between dispatches, then the value
+layout(rgba32f, binding = B_OUT_IMAGE) uniform image2D out_image;   // sums between dispatches, then the value
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform sampler2D g_albedo;
@@ -50,30 +51,8 @@ uniform float light_radius;
 uniform float shadow_eps;
 #endif
 #if defined(LDI_STATS)
-layout(std430, binding = 12) buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
+layout(std430, binding = B_LDI_STATS) buffer LdiStats { uvec4 ldi_stats[]; };   // per pixel: sum, max, ended, rays
 #endif
-
-uint pcg_hash(uint v) {
-    uint s = v * 747796405u + 2891336453u;
-    uint word = ((s >> ((s >> 28u) + 4u)) ^ s) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-float rnd(inout uint s) { s = pcg_hash(s); return float(s >> 8) * (1.0 / 16777216.0); }
-
-// (t, b) completing n to an orthonormal basis (Duff et al. 2017), as harness/effects/rays.py
-void basis(vec3 n, out vec3 t, out vec3 b) {
-    float sg = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (sg + n.z);
-    float c = n.x * n.y * a;
-    t = vec3(1.0 + sg * n.x * n.x * a, sg * c, -sg * n.x);
-    b = vec3(c, sg + n.y * n.y * a, -n.y);
-}
-vec3 around(vec3 axis, float cos_t, float phi) {
-    vec3 t, b;
-    basis(axis, t, b);
-    float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
-    return normalize(t * (sin_t * cos(phi)) + b * (sin_t * sin(phi)) + axis * cos_t);
-}
 
 #if EFFECT != 3
 // Direct light leaving the hit fragment towards the ray's origin (two-sided: n2 faces the origin), shaded
@@ -99,8 +78,7 @@ void main() {
     vec4 pos = texelFetch(g_position, p, 0);
     if (pos.w < 0.5) { imageStore(out_image, p, vec4(0.0)); return; }
     vec3 x = pos.xyz, n = texelFetch(g_normal, p, 0).xyz;
-    float eps = (1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))) * ray_eps;
-    vec3 o = x - normalize(x - eye) * (16.0 * eps) + n * eps;   // the references' and the rays batch's origin
+    vec3 o = spawn_origin(x, n, ray_eps);   // the references' and the rays batch's offset
     uint pix = uint(p.y * size.x + p.x);
     vec4 acc = sample_base > 0 ? imageLoad(out_image, p) : vec4(0.0);   // sums of the earlier dispatches
 #if defined(LDI_STATS)
@@ -114,23 +92,20 @@ void main() {
     if (any(greaterThan(unshadowed, vec3(0.0))))
 #endif
     for (int s = sample_base; s < min(sample_base + sample_count, spp); ++s) {
-        uint rng = pcg_hash(pix ^ pcg_hash(seed ^ pcg_hash(uint(s))));
-        float u0 = rnd(rng), u1 = rnd(rng);
-        float phi = 2.0 * PI * u1;
+        uint rng = sample_stream(pix, seed, uint(s));
+        float u0 = pcg_uniform(rng), u1 = pcg_uniform(rng);
 #if EFFECT == 1
-        vec3 d = around(n, sqrt(1.0 - u0), phi);
+        vec3 d = cosine_direction(n, u0, u1);
         LdiHit hit = ldi_trace(o, d, n, LDI_INF);
         if (hit.node != LS_END) acc.rgb += hit_radiance(o, d, hit);
 #elif EFFECT == 2
-        vec3 d = around(rdir, pow(u0, 1.0 / (exponent + 1.0)), phi);
+        vec3 d = phong_direction(rdir, exponent, u0, u1);
         float c = dot(d, n);
         if (c <= 0.0) continue;
         LdiHit hit = ldi_trace(o, d, n, LDI_INF);
         if (hit.node != LS_END) acc.rgb += (exponent + 2.0) / (exponent + 1.0) * c * hit_radiance(o, d, hit);
 #else
-        float z = 1.0 - 2.0 * u0;
-        float rr = sqrt(max(0.0, 1.0 - z * z));
-        vec3 y = light.position + light_radius * vec3(rr * cos(phi), rr * sin(phi), z);
+        vec3 y = sphere_point(light.position, light_radius, u0, u1);
         vec3 d = y - o;
         float dist = length(d);
         d /= max(dist, 1e-30);

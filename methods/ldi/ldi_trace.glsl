@@ -20,10 +20,12 @@
 //    q, has dot(n, q - o) <= bias) are skipped: a ray leaving o above its tangent plane cannot reach them,
 //    and o's own surface is among them. (So is geometry meeting o's surface at an edge whose pixel-centre
 //    sample lands below the plane: a ray grazing o's surface may pass under a wall standing on it within
-//    about a pixel of the edge. Keeping differently oriented fragments there tripled the self-hits and
-//    doubled the false shadow-ray hits on Sibenik: docs/ldi.md.)
+//    about a pixel of the edge. Keeping differently oriented fragments there measured worse: docs/ldi.md.)
 // 4. The walk ends at a hit, when the ray leaves the pixel grid or the bounding sphere or passes tmax, or
-//    after max_crossings pixel crossings (0 = no limit; the ray then counts as a miss, `ended`).
+//    after max_crossings pixel crossings (0 = no limit but the grid's; the ray then counts as a miss,
+//    `ended`). Whatever the float values (a NaN origin or tmax), it ends after at most size.x + size.y
+//    crossings: each one moves one pixel along x or y, never back, so a ray that takes more has left the
+//    grid already (it counts as `ended`, a miss).
 #ifndef LDBENCH_LDI_TRACE_GLSL
 #define LDBENCH_LDI_TRACE_GLSL
 #include "layered.glsl"
@@ -33,7 +35,7 @@ uniform int ldi_k;            // squares per cube-face edge: 6k² directions
 uniform int ldi_half;         // 1: one LDI per pair of opposite directions
 uniform float ldi_eps;        // world units
 uniform float ldi_bias;       // world units
-uniform uint ldi_max_cross;   // 0 = no limit
+uniform uint ldi_max_cross;   // 0 = no limit but the grid's (size.x + size.y)
 uniform mat3 ldi_to_cube;     // world -> the direction cube's frame (identity unless `rotated`)
 
 const float LDI_INF = uintBitsToFloat(0x7f800000u);
@@ -88,7 +90,8 @@ LdiHit ldi_trace(vec3 o, vec3 d, vec3 n, float tmax) {
     float z_max = isinf(tmax) ? (dz >= 0.0 ? LDI_INF : -LDI_INF) : z0 + tmax * dz;  // depth at tmax
     float t_in = 0.0;
     uint bound = ls_bound();
-    for (;;) {
+    uint walk_max = uint(size.x + size.y);                   // the most crossings a walk can make
+    while (h.crossings <= walk_max) {
         float t_out = min(min(tnext.x, tnext.y), t_end);
         float za = z0 + t_in * dz, zb = z0 + t_out * dz;
         float lo = dz >= 0.0 ? max(za - ldi_eps, z0) : max(zb - ldi_eps, z_max);   // never behind the
@@ -121,6 +124,7 @@ LdiHit ldi_trace(vec3 o, vec3 d, vec3 n, float tmax) {
         h.crossings++;
         if (any(lessThan(px, ivec2(0))) || any(greaterThanEqual(px, size))) return h;
     }
+    h.ended = true;                                          // no float progress (NaN): a miss
     return h;
 }
 #endif

@@ -7,7 +7,7 @@
 layout(local_size_x = 64) in;
 uniform uint n_rays;
 #if defined(LDI_STATS)
-layout(std430, binding = 12) writeonly buffer LdiStats { uvec2 ldi_stats[]; };
+layout(std430, binding = B_LDI_STATS) writeonly buffer LdiStats { uvec2 ldi_stats[]; };
 #endif
 
 void main() {

@@ -32,7 +32,7 @@ x's depth; along +v_i the first hit is the next entry beyond x, along −v_i the
 surface x itself is in the list: entries closer than the receiver plane's crossing of the texel's
 column, plus ``bias`` texels, are skipped (see the GLSL).
 
-AO (aalund2015 eq. 2 with DESIGN.md's definition): for the camera-facing normal n, each map gives the
+AO (aalund2015 eq. 2 with docs/design.md's definition): for the camera-facing normal n, each map gives the
 direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with the effect's fall-off (no hit:
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
@@ -86,14 +86,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import ldm_axes, nearest_axis_table
+from methods.invariants import layered_invariants
 from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 from methods.scan import groups_2d
 
-B_ANGLE, B_LUT, B_RAYS, B_HITS = 12, 13, 20, 21  # 11: the axes (bind_ortho_layers)
 LUT_RES = 128
 FAR = 3.0e38
 
@@ -216,7 +217,7 @@ class Ldm(Method):
         bind_ortho_layers(cs, self.axes_buf, self.centre, self.radius, p.resolution)
         if self.lut_buf is not None and "ldm_lut_res" in cs:
             cs["ldm_lut_res"].value = LUT_RES
-            self.lut_buf.bind_to_storage_buffer(B_LUT)
+            self.lut_buf.bind_to_storage_buffer(B.LDM_LUT)
 
     def frame(self, view, effect, inputs=None):
         if effect.name == "rays":
@@ -240,13 +241,13 @@ class Ldm(Method):
         with gpu.stage("ao"):
             self.gbuf.bind(0)
             self._bind_maps(cs)
-            self.out.bind_to_image(0, read=False, write=True)
+            self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             cs.run((w + 7) // 8, (h + 7) // 8)
             gpu.ctx.memory_barrier()  # imageStore results visible to the read-back
         out = self.out
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask,
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
-                      invariants=self.ls.invariants)
+                      invariants=lambda c: layered_invariants(self.ls, c))
 
     def _rays_defines(self) -> dict:
         if self.params.rays.map_lookup == "table" and self.lut_buf is None:
@@ -266,15 +267,15 @@ class Ldm(Method):
         cs["n_rays"].value = n
         with gpu.stage("trace"):
             self._bind_maps(cs)
-            batch.upload(gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
+            batch.upload(gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
             cs.run(*groups_2d(-(-n // 64)))
             gpu.ctx.memory_barrier()
         self._batch = batch
         hits = self.hits
         return Result(arrays={"t": lambda: np.frombuffer(self.gpu.read(hits), np.float32).copy()},
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
-                      invariants=self.ls.invariants)
+                      invariants=lambda c: layered_invariants(self.ls, c))
 
     def _indirect(self, view):
         from .indirect import IndirectLight
@@ -288,7 +289,7 @@ class Ldm(Method):
         image = ind.frame(view)
         return Result(image=image, mask=self.gbuf.mask, memory_bytes={**self.res.by_buffer(), **ind.memory()},
                       counters=lambda: {**self._counters(), **ind.counters()},
-                      invariants=lambda c: self.ls.invariants(c) + ind.invariants(c))
+                      invariants=lambda c: layered_invariants(self.ls, c) + ind.invariants(c))
 
     def release(self):
         if self.indirect is not None:
@@ -304,9 +305,9 @@ class Ldm(Method):
             cs = self.gpu.compute(self.shader("trace_rays.glsl"), {**self._rays_defines(), "LDM_ANGLE_STATS": 1})
             cs["n_rays"].value = n
             self._bind_maps(cs)
-            batch.upload(self.gpu).bind_to_storage_buffer(B_RAYS)
-            self.hits.bind_to_storage_buffer(B_HITS)
-            angle.bind_to_storage_buffer(B_ANGLE)
+            batch.upload(self.gpu).bind_to_storage_buffer(B.RAYS)
+            self.hits.bind_to_storage_buffer(B.HITS)
+            angle.bind_to_storage_buffer(B.LDM_ANGLE)
             cs.run(*groups_2d(-(-n // 64)))
             self.gpu.ctx.memory_barrier()
             return float(np.frombuffer(self.gpu.read(angle), np.float32).mean())

@@ -7,7 +7,7 @@
 #include "ldm_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(r32f, binding = 0) writeonly uniform image2D out_image;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;
 uniform sampler2D g_position;
 uniform sampler2D g_normal;
 uniform uint n_maps;

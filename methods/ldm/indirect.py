@@ -37,6 +37,7 @@ import math
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from harness.scene import Camera
@@ -45,7 +46,6 @@ from methods.lights import set_spot_uniforms
 from methods.gbuffer import GBuffer, mat_bytes
 from methods.structures import fill_uint
 
-B_PHOTONS, B_PHOTON_COUNT, B_ACCUM, B_STATS = 14, 15, 16, 17  # 11-13: the maps (ldm_trace.glsl)
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
 MAX_CUTOFF_DEG = 80.0
@@ -159,8 +159,8 @@ class IndirectLight:
             with gpu.stage("trace"):
                 cs = self.trace_cs
                 self._set_trace_uniforms(cs, li, view)
-                self.photons.bind_to_storage_buffer(B_PHOTONS)
-                self.count_buf.bind_to_storage_buffer(B_PHOTON_COUNT)
+                self.photons.bind_to_storage_buffer(B.PHOTONS)
+                self.count_buf.bind_to_storage_buffer(B.PHOTON_COUNT)
                 cs.run(groups, groups)
                 gpu.ctx.memory_barrier()
         self.trace_passes += 1
@@ -224,8 +224,8 @@ class IndirectLight:
                     cs["g_position"].value = 0
                     cs["g_albedo"].value = 2
                     g.bind(0)
-                    self.photons.bind_to_storage_buffer(B_PHOTONS)
-                    self.accum.bind_to_storage_buffer(B_ACCUM)
+                    self.photons.bind_to_storage_buffer(B.PHOTONS)
+                    self.accum.bind_to_storage_buffer(B.PHOTON_ACCUM)
                     cs.run(min(n, _WORKGROUPS))  # one workgroup per photon
                     ctx.memory_barrier()
 
@@ -278,7 +278,7 @@ class IndirectLight:
                 if len(self.lviews) > 1 or li != len(self.lviews) - 1:
                     self.lgbuf.render(lview)  # the last light's raster is still there
                 self._set_trace_uniforms(cs, li, self.view)
-                stats.bind_to_storage_buffer(B_STATS)
+                stats.bind_to_storage_buffer(B.PHOTON_STATS)
                 g = (self.p.photons + 7) // 8
                 cs.run(g, g)
                 self.gpu.ctx.memory_barrier()
@@ -292,8 +292,8 @@ class IndirectLight:
             if self.n_stored:
                 self._splat_uniforms(ss, self.view)
                 ss["n_photons"].value = self.n_stored
-                self.photons.bind_to_storage_buffer(B_PHOTONS)
-                stats.bind_to_storage_buffer(B_STATS)
+                self.photons.bind_to_storage_buffer(B.PHOTONS)
+                stats.bind_to_storage_buffer(B.PHOTON_STATS)
                 ss.run(min(-(-self.n_stored // 64), _WORKGROUPS))
                 self.gpu.ctx.memory_barrier()
             raw = self.gpu.read(stats)

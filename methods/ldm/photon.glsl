@@ -1,7 +1,7 @@
 // Photon differentials and splats of the LDM indirect light (aalund2015 §3.4, §4.2; docs/ldm_indirect.md).
 // Shared by photon_trace.glsl and photon_splat.glsl.
 //
-// A stored photon (binding 14, 64 bytes): x = the second hit x2, D_u x / D_v x = its positional
+// A stored photon (B_PHOTONS, 64 bytes): x = the second hit x2, D_u x / D_v x = its positional
 // differentials on x2's tangent plane (footprint = the ellipse inscribed in the parallelogram
 // x2 +- D_u x/2 +- D_v x/2), n = the surface normal at x2 (facing the camera), flux = Phi (W, RGB).
 // id = texel * N + map (mod 2^32): the primary photon's light texel and the map that traced it, for tests

@@ -8,8 +8,8 @@
 // behind the eye or its screen rectangle's diagonal exceeds max_splat_px), fragment shader = kernel;
 // additive blending into an RGBA32F target.
 // COMPUTE_SHADER, SPLAT_ATOMIC: one workgroup per photon loops over the pixels of the same quad and adds
-// with float atomics (GL_NV_shader_atomic_float) into 3 floats per pixel (binding 16).
-// COMPUTE_SHADER, SPLAT_STATS: untimed statistics into binding 17: splats clipped (count, power) and the
+// with float atomics (GL_NV_shader_atomic_float) into 3 floats per pixel (B_PHOTON_ACCUM).
+// COMPUTE_SHADER, SPLAT_STATS: untimed statistics into B_PHOTON_STATS: splats clipped (count, power) and the
 // drawn splats' screen area (about the fragments shaded).
 #if defined(COMPUTE_SHADER)
 #extension GL_NV_shader_atomic_float : require
@@ -77,10 +77,10 @@ void main() {
 
 #elif defined(COMPUTE_SHADER)
 layout(local_size_x = 64) in;
-layout(std430, binding = 14) readonly buffer Photons { Photon photons[]; };
+layout(std430, binding = B_PHOTONS) readonly buffer Photons { Photon photons[]; };
 uniform uint n_photons;
 #if defined(SPLAT_STATS)
-layout(std430, binding = 17) buffer SplatStats { uint st_count[16]; float st_power[16]; };
+layout(std430, binding = B_PHOTON_STATS) buffer SplatStats { uint st_count[16]; float st_power[16]; };
 void main() {   // one invocation per photon (grid-stride)
     for (uint i = gl_GlobalInvocationID.x; i < n_photons; i += gl_NumWorkGroups.x * 64u) {
         vec3 du = photons[i].du_g.xyz * footprint_scale, dv = photons[i].dv_b.xyz * footprint_scale;
@@ -107,7 +107,7 @@ void main() {   // one invocation per photon (grid-stride)
 // One workgroup per photon (grid-stride over photons), its 64 invocations stride over the pixels of the
 // splat's screen rectangle: a 400-pixel splat is not left to one thread. Pixel centres inside the
 // projected quad only, as the rasterizer samples it.
-layout(std430, binding = 16) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
+layout(std430, binding = B_PHOTON_ACCUM) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;
 float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }

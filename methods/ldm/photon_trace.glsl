@@ -20,9 +20,9 @@
 //         rotation, det +1, which turns one axis of a diverging beam into a converging one: line foci)
 //      d. transfer the differential to x2's tangent plane; drop a photon whose positional differential
 //         has a component above diff_max (the differential bias)
-//      e. store (binding 14), counting with one atomicAdd; beyond `capacity` photons are counted, not stored
+//      e. store (B_PHOTONS), counting with one atomicAdd; beyond `capacity` photons are counted, not stored
 // PHOTON_STATS: an untimed statistics variant that stores nothing and adds every candidate's count and
-// power (mean of RGB) to the counters of its fate (binding 17, float atomics).
+// power (mean of RGB) to the counters of its fate (B_PHOTON_STATS, float atomics).
 #if defined(PHOTON_STATS)
 #extension GL_NV_shader_atomic_float : require
 #endif
@@ -52,9 +52,9 @@ uniform uint capacity;
 
 #if defined(PHOTON_STATS)
 // counts[i] / power[i] by fate (methods/ldm/indirect.py FATES), summed per invocation first (fewer
-// float atomics, less rounding), added to binding 17 at the end
+// float atomics, less rounding), added to B_PHOTON_STATS at the end
 #define N_FATES 10
-layout(std430, binding = 17) buffer PhotonStats { uint st_count[16]; float st_power[16]; };
+layout(std430, binding = B_PHOTON_STATS) buffer PhotonStats { uint st_count[16]; float st_power[16]; };
 uint f_count[N_FATES];
 float f_power[N_FATES];
 void fate(uint i, float p) { f_count[i] += 1u; f_power[i] += p; }
@@ -66,8 +66,8 @@ void flush_fates() {
     }
 }
 #else
-layout(std430, binding = 14) writeonly buffer Photons { Photon photons[]; };
-layout(std430, binding = 15) buffer PhotonCount { uint photon_count; };
+layout(std430, binding = B_PHOTONS) writeonly buffer Photons { Photon photons[]; };
+layout(std430, binding = B_PHOTON_COUNT) buffer PhotonCount { uint photon_count; };
 #endif
 
 float mean3(vec3 v) { return (v.x + v.y + v.z) * (1.0 / 3.0); }

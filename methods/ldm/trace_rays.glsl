@@ -12,7 +12,7 @@ uniform uint n_rays;
 uniform uint n_maps;
 uniform float bias;       // world units
 #if defined(LDM_ANGLE_STATS)
-layout(std430, binding = 12) writeonly buffer LdmAngle { float ldm_angle[]; };
+layout(std430, binding = B_LDM_ANGLE) writeonly buffer LdmAngle { float ldm_angle[]; };
 #endif
 
 void main() {   // a 2D grid of workgroups (methods/scan.py groups_2d): any number of rays

@@ -50,11 +50,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from harness.bindings import B
 from methods.base import ParamsBase, group, param
+from methods.invariants import layered_invariants
 from methods.structures import StructureSpec, make_structure
 from methods.oit import OITMethod, camera_transform
-
-B_COUNTERS = 12
 
 
 @dataclass(frozen=True)
@@ -126,7 +126,7 @@ class LLOIT(OITMethod):
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
             self.set_common_uniforms(prog, view)
             self.ls.bind()
-            self.counters_buf.bind_to_storage_buffer(B_COUNTERS)
+            self.counters_buf.bind_to_storage_buffer(B.OIT_COUNTERS)
             vao.render(vertices=3)
         vao.release()
         return self.result(self._counters, self._invariants)
@@ -150,4 +150,4 @@ class LLOIT(OITMethod):
 
     def _invariants(self, c: dict) -> list[str]:
         # the lists are unsorted by design (yang2010): the resolve sorts, so "sorted" is not an invariant here
-        return self.ls.invariants({**c, "unsorted_lists": 0})
+        return layered_invariants(self.ls, {**c, "unsorted_lists": 0})

@@ -21,7 +21,7 @@ void main() { gl_Position = oit_fullscreen(gl_VertexID); }
 const uint K = uint(OIT_ARRAY);
 uniform ivec2 size;
 uniform vec3 background;
-layout(std430, binding = 12) buffer OITCounters { uint oit_counters[]; };
+layout(std430, binding = B_OIT_COUNTERS) buffer OITCounters { uint oit_counters[]; };
 layout(location = 0) out vec4 out_color;
 
 void blend(inout vec3 C, inout float T, uint m) {

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 from methods.directions import orthonormal_basis
@@ -33,7 +34,8 @@ from methods.directions import orthonormal_basis
 from .spec import StructureSpec
 
 LAYOUT_CODES = {"linked": 1, "linear": 2}
-B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, B_ALBEDO = 0, 1, 2, 3, 7, 9
+B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, B_ALBEDO = (B.COUNTERS, B.HEADS, B.LAYERS, B.NODES0, B.PAYLOAD,
+                                                                B.LS_ALBEDO)
 N_COUNTERS = 16
 C_CAPACITY = 8
 
@@ -224,7 +226,7 @@ def ortho_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
     return clip, rows, (u, w, axes)
 
 
-B_ORTHO_AXES = 11  # methods/glsl/ortho_layers.glsl
+B_ORTHO_AXES = B.ORTHO_AXES  # methods/glsl/ortho_layers.glsl
 
 
 def bind_ortho_layers(cs, axes_buf, centre, radius: float, resolution: int) -> None:
@@ -242,6 +244,6 @@ def fill_uint(gpu, buffer, n: int, value: int):
     cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
     cs["n"].value = int(n)
     cs["value"].value = int(value)
-    buffer.bind_to_storage_buffer(0)
+    buffer.bind_to_storage_buffer(B.FILL)
     cs.run(max(1, min(-(-int(n) // 256), 4096)))
     gpu.ctx.memory_barrier()

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
@@ -97,7 +98,7 @@ class LinearisedArrays(LayeredStructure):
         if self.payload_buf is not None:
             self.payload_buf.bind_to_storage_buffer(B_PAYLOAD)
         if self.pairs is not None:  # the sort assembly's (list, depth, payload) pairs
-            self.pairs.bind_to_storage_buffer(B_NODES0 + 1)
+            self.pairs.bind_to_storage_buffer(B.PAIRS)
 
     def build(self, stage=None):
         """Build all layers; stages ``count``, ``scan``, ``fill``, ``sort`` (``stage(name)`` times each;

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
@@ -34,7 +35,8 @@ from .core import B_ALBEDO, B_LAYERS, C_CAPACITY, fill_uint
 from .linear import C_COUNTED, C_FILLED, C_OVERFLOW
 from .sources import FragmentSource
 
-B_PREV, B_CAND, B_COUNT, B_LOC, B_FRAG, B_PCOUNT, B_VERTS = 12, 13, 14, 15, 16, 17, 18
+B_PREV, B_CAND, B_COUNT, B_LOC, B_FRAG, B_PCOUNT, B_VERTS = (B.PEEL_PREV, B.PEEL_CAND, B.PEEL_COUNT, B.PEEL_LOC,
+                                                              B.PEEL_FRAG, B.PEEL_COUNTERS, B.PEEL_VERTICES)
 NONE = 0xFFFFFFFF
 
 

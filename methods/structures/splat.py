@@ -1,8 +1,8 @@
 """The ``splat`` source: a compute rasterizer of small triangles with the hardware's fill rule.
 
 Variant of the fragment pass of :mod:`methods.structures` (docs/fast_builds.md). The hardware raster of
-every triangle in every layer is the reference source; on an H200 it is bound by the rasterizer's
-triangle rate, not by memory.
+every triangle in every layer is the reference source; it is bound by the rasterizer's triangle rate, not
+by memory (measured in docs/fast_builds.md).
 
 :class:`Splat` (``methods/glsl/splat_raster.glsl``): one invocation per (triangle, batch of
 ``splat_batch`` layers) projects the triangle into each layer of its batch, snaps it to the hardware's
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
@@ -26,7 +27,7 @@ from methods.gbuffer import VERTEX_ATTRS
 from .core import B_ALBEDO, fill_uint
 from .sources import FragmentSource, Raster
 
-B_VERTICES, B_LARGE = 8, 10
+B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -76,7 +77,7 @@ def fill_rule(gpu) -> dict:
             vao = ctx.vertex_array(prog, [(vbo, "2f 1f", "in_position", "in_value")])
             prog["probe_mode"].value = mode
             fill_uint(gpu, out, 16, blank)
-            out.bind_to_storage_buffer(0)
+            out.bind_to_storage_buffer(B.PROBE)
             vao.render()
             ctx.memory_barrier()
             found.append(np.frombuffer(gpu.read(out), np.uint32).reshape(4, 4).copy())  # [y, x]
