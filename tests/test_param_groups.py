@@ -53,8 +53,7 @@ def test_grouped_values_and_errors():
     from methods.ll_oit import LLOITParams
 
     s = LLOITParams.from_dict({"pool": "count"}).structure
-    assert (s.layout, s.payload, s.sorted_insert, s.fixed_overflow_ok, s.pool) == \
-        ("linked", ("material",), False, False, "count")
+    assert (s.layout, s.payload, s.sorted_insert, s.pool) == ("linked", ("material",), False, "count")
     with pytest.raises(LdbenchError, match="unknown parameter 'structure.sorted_insert'"):
         LLOITParams.from_dict({"structure.sorted_insert": True})
 

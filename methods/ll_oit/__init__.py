@@ -70,11 +70,10 @@ class LLOITResolve(ParamsBase):
 
 @dataclass(frozen=True)
 class LLOITParams(ParamsBase):
-    # yang2010's lists: one layer, the material id per node, arrival order (the resolve sorts); a fragment
-    # lost to a full pool changes the image, so an overflow is a violation even for pool=fixed
+    # yang2010's lists: one layer, the material id per node, arrival order (the resolve sorts)
     structure: StructureSpec = group(StructureSpec, "one layer of per-pixel linked lists (yang2010's insert)",
                                      expose=("pool", "pool_capacity", "aggregate"), layout="linked",
-                                     payload=("material",), sorted_insert=False, fixed_overflow_ok=False)
+                                     payload=("material",), sorted_insert=False)
     oit: LLOITResolve = group(LLOITResolve, "effect oit: the per-pixel sort and composite")
 
     renamed = {"max_layers": "oit.max_layers", "max_list": "oit.max_list", "pool": "structure.pool",

@@ -16,8 +16,9 @@ the build rasterizes the full vertex buffer (normals and material ids); without,
 position-only copy (``spec.indexed``).
 
 **Invariants** (:meth:`LayeredStructure.invariants`, checked on every run; a violation makes the row
-``degraded``): every fragment stored (no overflow unless the pool policy is ``fixed``), every stored
-fragment reachable exactly once, every list sorted, no abandoned insert.
+``degraded``): every fragment stored (no overflow unless the pool policy is ``fixed``; the adapters list
+that overflow too, :func:`methods.invariants.layered_invariants`), every stored fragment reachable exactly
+once, every list sorted, no abandoned insert.
 
 Also here: the orthographic layers of a bounding sphere (:func:`ortho_layers`, :func:`bind_ortho_layers`)
 that the LDMs, the CDI and the LDIs use, and :func:`fill_uint`.
@@ -73,7 +74,7 @@ class LayeredStructure:
             raise LdbenchError(
                 f"{self.layers} layers of {self.width}x{self.height} texels need a {per_texel * 4 / 2**20:.1f} "
                 f"MiB head/offset buffer, above this GPU's SSBO limit of {self.ssbo_limit / 2**20:.0f} MiB")
-        self.overflow_allowed = spec.pool == "fixed" and spec.fixed_overflow_ok
+        self.overflow_allowed = spec.pool == "fixed"  # the adapters add the overflow back (methods/invariants.py)
         self.counters_buf = res.buffer(prefix + "counters", reserve=4 * N_COUNTERS)
         self.layers_buf = res.buffer(prefix + "layers", reserve=80 * self.layers)
         self.fbo = gpu.ctx.empty_framebuffer((self.width, self.height))

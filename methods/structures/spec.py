@@ -69,8 +69,6 @@ class StructureSpec(ParamsBase):
     canonical: bool = param(False, "linear: order fragments at equal depth by their payload words (stage canon)")
     page_nodes: int = param(0, "linked: nodes per SSBO page, a power of two (0 = from the SSBO size limit)",
                             lo=0, hi=1 << 30)
-    fixed_overflow_ok: bool = param(True, "pool=fixed: an overflow is reported, not an invariant violation "
-                                    "(False: a lost fragment is always a violation)")
 
     def __post_init__(self):
         object.__setattr__(self, "payload", tuple(self.payload))
