@@ -354,7 +354,7 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
 
 
 def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
-    """``ldm`` with ``build = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
+    """``ldm`` with ``structure.source = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
     triangle's dominant-axis samples at density 1/cos θ, ~2× the raster's fragments, at the raster's sample
     positions). Through the adapter: every invariant holds, the lists hold at least the raster's fragments
     (measured 116,976 vs 58,520: 2.0×) and the AO image is darker (0.170 vs 0.269 mean)."""
@@ -366,7 +366,7 @@ def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
     sc = cornell_like(light=False)
     out = {}
     for build in ("raster", "one_pass"):
-        m = Ldm(LdmParams(directions=24, resolution=48, build=build))
+        m = Ldm(LdmParams(directions=24, resolution=48, structure=dict(source=build)))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 48, 48), Effect("ao")).resolve()

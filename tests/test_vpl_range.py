@@ -244,7 +244,7 @@ ranges above 1.2 × the mean)."""
     for mode in ("mean", "max"):
         eff = Effect("vpl_range", rsm=24, cone_angle=50.0, miss_range=2.0, range_mode=mode)
         b = make_vpls(sc, eff.params, seed=5)
-        m = CdiVpl(CdiVplParams(build="brute_force"))
+        m = CdiVpl(CdiVplParams(structure=dict(source="raster", instanced=False)))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 8, 8), eff, b).resolve()
