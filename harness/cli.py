@@ -266,9 +266,14 @@ def suite_from_args(args):
             jobs = []
             for j in suite.jobs:
                 if j.method in params:
-                    merged = {**dict(j.params), **params[j.method]}
+                    cls = get_method(j.method)
+                    P = cls.Params
+                    try:  # --set overrides the suite's parameter of the same name
+                        merged = P.upgrade({**dict(j.params), **params[j.method]})
+                    except LdbenchError:  # the suite names it one way (build), --set the other (structure.source)
+                        merged = {**P.upgrade(dict(j.params)), **P.upgrade(params[j.method])}
                     from .suite import method_params
-                    method_params(get_method(j.method), merged, j.method)
+                    method_params(cls, merged, j.method)
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)
             suite.jobs = jobs
