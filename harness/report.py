@@ -19,6 +19,7 @@ run is never lost to a plotting problem.
 """
 from __future__ import annotations
 
+import functools
 import html
 import json
 import math
@@ -44,9 +45,53 @@ def _fmt(v, nd=2):
     return f"{v2:.{nd}f}"
 
 
-def _params_str(p) -> str:
+@functools.lru_cache(maxsize=None)
+def _defaults(method: str) -> tuple:
+    """(defaults dict, renamed dict) of an adapter's ``Params``; ({}, {}) for a method this version
+    does not know (then every parameter counts as non-default)."""
+    try:
+        from methods.base import get_method
+
+        cls = get_method(str(method)).Params
+        return cls().to_dict(), dict(getattr(cls, "renamed", None) or {})
+    except Exception:  # noqa: BLE001 - an old table may name a method that no longer exists
+        return {}, {}
+
+
+def _same(a, b) -> bool:
+    """Parameter values equal after a records round trip (128 == 128.0, "inf" == inf, tuple == list)."""
+    fa, fb = F._num(a), F._num(b)
+    if fa is not None and fb is not None and not isinstance(a, bool) and not isinstance(b, bool):
+        return fa == fb
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return a == b or str(a) == str(b)
+
+
+def shown_params(method, p) -> list:
+    """The parameters of one row that differ from the adapter's defaults, grouped as the adapter groups
+    them: ``[(group, [(name, value), ...]), ...]`` with the ungrouped ones first under group ``""``.
+    A dotted name ("structure.source") belongs to the group before its first dot; old flat names are
+    read through ``Params.renamed``. The results files keep the full set."""
     p = p if isinstance(p, dict) else F._as_dict(p)
-    return ", ".join(f"{k}={F.fmt_value(v)}" for k, v in p.items())
+    defaults, renamed = _defaults(str(method))
+    groups: dict = {}
+    for k, v in p.items():
+        name = renamed.get(k, k)
+        if name in defaults and _same(v, defaults[name]):
+            continue
+        group, _, short = name.partition(".") if "." in name else ("", "", name)
+        groups.setdefault(group, []).append((short, v))
+    return sorted(groups.items(), key=lambda g: g[0] != "")
+
+
+def _params_str(p, method=None, sep=" · ") -> str:
+    """Non-default parameters as text: ``directions=64 · structure: source=peel, depth=4``."""
+    parts = []
+    for group, items in shown_params(method, p):
+        txt = ", ".join(f"{k}={F.fmt_value(v)}" for k, v in items)
+        parts.append(f"{group}: {txt}" if group else txt)
+    return sep.join(parts) if parts else "defaults"
 
 
 def esc(s) -> str:
@@ -101,26 +146,28 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
     img = df[image_rows(df)]
     if len(img):
-        lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
+        lines += ["| scene | method | effect | size | params (non-default) | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in img.iterrows():
         lines.append(
             f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | {r['width']}×{r['height']} | "
-            f"{_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
+            f"{_md(_params_str(r['params'], r['method']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
             f"{_fmt(r['memory_mb'], 1)} | {_fmt(r['psnr'])} | {_fmt(r['ssim'], 3)} | {_fmt(r['flip'], 3)} | "
             f"{_fmt(r['relmse'], 4)} | {_md(r['status'])} |")
     for name, cols, rows in metric_tables(df):
         lines += ["", f"## Effect `{name}`", "",
-                  "| scene | method | effect | size | params | total ms | " + " | ".join(cols) + " | status |",
+                  "| scene | method | effect | size | params (non-default) | total ms | " + " | ".join(cols) + " | status |",
                   "|" + "---|" * (len(cols) + 7)]
         for _, r in rows.iterrows():
             lines.append(f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | "
-                         f"{r['width']}×{r['height']} | {_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} | "
+                         f"{r['width']}×{r['height']} | {_md(_params_str(r['params'], r['method']))} | {_fmt(r['total_ms'])} | "
                          + " | ".join(_metric(r, c) for c in cols) + f" | {_md(r['status'])} |")
     if figs:
         lines += ["", "## Figures", ""] + [f"- [{_md(f.title)}]({f.png}) ([PDF]({f.pdf}))" for f in figs]
     if grids:
         lines += ["", "## Image grids", ""] + [f"![{_md(g.title)}]({g.png})" for g in grids if g.png]
+    if len(df):
+        lines += ["", PARAMS_NOTE]
     if (run_dir / "reproduce.md").is_file():
         lines += ["", "Paper reproduction: [reproduce.md](reproduce.md)"]
     lines += ["", "Full report: [index.html](index.html)"]
@@ -155,7 +202,10 @@ table.grid img.px{width:200px;height:auto;image-rendering:pixelated;border:1px s
 .holds{color:#060;font-weight:600} .fails{color:#a00;font-weight:600}
 """
 
-RESULT_COLUMNS = ("scene", "method", "effect", "size", "params", "total ms", "IQR ms", "wall ms",
+PARAMS_NOTE = ("Params: only those that differ from the adapter's defaults (grouped by the prefix of "
+               "dotted names); results.csv and results.parquet keep the full set.")
+
+RESULT_COLUMNS = ("scene", "method", "effect", "size", "params (non-default)", "total ms", "IQR ms", "wall ms",
                   "memory MB", "PSNR dB", "SSIM", "FLIP", "relMSE", "ref spp", "status")
 
 
@@ -212,15 +262,43 @@ def _metric(r, c) -> str:
     return f"{v:.4g}"
 
 
+def terminal_table(df) -> str:
+    """The end-of-run table for the terminal: one block per effect with that effect's own metrics
+    (its spec's ``metrics``; PSNR/SSIM for an effect this version does not know) and the non-default
+    parameters."""
+    import pandas as pd
+
+    from .effects import registry
+
+    if not len(df):
+        return "(no rows)"
+    d = F.prepare(df)
+    reg = registry()
+    blocks = []
+    for eff in dict.fromkeys(d["effect"]):
+        rows = d[d["effect"] == eff]
+        spec = reg.get(eff)
+        cols = [c for c in (spec.metrics if spec is not None else ("psnr", "ssim"))
+                if c in rows.columns and any(F._num(v) is not None for v in rows[c])]
+        table = pd.DataFrame([{"scene": r["scene"], "method": r["method"], "effect": r["effect_text"],
+                               "size": r["size"], "params": _params_str(r["params"], r["method"], "; "),
+                               "total ms": _fmt(r["total_ms"]), "memory MB": _fmt(r["memory_mb"], 1),
+                               **{c: _metric(r, c) for c in cols}, "status": r["status"]}
+                              for _, r in rows.iterrows()])
+        with pd.option_context("display.width", 200, "display.max_columns", 40, "display.max_colwidth", 80):
+            blocks.append(table.to_string(index=False))
+    return "\n\n".join(blocks)
+
+
 def _metric_tables_html(h: _Html, df):
     for name, cols, rows in metric_tables(df):
         h.raw(f'<h3 id="effect-{esc(name)}">Effect <code>{esc(name)}</code></h3>')
-        heads = ["scene", "method", "effect", "size", "params", "total ms", "memory MB", *cols, "status"]
+        heads = ["scene", "method", "effect", "size", "params (non-default)", "total ms", "memory MB", *cols, "status"]
         h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in heads)
               + "</tr></thead><tbody>")
         for _, r in rows.iterrows():
             cells = [(r["scene"], False), (r["method"], False), (r["effect_text"], False),
-                     (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+                     (r["size"].replace("x", "×"), False), (_params_str(r["params"], r["method"]), False),
                      (_fmt(r["total_ms"]), True), (_fmt(r["memory_mb"], 1), True),
                      *[(_metric(r, c), True) for c in cols], (r["status"], False)]
             tr = "<tr>" if r["status"] == "ok" else '<tr class="bad">'
@@ -240,7 +318,7 @@ def _results_table(h: _Html, df):
         ok = r["status"] == "ok"
         cells = [
             (r["scene"], False), (r["method"], False), (r["effect_text"], False),
-            (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+            (r["size"].replace("x", "×"), False), (_params_str(r["params"], r["method"]), False),
             (_fmt(r["total_ms"]), True), (_fmt(r["total_ms_iqr"]), True), (_fmt(r.get("wall_ms")), True),
             (_fmt(r["memory_mb"], 1), True), (_fmt(r["psnr"]), True), (_fmt(r["ssim"], 3), True),
             (_fmt(r["flip"], 3), True), (_fmt(r["relmse"], 4), True), (_fmt(r.get("ref_spp"), 0), True),
@@ -253,7 +331,8 @@ def _results_table(h: _Html, df):
     h.text("p", "Times: median over the measured frames (IQR: interquartile range); on a GPU the sum of "
                 "the stages' GL timer queries, on a software rasterizer wall clock. Memory: GPU buffers "
                 "and textures of the method, MB = 2^20 bytes. PSNR/SSIM/FLIP/relMSE over pixels where "
-                "the reference hit geometry; exact settings are in results.csv (metric_settings).",
+                "the reference hit geometry; exact settings are in results.csv (metric_settings). "
+                f"{PARAMS_NOTE}",
            cls="cap")
 
 
