@@ -431,6 +431,9 @@ def figure_stages(df, run_dir: Path, scene: str, max_bars: int = 30) -> list[Fig
                 continue
             ax.bar(x, v, bottom=bottom, color=pal[s], label=s, width=0.7)
             bottom += v
+        # Headroom above the tallest bar: zero-height segments on top of a stack make matplotlib's
+        # autoscale stop exactly at the bar's top (their sticky edge), so set the limit explicitly.
+        ax.set_ylim(0.0, (float(bottom.max()) or 1.0) * 1.08)
         ax.set_xticks(x)
         ax.set_xticklabels(labels, rotation=30 if len(chunk) > 3 else 0, ha="right" if len(chunk) > 3 else "center",
                            fontsize=8)
@@ -672,11 +675,17 @@ def _matplotlib_grid(run_dir: Path, g: Grid, rows, errs, tag):
             im = axes[1, i].imshow(e, cmap="magma", vmin=0, vmax=g.vmax, interpolation="nearest")
         axes[1, i].set_title("\n".join(c.caption), fontsize=6.5)
     if im is not None:
-        fig.colorbar(im, ax=list(axes[1, 1:]), fraction=0.046, pad=0.02, label=g.error_label)
+        import textwrap
+
+        cb = fig.colorbar(im, ax=list(axes[1, 1:]), fraction=0.046, pad=0.02)
+        cb.set_label(textwrap.fill(g.error_label, 36), fontsize=7)
+        cb.ax.tick_params(labelsize=7)
     fig.suptitle(g.title, fontsize=10)
     d = run_dir / "figures"
-    fig.savefig(d / f"grid-{tag}.png", dpi=110)
-    fig.savefig(d / f"grid-{tag}.pdf")
+    # bbox "tight": with one method the colour bar's ticks and label lie right of the last axes and
+    # would be cut off at the figure's edge.
+    fig.savefig(d / f"grid-{tag}.png", dpi=110, bbox_inches="tight", pad_inches=0.08)
+    fig.savefig(d / f"grid-{tag}.pdf", bbox_inches="tight", pad_inches=0.08)
     plt.close(fig)
     return f"figures/grid-{tag}.png", f"figures/grid-{tag}.pdf"
 
