@@ -518,6 +518,11 @@ class GridCell:
     image: str | None  # relative path of the method's preview PNG
     error: str | None  # relative path of the re-coloured error PNG (grid scale)
     caption: list = field(default_factory=list)
+    exr: str | None = None  # the method's linear EXR
+    signed: str | None = None  # signed-error PNG (diverging, symmetric grid scale)
+    flip: str | None = None  # FLIP map PNG (magma, 0 … 1); image effects only
+    values: str | None = None  # float values of the image for the viewer (imageio.save_values_js)
+    flip_values: str | None = None  # float values of the FLIP map
 
 
 @dataclass
@@ -533,6 +538,14 @@ class Grid:
     png: str | None = None
     pdf: str | None = None
     problems: list = field(default_factory=list)
+    reference_exr: str | None = None
+    reference_values: str | None = None
+    width: int = 0
+    height: int = 0
+    signed_vmax: float = 0.0  # the signed-error maps span -signed_vmax … +signed_vmax
+    signed_colorbar: str | None = None
+    flip_colorbar: str | None = None
+    maps_json: str | None = None  # ranges, colour maps and definitions of the maps (grids/<tag>/maps.json)
 
 
 def _read_exr(path: Path):
@@ -620,28 +633,129 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid
     else:
         units = "AO units" if rows[0]["effect"] == "ao" else "linear radiance"
         err_label = f"|test − reference| ({units}, mean over channels)"
-    # colour bar
-    fig = plt.figure(figsize=(4.2, 0.85))
-    cax = fig.add_axes([0.05, 0.55, 0.9, 0.3])
-    import matplotlib as mpl
-
-    cb = mpl.colorbar.ColorbarBase(cax, cmap=mpl.colormaps["magma"], norm=mpl.colors.Normalize(0, vmax),
-                                   orientation="horizontal")
-    cb.set_label(err_label, fontsize=8)
-    cb.ax.tick_params(labelsize=7)
-    cb.set_ticks(np.linspace(0, vmax, 5))
-    cb.ax.set_xticklabels(["0"] + [f"{t:.2g}" for t in np.linspace(0, vmax, 5)[1:]])
     cbar = gdir / "colorbar.png"
-    fig.savefig(cbar, dpi=110)
-    plt.close(fig)
+    _colorbar(cbar, "magma", 0.0, vmax, err_label)
     ref_cap = (f"oracle ({rows[0].get('ref_variant')}): fraction of rays that hit" if rows[0]["effect"] == "rays"
                else f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})")
     g = Grid(title=f"{scene} — {eff} — {size.replace('x', '×')}", anchor=f"grid-{tag}", reference=ref,
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)
+    try:
+        _viewer_maps(run_dir, g, rows, gdir)
+    except Exception as ex:  # noqa: BLE001 - the viewer's extras must not lose the grid
+        problems.append(f"viewer maps: {type(ex).__name__}: {ex}")
     if matplotlib_grid:
         g.png, g.pdf = _matplotlib_grid(run_dir, g, rows, errs, tag)
     return g
+
+
+def _colorbar(path: Path, cmap: str, lo: float, hi: float, label: str) -> None:
+    """A horizontal colour bar PNG from ``lo`` to ``hi`` with five ticks and a label."""
+    import matplotlib as mpl
+
+    plt = _plt()
+    fig = plt.figure(figsize=(4.2, 0.85))
+    cax = fig.add_axes([0.05, 0.55, 0.9, 0.3])
+    cb = mpl.colorbar.ColorbarBase(cax, cmap=mpl.colormaps[cmap], norm=mpl.colors.Normalize(lo, hi),
+                                   orientation="horizontal")
+    cb.set_label(label, fontsize=8)
+    cb.ax.tick_params(labelsize=7)
+    ticks = np.linspace(lo, hi, 5)
+    cb.set_ticks(ticks)
+    cb.ax.set_xticklabels(["0" if abs(t) < 1e-12 * max(abs(lo), abs(hi), 1e-30) else f"{t:.2g}" for t in ticks])
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+#: Colour maps of the viewer's maps (signed: red = method brighter than the reference).
+SIGNED_CMAP, FLIP_CMAP = "RdBu_r", "magma"
+
+
+def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path) -> None:
+    """The maps the report's viewer shows beside each method's image, written into the grid folder:
+
+    * signed error ``mean over channels of (test − reference)`` (linear), coloured with ``RdBu_r`` on a
+      symmetric range ± the largest of the methods' 99th percentiles of ``|signed|`` over its non-zero
+      pixels (one range per grid);
+    * the FLIP map (image effects only) with the settings of :data:`harness.metrics.FLIP_SETTINGS`, on
+      FLIP's own range 0 … 1 with ``magma``. It is evaluated over every pixel (the run does not store
+      the reference's hit mask), so near silhouettes it can differ from the ``flip`` column's map;
+    * the images' float32 values for the per-pixel read-out (:func:`harness.imageio.save_values_js`).
+
+    Ranges, colour maps and definitions are recorded in ``maps.json`` beside them."""
+    import matplotlib.image as mpimg
+
+    from . import metrics
+    from .effects import registry
+    from .imageio import save_values_js
+
+    ref_exr = g.reference[:-4] + ".exr" if g.reference and g.reference.endswith(".png") else None
+    if not ref_exr or not (run_dir / ref_exr).is_file():
+        if g.reference:  # no float data: the viewer still shows the PNGs
+            g.height, g.width = mpimg.imread(str(run_dir / g.reference)).shape[:2]
+        return
+    ref = _read_exr(run_dir / ref_exr)
+    g.height, g.width = ref.shape[:2]
+    g.reference_exr = ref_exr
+    vdir = gdir / "values"
+    rel = lambda p: p.relative_to(run_dir).as_posix()  # noqa: E731
+    if save_values_js(vdir / "reference.js", rel(vdir / "reference.js"), ref):
+        g.reference_values = rel(vdir / "reference.js")
+    spec = registry().get(str(rows[0]["effect"]))
+    with_flip = spec is not None and spec.output == "image"
+    signed, flips = [], []
+    for i, (r, c) in enumerate(zip(rows, g.cells)):
+        exr = r["images"].get("exr")
+        test = _read_exr(run_dir / exr) if exr and (run_dir / exr).is_file() else None
+        if test is None or test.shape != ref.shape:
+            signed.append(None), flips.append(None)
+            continue
+        c.exr = exr
+        stem = f"{i:02d}-{slug(r['method'], 30)}"
+        if save_values_js(vdir / f"{stem}.js", rel(vdir / f"{stem}.js"), test):
+            c.values = rel(vdir / f"{stem}.js")
+        signed.append((test.astype(np.float64) - ref).mean(axis=2))
+        fmap = None
+        if with_flip:
+            _, fmap = metrics.flip(test, ref, hdr=False, pixels_per_degree=metrics.FLIP_SETTINGS["ppd"])
+            if save_values_js(vdir / f"{stem}-flip.js", rel(vdir / f"{stem}-flip.js"), fmap):
+                c.flip_values = rel(vdir / f"{stem}-flip.js")
+        flips.append(fmap)
+    nz = [np.abs(d[d != 0]) for d in signed if d is not None]
+    sv = max((float(np.percentile(a, 99)) for a in nz if a.size), default=0.0)
+    g.signed_vmax = sv if sv > 0 else 1e-6
+    for i, (c, d, fmap) in enumerate(zip(g.cells, signed, flips)):
+        stem = f"{i:02d}-{slug(rows[i]['method'], 30)}"
+        if d is not None:
+            mpimg.imsave(str(gdir / f"{stem}-signed.png"),
+                         metrics.colorize((d + g.signed_vmax) / (2 * g.signed_vmax), vmax=1.0, cmap=SIGNED_CMAP))
+            c.signed = rel(gdir / f"{stem}-signed.png")
+        if fmap is not None:
+            mpimg.imsave(str(gdir / f"{stem}-flip.png"), metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
+            c.flip = rel(gdir / f"{stem}-flip.png")
+    units = "AO units" if rows[0]["effect"] == "ao" else "linear"
+    _colorbar(gdir / "colorbar-signed.png", SIGNED_CMAP, -g.signed_vmax, g.signed_vmax,
+              f"test − reference ({units}, mean over channels)")
+    g.signed_colorbar = rel(gdir / "colorbar-signed.png")
+    if any(f is not None for f in flips):
+        _colorbar(gdir / "colorbar-flip.png", FLIP_CMAP, 0.0, 1.0, "FLIP error (LDR, 0 … 1)")
+        g.flip_colorbar = rel(gdir / "colorbar-flip.png")
+    maps = {
+        "abs": {"range": [0.0, g.vmax], "cmap": "magma", "definition": g.error_label,
+                "scale_rule": "largest of the methods' 99th percentiles over valid pixels"},
+        "signed": {"range": [-g.signed_vmax, g.signed_vmax], "cmap": SIGNED_CMAP,
+                   "definition": "mean over channels of (test - reference), linear",
+                   "scale_rule": "largest of the methods' 99th percentiles of |signed| over non-zero pixels"},
+        "flip": {"range": [0.0, 1.0], "cmap": FLIP_CMAP, "settings": dict(metrics.FLIP_SETTINGS),
+                 "definition": "FLIP per pixel over every pixel (no hit mask)"} if g.flip_colorbar else None,
+        "png_encoding": "a map value v is shown with colour cmap((v - lo) / (hi - lo)), clipped",
+        "values": "values/*.js: float32 little-endian, row-major, channels last, base64 "
+                  "(ldbenchValues(key, width, height, channels, data))",
+        "cells": [{"label": c.label, "image": c.image, "exr": c.exr, "signed": c.signed, "flip": c.flip}
+                  for c in g.cells],
+    }
+    (gdir / "maps.json").write_text(json.dumps(maps, indent=1), encoding="utf-8")
+    g.maps_json = rel(gdir / "maps.json")
 
 
 def _f(v, nd):

@@ -209,6 +209,14 @@ RESULT_COLUMNS = ("scene", "method", "effect", "size", "params (non-default)", "
                   "memory MB", "PSNR dB", "SSIM", "FLIP", "relMSE", "ref spp", "status")
 
 
+def _asset(name: str) -> str:
+    """A viewer asset shipped beside this module (inlined: the page stays one offline file)."""
+    text = (Path(__file__).with_name(name)).read_text(encoding="utf-8")
+    if "</script" in text.lower() or "</style" in text.lower():
+        raise ValueError(f"{name} must not contain a closing script/style tag")
+    return text
+
+
 class _Html:
     def __init__(self):
         self.parts: list[str] = []
@@ -336,30 +344,107 @@ def _results_table(h: _Html, df):
            cls="cap")
 
 
-def _grid_html(h: _Html, run_dir: Path, g) -> None:
-    h.raw(f'<h3 id="{esc(g.anchor)}">{esc(g.title)}</h3>')
-    h.raw('<table class="grid"><tr>')
-    h.raw(f'<td>{_img(run_dir, g.reference, "reference", "px")}<div class="cap">{esc(g.reference_caption)}</div></td>')
+def _qurl(rel: str | None) -> str | None:
+    """A relative path percent-encoded for use as a URL inside the viewer's JSON (not HTML-escaped)."""
+    return urllib.parse.quote(str(rel).replace("\\", "/"), safe="/-_.~") if rel else None
+
+
+def _viewer_data(run_dir: Path, g) -> dict | None:
+    """What the viewer (report_viewer.js) needs of one grid: images, maps, value files, colour bars."""
+    if not g.width or not g.reference or not (run_dir / g.reference).is_file():
+        return None
+    items = [{"label": "reference", "png": _qurl(g.reference), "exr": _qurl(g.reference_exr),
+              "values": _qurl(g.reference_values)}]
     for c in g.cells:
-        h.raw(f'<td>{_img(run_dir, c.image, c.label, "px")}<div class="cap"><b>{esc(c.label)}</b></div></td>')
+        if not c.image:
+            continue
+        items.append({"label": c.label, "png": _qurl(c.image), "exr": _qurl(c.exr), "values": _qurl(c.values),
+                      "abs": _qurl(c.error), "signed": _qurl(c.signed), "flip": _qurl(c.flip),
+                      "flip_values": _qurl(c.flip_values)})
+    bars = {"abs": {"png": _qurl(g.colorbar), "lo": 0.0, "hi": g.vmax, "label": "|error|"}}
+    if g.signed_colorbar:
+        bars["signed"] = {"png": _qurl(g.signed_colorbar), "lo": -g.signed_vmax, "hi": g.signed_vmax,
+                          "label": "signed error"}
+    if g.flip_colorbar:
+        bars["flip"] = {"png": _qurl(g.flip_colorbar), "lo": 0.0, "hi": 1.0, "label": "FLIP"}
+    return {"anchor": g.anchor, "title": g.title, "w": int(g.width), "h": int(g.height), "items": items,
+            "bars": bars}
+
+
+def _json_script(data: dict) -> str:
+    """Data for the viewer as an inert JSON script element (``<``, ``>``, ``&`` escaped, so no record
+    text can close the element)."""
+    text = json.dumps(data, ensure_ascii=True, allow_nan=False)
+    text = text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    return f'<script type="application/json" class="ldv-data">{text}</script>'
+
+
+def _thumb(run_dir: Path, rel: str | None, alt: str, anchor: str | None, idx: int, mode: str) -> str:
+    """A grid thumbnail: links to the full-size PNG; with the viewer, a click opens it there."""
+    img = _img(run_dir, rel, alt, "px")
+    if not (rel and (run_dir / rel).is_file()):
+        return img
+    data = f' data-ldv="{esc(anchor)}" data-idx="{idx}" data-mode="{esc(mode)}"' if anchor else ""
+    return f'<a class="ldv-thumb" href="{url(rel)}"{data} title="open in the viewer (full size)">{img}</a>'
+
+
+def _file_links(run_dir: Path, *rels) -> str:
+    out = [f'<a href="{url(r)}">{esc(Path(r).suffix[1:].upper())}</a>' for r in rels if r and (run_dir / r).is_file()]
+    return f'<div class="links">{" · ".join(out)}</div>' if out else ""
+
+
+def _grid_html(h: _Html, run_dir: Path, g) -> bool:
+    """One image grid; returns whether it carries viewer data."""
+    data = _viewer_data(run_dir, g)
+    anchor = g.anchor if data else None
+    h.raw(f'<h3 id="{esc(g.anchor)}">{esc(g.title)}</h3>')
+    if data:
+        h.raw(_json_script(data))
+    h.raw('<table class="grid"><tr>')
+    h.raw(f'<td>{_thumb(run_dir, g.reference, "reference", anchor, 0, "image")}'
+          f'<div class="cap">{esc(g.reference_caption)}</div>{_file_links(run_dir, g.reference, g.reference_exr)}</td>')
+    shown = [c for c in g.cells if c.image]
+    idx = {id(c): i for i, c in enumerate(shown, start=1)}
+    for c in g.cells:
+        i = idx.get(id(c), 0)
+        h.raw(f'<td>{_thumb(run_dir, c.image, c.label, anchor if i else None, i, "image")}'
+              f'<div class="cap"><b>{esc(c.label)}</b></div>{_file_links(run_dir, c.image, c.exr)}</td>')
     h.raw("</tr><tr>")
     vmax_txt = esc(f"{g.vmax:.3g}")
     h.raw(f'<td>{_img(run_dir, g.colorbar, "colour bar of the error maps")}'
-          f'<div class="cap">error colour scale: 0 … {vmax_txt}</div></td>')
+          f'<div class="cap">|error| colour scale: 0 … {vmax_txt}</div></td>')
     for c in g.cells:
         cap = "<br>".join(esc(x) for x in c.caption)
-        h.raw(f'<td>{_img(run_dir, c.error, c.label + " error map", "px")}<div class="cap">{cap}</div></td>')
-    h.raw("</tr></table>")
+        i = idx.get(id(c), 0)
+        h.raw(f'<td>{_thumb(run_dir, c.error, c.label + " error map", anchor if i else None, i, "abs")}'
+              f'<div class="cap">{cap}</div></td>')
+    h.raw("</tr>")
+    for attr, bar, cap in (("signed", g.signed_colorbar,
+                            f"signed error (test − reference), −{g.signed_vmax:.3g} … +{g.signed_vmax:.3g}"),
+                           ("flip", g.flip_colorbar, "FLIP error, 0 … 1")):
+        if not bar or not any(getattr(c, attr) for c in g.cells):
+            continue
+        h.raw(f'<tr><td>{_img(run_dir, bar, "colour bar: " + cap)}<div class="cap">{esc(cap)}</div></td>')
+        for c in g.cells:
+            i = idx.get(id(c), 0)
+            h.raw(f'<td>{_thumb(run_dir, getattr(c, attr), c.label + " " + attr + " map", anchor if i else None, i, attr)}</td>')
+        h.raw("</tr>")
+    h.raw("</table>")
     links = []
     if g.png and (run_dir / g.png).is_file():
         links.append(f'<a href="{url(g.png)}">grid as PNG</a>')
     if g.pdf and (run_dir / g.pdf).is_file():
         links.append(f'<a href="{url(g.pdf)}">PDF</a>')
-    h.raw(f'<p class="cap">Top: reference and each method (same exposure). Bottom: absolute error maps on '
+    if g.maps_json and (run_dir / g.maps_json).is_file():
+        links.append(f'<a href="{url(g.maps_json)}">map ranges (JSON)</a>')
+    h.raw(f'<p class="cap">Top: reference and each method (same exposure). Below: absolute error maps on '
           f'one colour scale for the whole grid (0 … {vmax_txt}; 99th percentile of the worst '
-          f'method). {" · ".join(links)}</p>')
+          f'method), signed error maps (red: the method is brighter; symmetric range, one per grid) and '
+          f'FLIP maps (0 … 1). Click an image to open the viewer (full size, zoom, keyboard flipping, '
+          f'values under the cursor). {" · ".join(links)}</p>')
     if g.problems:
         h.raw('<div class="problems">' + "<br>".join(esc(p) for p in g.problems) + "</div>")
+    return data is not None
 
 
 def _reproduce_html(h: _Html, run_dir: Path) -> bool:
@@ -451,8 +536,12 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
     h.raw('<h2 id="grids">Image grids</h2>')
     if not grids:
         h.text("p", "No images.", cls="muted")
+    viewer = False
     for g in grids:
-        _grid_html(h, run_dir, g)
+        viewer = _grid_html(h, run_dir, g) or viewer
+    if viewer:
+        h.raw(f"<style>{_asset('report_viewer.css')}</style>")
+        h.raw(f"<script>{_asset('report_viewer.js')}</script>")
     h.text("p", "Generated by ldbench report; this folder is self-contained (relative links only).", cls="muted")
     h.raw("</body></html>")
     path = run_dir / "index.html"
