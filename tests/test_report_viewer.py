@@ -171,12 +171,20 @@ def test_terminal_table_shows_each_effects_metrics(run):
 # figure layout
 
 
-def test_stage_bars_leave_headroom(run, monkeypatch):
+def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
+    """The tallest bar has a zero-height stage on top (a stage only the other method has): matplotlib's
+    autoscale alone would end the axis exactly at its top."""
     from harness import figures as F
+    import pandas as pd
 
+    rows = [records.make_row(run_id="r", suite="s", scene="cornell", method=m, effect="ao",
+                             effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"}, params={},
+                             width=8, height=8, device="nvidia", status="ok", total_ms=sum(st.values()),
+                             stage_ms=st)
+            for m, st in (("hbao", {"gbuffer": 10.0, "hbao": 5.0}), ("ldm", {"build": 3.0}))]
     seen = []
     monkeypatch.setattr(F, "save", lambda fig, run_dir, name: (seen.append(fig), {"png": "", "pdf": ""})[1])
-    F.figure_stages(F.prepare(records.read_results(run)), run, "cornell")
+    F.figure_stages(F.prepare(pd.DataFrame(rows)), tmp_path, "cornell")
     (fig,) = seen
     ax = fig.axes[0]
     top = max(p.get_y() + p.get_height() for p in ax.patches)
@@ -272,7 +280,7 @@ def test_viewer_screenshots_show_the_flip_and_zoom(run, built, tmp_path):
     assert np.abs(shots["ref"][box] - shots["ref16"][box]).mean() > 0.01, "zooming did not change the pixels"
     # nearest-neighbour: at 16x, every 16x16 block of the image is one colour (few distinct values per row)
     row = shots["ref16"][h // 2, w // 2 - 128:w // 2 + 128]
-    changes = int((np.abs(np.diff(row, axis=0)).max(-1) > 0.02).sum())
+    changes = int((np.abs(np.diff(row, axis=0)).max(-1) > 1.5 / 255).sum())
     assert changes <= 256 // 16 + 2, changes
 
 
