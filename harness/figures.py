@@ -21,7 +21,9 @@ Conventions
   method's absolute-error map |test − reference| (mean over channels, 0 on the background) coloured
   with ``magma`` on one scale per grid: 0 … the largest of the methods' 99th-percentile errors over
   valid pixels (``images.error_vmax`` written by the runner). The HTML page shows the grid from these
-  PNGs plus a colour-bar image; a matplotlib version of the whole grid is written too.
+  PNGs plus a colour-bar image; a matplotlib version of the whole grid is written too. For the
+  report's viewer each grid also gets signed-error and FLIP maps and the images' float values
+  (:func:`_viewer_maps`).
 """
 from __future__ import annotations
 

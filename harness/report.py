@@ -2,9 +2,9 @@
 
 ``write_report(run_dir)`` reads ``results.parquet`` (or ``.csv``) and writes:
 
-* ``index.html`` — one self-contained page (inline CSS, no scripts, no network: every link is a
-  relative path inside the run directory, every string from the records is escaped with
-  :func:`html.escape`). Sections: the machine/commit header (device, GL renderer and version, driver,
+* ``index.html`` — one self-contained page (inline CSS and one inline script, the image viewer of
+  ``report_viewer.js``; no network: every link is a relative path inside the run directory, every
+  string from the records is escaped with :func:`html.escape`, the viewer's JSON data escapes ``<``). Sections: the machine/commit header (device, GL renderer and version, driver,
   CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
   because then every time is wall clock on a software rasterizer), the results table, the figures,
   one image grid per scene × effect × size, and the paper-reproduction tables when the run was made by
@@ -13,6 +13,9 @@
   against each swept parameter (``time-vs-*``, ``memory-vs-*``), quality vs time with the Pareto front
   (``quality-*``), and the image grids (``grid-*`` plus ``grids/<tag>/`` assets), each as PNG and PDF.
 * ``summary.md`` — the results table in Markdown with links to the figures.
+
+Tables list only the parameters that differ from the adapter's defaults (:func:`shown_params`); the
+results files keep the full set. docs/reports.md describes the page and the viewer.
 
 A figure that fails is listed on the page (and on stderr) instead of aborting the report, so a long GPU
 run is never lost to a plotting problem.
