@@ -293,3 +293,33 @@ def test_page_screenshot_not_blank(run, tmp_path):
     img = mpimg.imread(str(p))[..., :3]
     assert img.std() > 0.05
     assert float(((img.max(-1) - img.min(-1)) > 0.3).mean()) > 0.01  # plots and colour maps
+
+
+@needs_chromium
+def test_thumbnail_click_opens_the_viewer(run, built, tmp_path):
+    """A real click event on the FLIP thumbnail of the second method opens the viewer there."""
+    _, g = built
+    page = run / "click.html"
+    text = (run / "index.html").read_text(encoding="utf-8")
+    click = ('<script>window.addEventListener("load", function () { document.querySelector('
+             '\'a[data-idx="2"][data-mode="flip"]\').click(); });</script></body>')
+    page.write_text(text.replace("</body>", click), encoding="utf-8")
+    try:
+        s = _state(_browser(tmp_path, page, ""))
+    finally:
+        page.unlink()
+    assert s["shown"] == g.cells[1].flip and s["idx"] == "2" and s["mode"] == "flip"
+    dom_closed = _browser(tmp_path, run / "index.html", "")
+    assert re.search(r'<div class="ldv" id="ldv" hidden', dom_closed) or 'hidden=""' in dom_closed
+
+
+def test_run_prints_each_effects_metrics(tmp_path, capsys):
+    from harness.cli import main
+
+    main(["run", "--scene", "cornell", "--effect", "rays", "--ray-kind", "diffuse", "--rays-per-pixel", "1",
+          "--method", "ldm", "--set", "ldm.directions=16", "--set", "ldm.resolution=32", "--size", "16x16",
+          "--frames", "1", "--warmup", "0", "--no-progress", "--no-report", "--out", str(tmp_path / "r")])
+    out = capsys.readouterr().out
+    head = next(line for line in out.splitlines() if line.lstrip().startswith("scene"))
+    assert "hit_agreement" in head and "rays_per_s" in head and "psnr" not in head
+    assert "NaN" not in out and "directions=16, resolution=32" in out and "layout=" not in out
