@@ -136,7 +136,6 @@
       }
     });
     el.sbs.className = st.sbs ? "on" : "";
-    var right = source(it, st.mode);
     var shown = st.sbs ? [[item(0), "image"], [it, st.mode]] : [[it, st.mode]];
     el.panes.forEach(function (p, k) {
       var s = shown[k];
@@ -161,8 +160,10 @@
       a.target = "_blank";
       el.links.appendChild(a);
     });
-    el.root.setAttribute("data-shown", right);
-    el.root.setAttribute("data-left", st.sbs ? item(0).png : "");
+    // state for scripts and tests, read back from the panes themselves
+    var vis = el.panes.filter(function (p) { return !p.pane.hidden; });
+    el.root.setAttribute("data-shown", vis[vis.length - 1].img.getAttribute("src"));
+    el.root.setAttribute("data-left", vis.length > 1 ? vis[0].img.getAttribute("src") : "");
     el.root.setAttribute("data-mode", st.mode);
     el.root.setAttribute("data-idx", String(st.idx));
     el.root.setAttribute("data-sbs", st.sbs ? "1" : "0");
