@@ -575,8 +575,9 @@ def _cell_label(r, diff):
     return lab + (f" ({extra})" if extra else "")
 
 
-def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid:
-    """Write the grid's assets (error PNGs on one scale, colour bar, matplotlib grid) and describe it."""
+def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_budget: dict | None = None) -> Grid:
+    """Write the grid's assets (error PNGs on one scale, colour bar, matplotlib grid) and describe it.
+    ``values_budget`` (``{"bytes": n}``, shared by the grids of one report) caps the viewer's value files."""
     import matplotlib.image as mpimg
     from . import metrics
 
@@ -643,7 +644,7 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)
     try:
-        _viewer_maps(run_dir, g, rows, gdir)
+        _viewer_maps(run_dir, g, rows, gdir, values_budget)
     except Exception as ex:  # noqa: BLE001 - the viewer's extras must not lose the grid
         problems.append(f"viewer maps: {type(ex).__name__}: {ex}")
     if matplotlib_grid:
@@ -669,11 +670,15 @@ def _colorbar(path: Path, cmap: str, lo: float, hi: float, label: str) -> None:
     plt.close(fig)
 
 
+#: Disk the viewer's value files of one report may take (base64 float32: ~10 MB per 800x800 RGB image);
+#: beyond it the read-out shows coordinates only.
+VALUES_BUDGET_BYTES = 512 * 2**20
+
 #: Colour maps of the viewer's maps (signed: red = method brighter than the reference).
 SIGNED_CMAP, FLIP_CMAP = "RdBu_r", "magma"
 
 
-def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path) -> None:
+def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None = None) -> None:
     """The maps the report's viewer shows beside each method's image, written into the grid folder:
 
     * signed error ``mean over channels of (test − reference)`` (linear), coloured with ``RdBu_r`` on a
@@ -682,7 +687,8 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path) -> None:
     * the FLIP map (image effects only) with the settings of :data:`harness.metrics.FLIP_SETTINGS`, on
       FLIP's own range 0 … 1 with ``magma``. It is evaluated over every pixel (the run does not store
       the reference's hit mask), so near silhouettes it can differ from the ``flip`` column's map;
-    * the images' float32 values for the per-pixel read-out (:func:`harness.imageio.save_values_js`).
+    * the images' float32 values for the per-pixel read-out (:func:`harness.imageio.save_values_js`),
+      while ``budget["bytes"]`` lasts (:data:`VALUES_BUDGET_BYTES` per report by default).
 
     Ranges, colour maps and definitions are recorded in ``maps.json`` beside them."""
     import matplotlib.image as mpimg
@@ -701,8 +707,16 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path) -> None:
     g.reference_exr = ref_exr
     vdir = gdir / "values"
     rel = lambda p: p.relative_to(run_dir).as_posix()  # noqa: E731
-    if save_values_js(vdir / "reference.js", rel(vdir / "reference.js"), ref):
-        g.reference_values = rel(vdir / "reference.js")
+    budget = {"bytes": VALUES_BUDGET_BYTES} if budget is None else budget
+
+    def save_values(path: Path, a) -> str | None:
+        need = np.asarray(a).size * 4 * 4 // 3
+        if need > budget["bytes"] or not save_values_js(path, rel(path), a):
+            return None
+        budget["bytes"] -= need
+        return rel(path)
+
+    g.reference_values = save_values(vdir / "reference.js", ref)
     spec = registry().get(str(rows[0]["effect"]))
     with_flip = spec is not None and spec.output == "image"
     signed, flips = [], []
@@ -714,14 +728,12 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path) -> None:
             continue
         c.exr = exr
         stem = f"{i:02d}-{slug(r['method'], 30)}"
-        if save_values_js(vdir / f"{stem}.js", rel(vdir / f"{stem}.js"), test):
-            c.values = rel(vdir / f"{stem}.js")
+        c.values = save_values(vdir / f"{stem}.js", test)
         signed.append((test.astype(np.float64) - ref).mean(axis=2))
         fmap = None
         if with_flip:
             _, fmap = metrics.flip(test, ref, hdr=False, pixels_per_degree=metrics.FLIP_SETTINGS["ppd"])
-            if save_values_js(vdir / f"{stem}-flip.js", rel(vdir / f"{stem}-flip.js"), fmap):
-                c.flip_values = rel(vdir / f"{stem}-flip.js")
+            c.flip_values = save_values(vdir / f"{stem}-flip.js", fmap)
         flips.append(fmap)
     nz = [np.abs(d[d != 0]) for d in signed if d is not None]
     sv = max((float(np.percentile(a, 99)) for a in nz if a.size), default=0.0)

@@ -574,9 +574,10 @@ def write_grids(run_dir: Path, df, problems: list | None = None) -> list:
                                                   json.dumps(r["params"], sort_keys=True, default=str)
                                                   if k != "reference" else ""))
     shared = {rel for rel, u in users.items() if len(u) > 1}
+    budget = {"bytes": F.VALUES_BUDGET_BYTES}  # the viewer's value files, for all grids together
     for key, rows in F.grid_groups(df).items():
         try:
-            g = F.make_grid(run_dir, key, rows)
+            g = F.make_grid(run_dir, key, rows, values_budget=budget)
             clash = sorted({rel for r in rows for rel in (r["images"].get("image"), r["images"].get("reference"),
                                                            r["images"].get("error")) if rel in shared})
             if clash:

@@ -238,7 +238,7 @@
     if (x < 0 || y < 0 || x >= g.w || y >= g.h) { el.px.textContent = ""; return; }
     var parts = ["x " + x + ", y " + y];
     var ref = at(g.items[0].values, x, y), cur = at(it.values, x, y);
-    if (!g.items[0].values) parts.push("no float values (image over the size limit): coordinates only");
+    if (!g.items[0].values) parts.push("no float values written (image or report over the size limit)");
     if (ref) parts.push("reference " + ref.map(fmt).join(", "));
     if (st.idx > 0 && cur) parts.push(it.label + " " + cur.map(fmt).join(", "));
     if (st.idx > 0 && ref && cur) parts.push("signed (mean) " + fmt(mean(cur) - mean(ref)));

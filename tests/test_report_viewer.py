@@ -116,6 +116,22 @@ def test_values_over_the_size_limit_are_skipped(tmp_path, monkeypatch):
     assert _values(tmp_path / "b.js").shape == (3, 5, 1)
 
 
+def test_value_files_stop_at_the_reports_budget(run, tmp_path):
+    from harness import figures as F
+
+    df = F.prepare(records.read_results(run))
+    key, rows = next(iter(F.grid_groups(df).items()))
+    d = tmp_path / "r"
+    shutil.copytree(run, d)
+    shutil.rmtree(d / "figures")
+    one = 32 * 32 * 4 * 4 // 3  # one 1-channel 32x32 image
+    budget = {"bytes": 2 * one + 10}  # the reference and the first method, not the FLIP map or the second
+    g = F.make_grid(d, key, rows, values_budget=budget)
+    assert g.reference_values and g.cells[0].values and not g.cells[0].flip_values
+    assert not g.cells[1].values and budget["bytes"] == 10
+    assert g.cells[1].signed and g.cells[1].flip  # the maps themselves are always written
+
+
 def test_grid_links_full_size_files(run, built):
     _, g = built
     text = (run / "index.html").read_text(encoding="utf-8")
