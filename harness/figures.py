@@ -747,7 +747,7 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None =
         if fmap is not None:
             mpimg.imsave(str(gdir / f"{stem}-flip.png"), metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
             c.flip = rel(gdir / f"{stem}-flip.png")
-    units = "AO units" if rows[0]["effect"] == "ao" else "linear"
+    units = {"ao": "AO units", "rays": "fraction of rays that hit"}.get(str(rows[0]["effect"]), "linear")
     _colorbar(gdir / "colorbar-signed.png", SIGNED_CMAP, -g.signed_vmax, g.signed_vmax,
               f"test − reference ({units}, mean over channels)")
     g.signed_colorbar = rel(gdir / "colorbar-signed.png")
