@@ -87,7 +87,8 @@
     el.root = root;
     el.stage.addEventListener("wheel", function (e) {
       e.preventDefault();
-      var r = el.panes[st.sbs ? 1 : 0].pane.getBoundingClientRect();
+      var pane = e.target.closest(".ldv-pane") || el.panes[st.sbs ? 1 : 0].pane;
+      var r = pane.getBoundingClientRect();
       zoomAt(e.deltaY < 0 ? 1.25 : 0.8, e.clientX - r.left, e.clientY - r.top);
     }, {passive: false});
     var drag = null;
