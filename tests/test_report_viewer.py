@@ -339,3 +339,40 @@ def test_run_prints_each_effects_metrics(tmp_path, capsys):
     head = next(line for line in out.splitlines() if line.lstrip().startswith("scene"))
     assert "hit_agreement" in head and "rays_per_s" in head and "psnr" not in head
     assert "NaN" not in out and "directions=16, resolution=32" in out and "layout=" not in out
+
+
+@needs_chromium
+def test_viewer_mouse_wheel_drag_and_readout(run, built, tmp_path):
+    """Synthetic mouse events through the page's own listeners: the wheel zooms by 1.25, a drag pans by
+    the mouse's travel, the cursor over the image's centre reads pixel (16, 16) of the 32x32 image."""
+    page = run / "mouse.html"
+    text = (run / "index.html").read_text(encoding="utf-8")
+    script = """<script>window.addEventListener("load", function () {
+      document.querySelector('a[data-idx="1"][data-mode="image"]').click();
+      var v = document.getElementById("ldv"), b = document.body;
+      var img = function () { return document.querySelector(".ldv-pane:not([hidden]) img"); };
+      var at = function (type, x, y, extra) {
+        var o = Object.assign({clientX: x, clientY: y, bubbles: true}, extra || {});
+        img().dispatchEvent(type === "wheel" ? new WheelEvent(type, o) : new MouseEvent(type, o));
+      };
+      var r = img().getBoundingClientRect(), cx = r.left + r.width / 2, cy = r.top + r.height / 2;
+      b.setAttribute("data-z0", v.getAttribute("data-zoom"));
+      at("wheel", cx, cy, {deltaY: -100});
+      b.setAttribute("data-z1", v.getAttribute("data-zoom"));
+      r = img().getBoundingClientRect();
+      at("mousedown", cx, cy); at("mousemove", cx + 40, cy + 10); window.dispatchEvent(new MouseEvent("mouseup"));
+      var r2 = img().getBoundingClientRect();
+      b.setAttribute("data-pan", (r2.left - r.left) + "," + (r2.top - r.top));
+      r = img().getBoundingClientRect();
+      at("mousemove", r.left + r.width / 2 + 0.5, r.top + r.height / 2 + 0.5);
+    });</script></body>"""
+    page.write_text(text.replace("</body>", script), encoding="utf-8")
+    try:
+        dom = _browser(tmp_path, page, "")
+    finally:
+        page.unlink()
+    body = dict(re.findall(r'data-(z0|z1|pan)="([^"]*)"', re.search(r"<body[^>]*>", dom)[0]))
+    assert float(body["z1"]) == pytest.approx(1.25 * float(body["z0"]))
+    dx, dy = map(float, body["pan"].split(","))
+    assert (dx, dy) == (pytest.approx(40, abs=0.01), pytest.approx(10, abs=0.01))
+    assert _state(dom)["readout"].startswith("x 16, y 16 · reference ")
