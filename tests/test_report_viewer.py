@@ -344,7 +344,8 @@ def test_run_prints_each_effects_metrics(tmp_path, capsys):
 @needs_chromium
 def test_viewer_mouse_wheel_drag_and_readout(run, built, tmp_path):
     """Synthetic mouse events through the page's own listeners: the wheel zooms by 1.25, a drag pans by
-    the mouse's travel, the cursor over the image's centre reads pixel (16, 16) of the 32x32 image."""
+    the mouse's travel, the cursor over the centre of the right-hand image (side by side) reads pixel
+    (16, 16) of the 32x32 image."""
     page = run / "mouse.html"
     text = (run / "index.html").read_text(encoding="utf-8")
     script = """<script>window.addEventListener("load", function () {
@@ -363,8 +364,11 @@ def test_viewer_mouse_wheel_drag_and_readout(run, built, tmp_path):
       at("mousedown", cx, cy); at("mousemove", cx + 40, cy + 10); window.dispatchEvent(new MouseEvent("mouseup"));
       var r2 = img().getBoundingClientRect();
       b.setAttribute("data-pan", (r2.left - r.left) + "," + (r2.top - r.top));
-      r = img().getBoundingClientRect();
-      at("mousemove", r.left + r.width / 2 + 0.5, r.top + r.height / 2 + 0.5);
+      document.dispatchEvent(new KeyboardEvent("keydown", {key: "b", bubbles: true}));
+      var imgs = document.querySelectorAll(".ldv-pane:not([hidden]) img"), right = imgs[imgs.length - 1];
+      r = right.getBoundingClientRect();
+      right.dispatchEvent(new MouseEvent("mousemove", {clientX: r.left + r.width / 2 + 0.5,
+                                                       clientY: r.top + r.height / 2 + 0.5, bubbles: true}));
     });</script></body>"""
     page.write_text(text.replace("</body>", script), encoding="utf-8")
     try:
