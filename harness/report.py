@@ -4,8 +4,8 @@
 
 * ``index.html`` — one self-contained page (inline CSS and one inline script, the image viewer of
   ``report_viewer.js``; no network: every link is a relative path inside the run directory, every
-  string from the records is escaped with :func:`html.escape`, the viewer's JSON data escapes ``<``). Sections: the machine/commit header (device, GL renderer and version, driver,
-  CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
+  string from the records is escaped with :func:`html.escape`, the viewer's JSON data escapes ``<``).
+  Sections: the machine/commit header (device, GL renderer and version, driver, CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
   because then every time is wall clock on a software rasterizer), the results table, the figures,
   one image grid per scene × effect × size, and the paper-reproduction tables when the run was made by
   ``ldbench reproduce`` (``reproduce.json``).
@@ -71,30 +71,45 @@ def _same(a, b) -> bool:
     return a == b or str(a) == str(b)
 
 
-def shown_params(method, p) -> list:
-    """The parameters of one row that differ from the adapter's defaults, grouped as the adapter groups
-    them: ``[(group, [(name, value), ...]), ...]`` with the ungrouped ones first under group ``""``.
-    A dotted name ("structure.source") belongs to the group before its first dot; old flat names are
-    read through ``Params.renamed``. The results files keep the full set."""
+def shown_params(method, p, keep=()) -> list:
+    """The parameters of one row that differ from the adapter's defaults (plus those named in ``keep``,
+    e.g. swept ones), grouped as the adapter groups them: ``[(group, [(name, value), ...]), ...]`` with
+    the ungrouped ones first under group ``""``. A dotted name ("structure.source") belongs to the group
+    before its first dot; old flat names are read through ``Params.renamed``. The results files keep
+    the full set."""
     p = p if isinstance(p, dict) else F._as_dict(p)
     defaults, renamed = _defaults(str(method))
     groups: dict = {}
     for k, v in p.items():
         name = renamed.get(k, k)
-        if name in defaults and _same(v, defaults[name]):
+        if name in defaults and _same(v, defaults[name]) and k not in keep and name not in keep:
             continue
         group, _, short = name.partition(".") if "." in name else ("", "", name)
         groups.setdefault(group, []).append((short, v))
     return sorted(groups.items(), key=lambda g: g[0] != "")
 
 
-def _params_str(p, method=None, sep=" · ") -> str:
+def swept_params(df) -> dict:
+    """{method: names of the parameters that take more than one value among its rows}: a table shows
+    them in every row of the method, even where a row has the default value."""
+    seen: dict = {}
+    for m, p in zip(df["method"], df["params"]):
+        for k, v in (p if isinstance(p, dict) else F._as_dict(p)).items():
+            seen.setdefault(m, {}).setdefault(k, set()).add(json.dumps(v, sort_keys=True, default=str))
+    return {m: {k for k, vals in ks.items() if len(vals) > 1} for m, ks in seen.items()}
+
+
+def _params_str(p, method=None, sep=" · ", keep=()) -> str:
     """Non-default parameters as text: ``directions=64 · structure: source=peel, depth=4``."""
     parts = []
-    for group, items in shown_params(method, p):
+    for group, items in shown_params(method, p, keep):
         txt = ", ".join(f"{k}={F.fmt_value(v)}" for k, v in items)
         parts.append(f"{group}: {txt}" if group else txt)
     return sep.join(parts) if parts else "defaults"
+
+
+def _row_params(r, swept: dict, sep=" · ") -> str:
+    return _params_str(r["params"], r["method"], sep, swept.get(r["method"], ()))
 
 
 def esc(s) -> str:
@@ -148,13 +163,14 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     if (df["device"] == "cpu-software").any():
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
     img = df[image_rows(df)]
+    swept = swept_params(df)
     if len(img):
         lines += ["| scene | method | effect | size | params (non-default) | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in img.iterrows():
         lines.append(
             f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | {r['width']}×{r['height']} | "
-            f"{_md(_params_str(r['params'], r['method']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
+            f"{_md(_row_params(r, swept))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
             f"{_fmt(r['memory_mb'], 1)} | {_fmt(r['psnr'])} | {_fmt(r['ssim'], 3)} | {_fmt(r['flip'], 3)} | "
             f"{_fmt(r['relmse'], 4)} | {_md(r['status'])} |")
     for name, cols, rows in metric_tables(df):
@@ -163,7 +179,7 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
                   "|" + "---|" * (len(cols) + 7)]
         for _, r in rows.iterrows():
             lines.append(f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | "
-                         f"{r['width']}×{r['height']} | {_md(_params_str(r['params'], r['method']))} | {_fmt(r['total_ms'])} | "
+                         f"{r['width']}×{r['height']} | {_md(_row_params(r, swept))} | {_fmt(r['total_ms'])} | "
                          + " | ".join(_metric(r, c) for c in cols) + f" | {_md(r['status'])} |")
     if figs:
         lines += ["", "## Figures", ""] + [f"- [{_md(f.title)}]({f.png}) ([PDF]({f.pdf}))" for f in figs]
@@ -285,6 +301,7 @@ def terminal_table(df) -> str:
         return "(no rows)"
     d = F.prepare(df)
     reg = registry()
+    swept = swept_params(d)
     blocks = []
     for eff in dict.fromkeys(d["effect"]):
         rows = d[d["effect"] == eff]
@@ -292,7 +309,7 @@ def terminal_table(df) -> str:
         cols = [c for c in (spec.metrics if spec is not None else ("psnr", "ssim"))
                 if c in rows.columns and any(F._num(v) is not None for v in rows[c])]
         table = pd.DataFrame([{"scene": r["scene"], "method": r["method"], "effect": r["effect_text"],
-                               "size": r["size"], "params": _params_str(r["params"], r["method"], "; "),
+                               "size": r["size"], "params": _row_params(r, swept, "; "),
                                "total ms": _fmt(r["total_ms"]), "memory MB": _fmt(r["memory_mb"], 1),
                                **{c: _metric(r, c) for c in cols}, "status": r["status"]}
                               for _, r in rows.iterrows()])
@@ -302,6 +319,7 @@ def terminal_table(df) -> str:
 
 
 def _metric_tables_html(h: _Html, df):
+    swept = swept_params(df)
     for name, cols, rows in metric_tables(df):
         h.raw(f'<h3 id="effect-{esc(name)}">Effect <code>{esc(name)}</code></h3>')
         heads = ["scene", "method", "effect", "size", "params (non-default)", "total ms", "memory MB", *cols, "status"]
@@ -309,7 +327,7 @@ def _metric_tables_html(h: _Html, df):
               + "</tr></thead><tbody>")
         for _, r in rows.iterrows():
             cells = [(r["scene"], False), (r["method"], False), (r["effect_text"], False),
-                     (r["size"].replace("x", "×"), False), (_params_str(r["params"], r["method"]), False),
+                     (r["size"].replace("x", "×"), False), (_row_params(r, swept), False),
                      (_fmt(r["total_ms"]), True), (_fmt(r["memory_mb"], 1), True),
                      *[(_metric(r, c), True) for c in cols], (r["status"], False)]
             tr = "<tr>" if r["status"] == "ok" else '<tr class="bad">'
@@ -323,13 +341,14 @@ def _metric_tables_html(h: _Html, df):
 
 
 def _results_table(h: _Html, df):
+    swept = swept_params(df)
     h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in RESULT_COLUMNS)
           + "</tr></thead><tbody>")
     for _, r in df[image_rows(df)].iterrows():
         ok = r["status"] == "ok"
         cells = [
             (r["scene"], False), (r["method"], False), (r["effect_text"], False),
-            (r["size"].replace("x", "×"), False), (_params_str(r["params"], r["method"]), False),
+            (r["size"].replace("x", "×"), False), (_row_params(r, swept), False),
             (_fmt(r["total_ms"]), True), (_fmt(r["total_ms_iqr"]), True), (_fmt(r.get("wall_ms")), True),
             (_fmt(r["memory_mb"], 1), True), (_fmt(r["psnr"]), True), (_fmt(r["ssim"], 3), True),
             (_fmt(r["flip"], 3), True), (_fmt(r["relmse"], 4), True), (_fmt(r.get("ref_spp"), 0), True),
@@ -430,7 +449,8 @@ def _grid_html(h: _Html, run_dir: Path, g) -> bool:
         h.raw(f'<tr><td>{_img(run_dir, bar, "colour bar: " + cap)}<div class="cap">{esc(cap)}</div></td>')
         for c in g.cells:
             i = idx.get(id(c), 0)
-            h.raw(f'<td>{_thumb(run_dir, getattr(c, attr), c.label + " " + attr + " map", anchor if i else None, i, attr)}</td>')
+            thumb = _thumb(run_dir, getattr(c, attr), f"{c.label} {attr} map", anchor if i else None, i, attr)
+            h.raw(f"<td>{thumb}</td>")
         h.raw("</tr>")
     h.raw("</table>")
     links = []

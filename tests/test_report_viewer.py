@@ -165,6 +165,26 @@ def test_only_non_default_params_grouped(run, built):
     assert len(records.read_results(run).set_index("method").loc["ldm", "params"]) > 20  # full set kept
 
 
+def test_swept_parameters_show_in_every_row():
+    """A sweep that includes the default value shows the parameter in that row too."""
+    import pandas as pd
+
+    from harness.report import swept_params, _results_table, _Html
+    from harness import figures as F
+
+    rows = [records.make_row(run_id="r", suite="s", scene="cornell", method="ldm", effect="ao",
+                             effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"},
+                             params={"directions": d, "bias": 0.25}, width=8, height=8, device="nvidia",
+                             status="ok", total_ms=1.0)
+            for d in (128, 512)]  # 128 and bias 0.25 are ldm's defaults
+    df = F.prepare(pd.DataFrame(rows))
+    assert swept_params(df) == {"ldm": {"directions"}}
+    h = _Html()
+    _results_table(h, df)
+    page = str(h)
+    assert "<td>directions=128</td>" in page and "<td>directions=512</td>" in page and "bias" not in page
+
+
 def test_terminal_table_shows_each_effects_metrics(run):
     df = records.read_results(run)
     text = terminal_table(df)
