@@ -305,11 +305,8 @@ def _run(args):
     from .naming import slug  # a suite named "../../x" stays inside reports/
     out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
-    cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
-                        "ssim", "status") if c in df.columns]
-    import pandas as pd
-    with pd.option_context("display.width", 200, "display.max_columns", 20):
-        print(df[cols].to_string(index=False))
+    from .report import terminal_table
+    print(terminal_table(df))
     print(f"wrote {out}")
     return 1 if (df["status"] != "ok").any() else 0
 
