@@ -1,15 +1,21 @@
-"""The ``ldbench`` command line (docs/design.md, "Command line").
+"""The ``ldbench`` command line (docs/design.md, "Command line"; exit codes in docs/cli.md).
 
 Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
+Progress and information go through :mod:`logging` to stderr (``-v`` adds debug messages, ``-q``
+keeps only warnings and errors, ``-qq`` only errors); what a command answers (tables, listings,
+summaries, the files it wrote) is printed on stdout.
 """
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
 
 from .errors import LdbenchError
+
+log = logging.getLogger(__name__)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -38,7 +44,7 @@ def _scenes(args):
         for n in names:
             scene_registry.get(n)  # every name checked before anything is fetched
         for n in names:
-            scene_registry.fetch(n, source=args.source)
+            scene_registry.fetch(n, source=args.source, log=log.info)
         return 0
     if args.names or args.source:
         raise LdbenchError("ldbench scenes lists scenes; to fetch: ldbench scenes fetch NAME|all [--from MIRROR]")
@@ -161,7 +167,7 @@ def _reference(args):
                            f"{spec.output[:-1]} by its oracle inside `ldbench run`")
     scene = load_scene(args.scene, **_scene_params(args.scene_set))
     for w_ in scene.warnings:
-        print(f"warning: {w_}", file=sys.stderr)
+        log.warning(w_)
     effect.check_scene(scene)
     ref = spec.reference(scene, effect, width=w, height=h, spp=args.spp, seed=0,
                          inputs=spec.inputs(scene, w, h, effect.params, 0), cache=not args.no_cache)
@@ -359,17 +365,57 @@ COMMANDS = {
 }
 
 
+EPILOG = ("Exit status: 0 success, 1 a run with failed jobs or a comparison with a regression, 2 bad input "
+          "(one line on stderr), 130 interrupted; docs/cli.md lists them with the accepted value ranges.")
+
+
+def _verbosity_args(p, default):
+    p.add_argument("-v", "--verbose", action="count", default=default,
+                   help="more messages on stderr (debug); repeatable")
+    p.add_argument("-q", "--quiet", action="count", default=default,
+                   help="fewer messages on stderr: -q warnings and errors only, -qq errors only")
+
+
 def build_parser():
-    parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth")
+    parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth",
+                     epilog=EPILOG)
+    _verbosity_args(parser, 0)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, (add, _, helptext) in COMMANDS.items():
-        add(sub.add_parser(name, help=helptext))
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=EPILOG)
+        _verbosity_args(p, argparse.SUPPRESS)  # -v/-q also after the sub-command
+        add(p)
     return parser
+
+
+class _StderrHandler(logging.Handler):
+    """Log records as ``ldbench: [level: ]message`` lines on the current ``sys.stderr``."""
+
+    def emit(self, record):
+        try:
+            msg = record.getMessage()
+            level = "" if record.levelno == logging.INFO else f"{record.levelname.lower()}: "
+            print(f"ldbench: {level}{msg}", file=sys.stderr)
+        except Exception:  # pragma: no cover - logging must never raise
+            self.handleError(record)
+
+
+def setup_logging(verbose: int = 0, quiet: int = 0) -> logging.Logger:
+    """Send the package's log records to stderr at the level ``-v``/``-q`` ask for (default INFO)."""
+    root = logging.getLogger(__name__.rpartition(".")[0] or __name__)
+    for h in [h for h in root.handlers if isinstance(h, _StderrHandler)]:
+        root.removeHandler(h)
+    root.addHandler(_StderrHandler())
+    root.propagate = False
+    level = logging.INFO + 10 * (quiet - verbose)
+    root.setLevel(min(max(level, logging.DEBUG), logging.ERROR))
+    return root
 
 
 def main(argv=None) -> int:
     try:
         args = build_parser().parse_args(argv)
+        setup_logging(getattr(args, "verbose", 0), getattr(args, "quiet", 0))
         return COMMANDS[args.command][1](args) or 0
     except LdbenchError as e:
         print(f"ldbench: error: {e}", file=sys.stderr)
