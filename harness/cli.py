@@ -44,7 +44,7 @@ def _scenes(args):
         for n in names:
             scene_registry.get(n)  # every name checked before anything is fetched
         for n in names:
-            scene_registry.fetch(n, source=args.source, log=log.info)
+            scene_registry.fetch(n, source=args.source)
         return 0
     if args.names or args.source:
         raise LdbenchError("ldbench scenes lists scenes; to fetch: ldbench scenes fetch NAME|all [--from MIRROR]")
@@ -79,7 +79,9 @@ def _methods(args):
 
 # ---- reference -------------------------------------------------------------------------------------
 # Effect parameters with flags of their own; any other one: --effect-set NAME=VALUE.
-EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf')"),
+EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf'); an ad-hoc "
+                 "`run --effect ao` without it takes the scene's registered d_max, else 5%% of the scene's "
+                 "largest bounding-box extent (printed on stderr)"),
                 ("falloff", "--falloff", "ao: step | quadratic"),
                 ("ray_kind", "--ray-kind", "rays: diffuse | glossy | shadow | ao"),
                 ("rays_per_pixel", "--rays-per-pixel", "rays: rays per hit pixel"))
@@ -88,7 +90,7 @@ EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (worl
 def _effect_args(p, required=True):
     from .effects import EFFECTS
 
-    p.add_argument("--effect", required=required, help=" | ".join(EFFECTS))
+    p.add_argument("--effect", required=required, help="the effect to compute: " + " | ".join(EFFECTS))
     for _, flag, helptext in EFFECT_FLAGS:
         p.add_argument(flag, default=None, help=helptext)
     p.add_argument("--effect-set", action="append", metavar="PARAM=VALUE",
@@ -144,13 +146,16 @@ def _literal(v: str):
 
 
 def _reference_args(p):
-    p.add_argument("scene")
+    p.add_argument("scene", help="built-in or registered scene name (ldbench scenes), a Mitsuba 3 .xml file, "
+                                 "or a .ply/.obj mesh")
     _effect_args(p)
-    p.add_argument("--spp", type=int, default=1024)
-    p.add_argument("--size", default="256x256")
-    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--spp", type=int, default=1024, help="samples per pixel (default 1024)")
+    p.add_argument("--size", default="256x256", metavar="WxH", help="image size (default 256x256)")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
+                   help="scene builder parameter (repeatable)")
     p.add_argument("--out", default=None, help="also write the mean as this EXR file")
-    p.add_argument("--no-cache", action="store_true")
+    p.add_argument("--no-cache", action="store_true",
+                   help="render again instead of using (and without storing into) the reference cache")
 
 
 def _reference(args):
@@ -185,20 +190,30 @@ def _reference(args):
 
 # ---- run / report ---------------------------------------------------------------------------------
 def _run_args(p):
-    p.add_argument("suite", nargs="?", help="suite TOML file")
-    p.add_argument("--scene")
-    p.add_argument("--method", action="append")
+    from .resources import bundled_suites
+
+    p.add_argument("suite", nargs="?", metavar="SUITE",
+                   help="suite TOML file, or a bundled suite by name: " + ", ".join(bundled_suites()))
+    p.add_argument("--scene", help="instead of a suite: built-in or registered scene name (ldbench scenes), "
+                                   "a Mitsuba 3 .xml file or a .ply/.obj mesh")
+    p.add_argument("--method", action="append",
+                   help="instead of a suite: method adapter (ldbench methods); repeat for several")
     _effect_args(p, required=False)
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
-    p.add_argument("--size", default=None, help="WxH")
-    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel")
-    p.add_argument("--warmup", type=int, default=None)
-    p.add_argument("--frames", type=int, default=None)
-    p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE", help="method parameter")
-    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--size", default=None, metavar="WxH",
+                   help="image size (overrides the suite's; default: the suite's, else the scene file's film)")
+    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default: the suite's, 256)")
+    p.add_argument("--warmup", type=int, default=None,
+                   help="frames run before timing starts (default: the suite's, 2)")
+    p.add_argument("--frames", type=int, default=None, help="timed frames per job (default: the suite's, 5)")
+    p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE",
+                   help="method parameter (repeatable; with a suite it overrides the suite's value)")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
+                   help="scene builder parameter (repeatable)")
     p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (it is shown only when stderr is a terminal anyway)")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
                    help="local: this process (default); ray: one task per job group on a Ray cluster "
                         "(pip install 'ldbench[ray]'; docs/ray.md)")
@@ -272,6 +287,11 @@ def suite_from_args(args):
             raise LdbenchError(f"--set names method {m!r}, which is not in --method")
     run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
            "scene_params": _scene_params(args.scene_set), "effect_params": _effect_opts(args)}
+    if args.effect == "ao" and "d_max" not in run["effect_params"]:  # unbounded AO blackens enclosed scenes
+        from .scenes import default_d_max
+        d, why = default_d_max(args.scene, **run["scene_params"])
+        run["effect_params"]["d_max"] = d
+        log.info(f"ao: d_max = {d:g} ({why}); --d-max sets it")
     if args.seed is not None:
         run["seed"] = args.seed
     head = {"name": "adhoc"}
@@ -300,7 +320,7 @@ def _run(args):
 
 
 def _report_args(p):
-    p.add_argument("run_dir")
+    p.add_argument("run_dir", help="run directory (written by ldbench run) whose report to rebuild")
 
 
 def _report(args):
@@ -343,8 +363,9 @@ def _reproduce_args(p):
     p.add_argument("--size", default=None, help="WxH, overrides the scale's image size")
     p.add_argument("--out", default=None, help="run directory (default reports/<table>-<scale>-<time>)")
     p.add_argument("--from-run", default=None, metavar="RUN_DIR", help="reuse an existing run directory")
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (it is shown only when stderr is a terminal anyway)")
 
 
 def _reproduce(args):
