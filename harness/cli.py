@@ -81,7 +81,7 @@ def _methods(args):
 # Effect parameters with flags of their own; any other one: --effect-set NAME=VALUE.
 EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf'); an ad-hoc "
                  "`run --effect ao` without it takes the scene's registered d_max, else 5%% of the scene's "
-                 "largest bounding-box extent (printed on stderr)"),
+                 "largest bounding-box extent (a warning on stderr says which)"),
                 ("falloff", "--falloff", "ao: step | quadratic"),
                 ("ray_kind", "--ray-kind", "rays: diffuse | glossy | shadow | ao"),
                 ("rays_per_pixel", "--rays-per-pixel", "rays: rays per hit pixel"))
@@ -291,14 +291,18 @@ def suite_from_args(args):
         from .scenes import default_d_max
         d, why = default_d_max(args.scene, **run["scene_params"])
         run["effect_params"]["d_max"] = d
-        log.info(f"ao: d_max = {d:g} ({why}); --d-max sets it")
+    else:
+        why = None
     if args.seed is not None:
         run["seed"] = args.seed
     head = {"name": "adhoc"}
     for k in ("size", "spp", "warmup", "frames"):
         if getattr(args, k) is not None:
             head[k] = getattr(args, k)
-    return suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
+    suite = suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
+    if why:  # said (once the run's parameters are known to be valid) as a warning: -q keeps it, -qq not
+        log.warning(f"ao without --d-max: d_max = {d:g} ({why})")
+    return suite
 
 
 def _run(args):

@@ -68,12 +68,12 @@ def test_adhoc_ao_gets_a_finite_d_max_said_on_stderr_and_no_progress_bar_off_a_t
     p, out = _run(tmp_path)
     assert p.returncode == 0, p.stderr
     lines = [l for l in p.stderr.splitlines() if "d_max" in l]
-    assert lines == ["ldbench: ao: d_max = 0.1 (5% of the scene's largest bounding-box extent 2); "
-                     "--d-max sets it"], p.stderr
+    assert lines == ["ldbench: warning: ao without --d-max: d_max = 0.1 (5% of the scene's largest "
+                     "bounding-box extent 2)"], p.stderr
     assert "\r" not in p.stderr and "it/s" not in p.stderr  # stderr is a pipe: no tqdm bar
     assert R.effect_d_max(R.read_results(out).iloc[0]) == pytest.approx(0.1)
     assert "hbao" in p.stdout and "wrote" in p.stdout  # the results table stays on stdout
-    p, _ = _run(tmp_path, "-q")
+    p, _ = _run(tmp_path, "-qq")
     assert p.returncode == 0 and "d_max" not in p.stderr, p.stderr
 
 
@@ -119,3 +119,25 @@ def test_scene_descriptions_are_whole_sentences(capsys):
     assert all(s["description"].endswith((".", ")")) for s in list_scenes())
     assert doc_summary("One (Fig. 2) thing\nwrapped here. Second sentence.\n\nMore.") == \
         "One (Fig. 2) thing wrapped here."
+
+
+@pytest.mark.parametrize("verbose,quiet,shown", [(0, 0, ["info", "warning", "error"]),
+                                                 (1, 0, ["debug", "info", "warning", "error"]),
+                                                 (0, 1, ["warning", "error"]), (0, 2, ["error"])])
+def test_log_levels_reach_stderr_as_asked(verbose, quiet, shown, capsys):
+    import logging
+
+    from harness.cli import setup_logging
+
+    setup_logging(verbose, quiet)
+    log = logging.getLogger("harness.runner")
+    for level in ("debug", "info", "warning", "error"):
+        getattr(log, level)(f"a {level} message")
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    got = [l.split("a ")[-1].split()[0] for l in captured.err.splitlines()]
+    assert got == shown
+    if "info" in shown:
+        assert "ldbench: a info message" in captured.err
+    assert "ldbench: warning: a warning message" in captured.err or "warning" not in shown
+    setup_logging()
