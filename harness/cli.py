@@ -153,7 +153,8 @@ def _reference_args(p):
     p.add_argument("--size", default="256x256", metavar="WxH", help="image size (default 256x256)")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
                    help="scene builder parameter (repeatable)")
-    p.add_argument("--out", default=None, help="also write the mean as this EXR file")
+    p.add_argument("--out", default=None, metavar="FILE.exr",
+                   help="also write the mean as this EXR file (only this file: no preview beside it)")
     p.add_argument("--no-cache", action="store_true",
                    help="render again instead of using (and without storing into) the reference cache")
 

@@ -513,26 +513,6 @@ def _atomic_write(path: Path, write):
             tmp.unlink()
 
 
-def write_results(rows: list[dict], out_dir) -> dict:
-    """Write ``results.parquet`` and ``results.csv`` into ``out_dir``.
-
-    Rows from :func:`make_row` (raw dicts are passed through it). Each file is written to a temporary
-    name and renamed, so a crash never leaves a truncated results file.
-
-    Returns
-    -------
-    dict
-        ``{"parquet": Path, "csv": Path}``.
-    """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    df = _frame(list(rows))
-    pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
-    _atomic_write(pq, lambda p: _write_parquet(df, p))
-    _atomic_write(csv, lambda p: df.to_csv(p, index=False))
-    return {"parquet": pq, "csv": csv}
-
-
 def _write_parquet(df, path):
     """``df`` as Parquet with :data:`SCHEMA_VERSION` in the file's key-value metadata."""
     import pyarrow as pa
@@ -569,6 +549,26 @@ def _check_schema_version(version: str | None, path: Path):
     if int(major) > int(SCHEMA_VERSION.split(".")[0]):
         raise LdbenchError(f"results {path} have schema version {version}, newer than this ldbench reads "
                            f"({SCHEMA_VERSION}); update ldbench")
+
+
+def write_results(rows: list[dict], out_dir) -> dict:
+    """Write ``results.parquet`` and ``results.csv`` into ``out_dir``.
+
+    Rows from :func:`make_row` (raw dicts are passed through it). Each file is written to a temporary
+    name and renamed, so a crash never leaves a truncated results file.
+
+    Returns
+    -------
+    dict
+        ``{"parquet": Path, "csv": Path}``.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    df = _frame(list(rows))
+    pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
+    _atomic_write(pq, lambda p: _write_parquet(df, p))
+    _atomic_write(csv, lambda p: df.to_csv(p, index=False))
+    return {"parquet": pq, "csv": csv}
 
 
 def _parse_json(v):
