@@ -15,7 +15,10 @@ from pathlib import Path
 
 from .errors import LdbenchError
 
-log = logging.getLogger(__name__)
+#: The package's logger tree; ``__package__`` also under ``python -m harness.cli`` (``__name__`` is then
+#: ``"__main__"``, whose logger would not be the parent of the other modules' loggers).
+_LOG_ROOT = __package__ or __name__.rpartition(".")[0]
+log = logging.getLogger(f"{_LOG_ROOT}.cli")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -428,10 +431,12 @@ class _StderrHandler(logging.Handler):
 
 def setup_logging(verbose: int = 0, quiet: int = 0) -> logging.Logger:
     """Send the package's log records to stderr at the level ``-v``/``-q`` ask for (default INFO)."""
-    root = logging.getLogger(__name__.rpartition(".")[0] or __name__)
-    for h in [h for h in root.handlers if isinstance(h, _StderrHandler)]:
+    root = logging.getLogger(_LOG_ROOT)
+    for h in [h for h in root.handlers if getattr(h, "ldbench_cli", False)]:  # main() called again
         root.removeHandler(h)
-    root.addHandler(_StderrHandler())
+    handler = _StderrHandler()
+    handler.ldbench_cli = True
+    root.addHandler(handler)
     root.propagate = False
     level = logging.INFO + 10 * (quiet - verbose)
     root.setLevel(min(max(level, logging.DEBUG), logging.ERROR))

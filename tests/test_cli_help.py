@@ -141,3 +141,27 @@ def test_log_levels_reach_stderr_as_asked(verbose, quiet, shown, capsys):
         assert "ldbench: a info message" in captured.err
     assert "ldbench: warning: a warning message" in captured.err or "warning" not in shown
     setup_logging()
+
+
+def test_module_warnings_are_prefixed_under_python_dash_m(tmp_path):
+    # `python -m harness.cli` runs cli.py as __main__: the runner's warnings (an ignored emitter of an XML
+    # scene) must still reach the handler and read "ldbench: warning: ...", as -q/-qq must still apply.
+    xml = tmp_path / "s.xml"
+    xml.write_text("""<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="45"/>
+<transform name="to_world"><lookat origin="0, 0.5, 5" target="0, 0, 0" up="0, 1, 0"/></transform></sensor>
+<shape type="cube"><bsdf type="diffuse"/></shape>
+<emitter type="point"><point name="position" x="0" y="3" z="3"/><rgb name="intensity" value="10"/></emitter>
+<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+</scene>
+""")
+    args = [sys.executable, "-m", "harness.cli", "run", "--scene", str(xml), "--method", "direct-raster",
+            "--effect", "direct", "--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0",
+            "--no-report", "--out", str(tmp_path / "run")]
+    p = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    lines = [l for l in p.stderr.splitlines() if "ignored" in l]
+    assert lines and all(l.startswith("ldbench: warning: ") for l in lines), p.stderr
+    p = subprocess.run(args[:3] + ["-qq"] + args[3:-1] + [str(tmp_path / "run2")], cwd=ROOT,
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0 and "ignored" not in p.stderr, p.stderr
