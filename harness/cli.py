@@ -205,7 +205,8 @@ def _run_args(p):
     _effect_args(p, required=False)
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
     p.add_argument("--size", default=None, metavar="WxH",
-                   help="image size (overrides the suite's; default: the suite's, else the scene file's film)")
+                   help="image size (overrides the suite's; default: the suite's, else an XML scene's film, "
+                        "else 128x128)")
     p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default: the suite's, 256)")
     p.add_argument("--warmup", type=int, default=None,
                    help="frames run before timing starts (default: the suite's, 2)")
