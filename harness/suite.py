@@ -328,6 +328,10 @@ def load_suite(path) -> Suite:
     from .resources import suite_path
 
     path = suite_path(path)
+    if not path.exists():  # neither a file nor a bundled suite: say which names would work
+        from .resources import bundled_suites
+        raise LdbenchError(f"no suite file {str(path)!r} and no bundled suite of that name "
+                           f"(bundled: {', '.join(bundled_suites())})")
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))  # TOML is UTF-8, whatever the locale
     except OSError as e:
