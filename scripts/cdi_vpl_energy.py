@@ -13,11 +13,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from testkit import quad  # noqa: E402
+from testkit import wall_floor_scene  # noqa: E402
 
 from harness.effects import Effect  # noqa: E402
 from harness.gpu import Gpu  # noqa: E402
-from harness.scene import Camera, Scene, SpotLight  # noqa: E402
 from methods.base import View  # noqa: E402
 from methods.cdi_vpl import CdiVpl, CdiVplParams  # noqa: E402
 from references import render_reference  # noqa: E402
@@ -36,15 +35,6 @@ VARIANTS = (
 )
 
 
-def wall_floor_scene() -> Scene:
-    """A 4 m floor and a red 4 × 2.5 m wall along its left edge, a spot light aimed at the wall."""
-    floor = quad((-2, 0, -2), (-2, 0, 2), (2, 0, 2), (2, 0, -2), "floor", (0.8, 0.8, 0.8))
-    wall = quad((-2, 0, -2), (-2, 2.5, -2), (-2, 2.5, 2), (-2, 0, 2), "wall", (0.8, 0.25, 0.1))
-    light = SpotLight(position=(0.5, 1.6, 0.0), target=(-2.0, 1.0, 0.0), intensity=(20, 20, 20), cutoff_angle=40)
-    cam = Camera(origin=(2.6, 2.2, 3.2), target=(-0.8, 0.5, 0.0), up=(0, 1, 0), fov_y=55.0)
-    return Scene("wall_floor", [floor, wall], cam, [light])
-
-
 def run(gpu, scene, size, **params):
     m = CdiVpl(CdiVplParams(**params))
     m.setup(gpu, scene)
@@ -57,15 +47,12 @@ def run(gpu, scene, size, **params):
 def budget(gpu, scene, ref, size, rsm, variants=VARIANTS):
     """{label: (image ratio, floor ratio, per-channel floor ratio)} of mean radiance, method / reference."""
     spec = Effect("indirect").spec
-    pos = None
     out = {}
     for label, kw in variants:
         kw = dict(kw)
         R = rsm * kw.pop("rsm_scale", 1)
         r = run(gpu, scene, size, rsm=R, vpl_step=kw.pop("vpl_step", 1), **kw)
         img, _ = spec.method_image(r, ref)
-        if pos is None:
-            pos = r.arrays.get("position") if hasattr(r, "arrays") and r.arrays else None
         m = ref.mask
         floor = m & floor_mask(scene, size)
         out[label] = (img[m].mean() / ref.mean[m].mean(), img[floor].mean() / ref.mean[floor].mean(),

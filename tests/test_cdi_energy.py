@@ -17,6 +17,7 @@ import pytest
 
 from harness.effects import Effect
 from references import render_reference
+from testkit import wall_floor_scene
 
 SIZE, RSM = 48, 64
 
@@ -36,7 +37,7 @@ def energy():
 
 @pytest.fixture(scope="module")
 def case(energy):
-    scene = energy.wall_floor_scene()
+    scene = wall_floor_scene()
     ref = render_reference(scene, Effect("indirect"), width=SIZE, height=SIZE, spp=256, progress=False)
     return scene, ref
 
