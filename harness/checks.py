@@ -41,7 +41,8 @@ def camera_sees_geometry(scene, reference, width: int, height: int) -> None:
 
 def finite_reference(scene, reference, label: str) -> None:
     """Refuse a reference image with a NaN or infinite value (mean or variance) where the camera sees
-    a surface: every row scored against it would be ``ok`` with NaN metrics."""
+    a surface: every row scored against it would be ``ok`` with NaN metrics. With one sample per pixel
+    the variance of the mean is unknown (NaN by definition), so only the mean is checked then."""
     if getattr(reference, "mean", None) is None:
         return
 
@@ -50,7 +51,8 @@ def finite_reference(scene, reference, label: str) -> None:
         return b.any(-1) if b.ndim == 3 else b
 
     bad = nonfinite(reference.mean)
-    if getattr(reference, "variance", None) is not None:
+    spp = (getattr(reference, "meta", None) or {}).get("spp")
+    if getattr(reference, "variance", None) is not None and not (spp is not None and spp < 2):
         bad = bad | nonfinite(reference.variance)
     mask = getattr(reference, "mask", None)
     n = int(bad[np.asarray(mask, bool)].sum() if mask is not None else bad.sum())

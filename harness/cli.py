@@ -1,15 +1,24 @@
-"""The ``ldbench`` command line (docs/design.md, "Command line").
+"""The ``ldbench`` command line (docs/design.md, "Command line"; exit codes in docs/cli.md).
 
 Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
+Progress and information go through :mod:`logging` to stderr (``-v`` adds debug messages, ``-q``
+keeps only warnings and errors, ``-qq`` only errors); what a command answers (tables, listings,
+summaries, the files it wrote) is printed on stdout.
 """
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
 
 from .errors import LdbenchError
+
+#: The package's logger tree; ``__package__`` also under ``python -m harness.cli`` (``__name__`` is then
+#: ``"__main__"``, whose logger would not be the parent of the other modules' loggers).
+_LOG_ROOT = __package__ or __name__.rpartition(".")[0]
+log = logging.getLogger(f"{_LOG_ROOT}.cli")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -73,7 +82,9 @@ def _methods(args):
 
 # ---- reference -------------------------------------------------------------------------------------
 # Effect parameters with flags of their own; any other one: --effect-set NAME=VALUE.
-EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf')"),
+EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf'); an ad-hoc "
+                 "`run --effect ao` without it takes the scene's registered d_max, else 5%% of the scene's "
+                 "largest bounding-box extent (a warning on stderr says which)"),
                 ("falloff", "--falloff", "ao: step | quadratic"),
                 ("ray_kind", "--ray-kind", "rays: diffuse | glossy | shadow | ao"),
                 ("rays_per_pixel", "--rays-per-pixel", "rays: rays per hit pixel"))
@@ -82,7 +93,7 @@ EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (worl
 def _effect_args(p, required=True):
     from .effects import EFFECTS
 
-    p.add_argument("--effect", required=required, help=" | ".join(EFFECTS))
+    p.add_argument("--effect", required=required, help="the effect to compute: " + " | ".join(EFFECTS))
     for _, flag, helptext in EFFECT_FLAGS:
         p.add_argument(flag, default=None, help=helptext)
     p.add_argument("--effect-set", action="append", metavar="PARAM=VALUE",
@@ -138,14 +149,17 @@ def _literal(v: str):
 
 
 def _reference_args(p):
-    p.add_argument("scene")
+    p.add_argument("scene", help="built-in or registered scene name (ldbench scenes), a Mitsuba 3 .xml file, "
+                                 "or a .ply/.obj mesh")
     _effect_args(p)
-    p.add_argument("--spp", type=int, default=1024)
-    p.add_argument("--size", default="256x256")
-    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--spp", type=int, default=1024, help="samples per pixel (default 1024)")
+    p.add_argument("--size", default="256x256", metavar="WxH", help="image size (default 256x256)")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
+                   help="scene builder parameter (repeatable)")
     p.add_argument("--out", default=None, metavar="FILE.exr",
                    help="also write the mean as this EXR file (only this file: no preview beside it)")
-    p.add_argument("--no-cache", action="store_true")
+    p.add_argument("--no-cache", action="store_true",
+                   help="render again instead of using (and without storing into) the reference cache")
 
 
 def _reference(args):
@@ -163,7 +177,7 @@ def _reference(args):
                            f"{spec.output[:-1]} by its oracle inside `ldbench run`")
     scene = load_scene(args.scene, **_scene_params(args.scene_set))
     for w_ in scene.warnings:
-        print(f"warning: {w_}", file=sys.stderr)
+        log.warning(w_)
     effect.check_scene(scene)
     ref = spec.reference(scene, effect, width=w, height=h, spp=args.spp, seed=0,
                          inputs=spec.inputs(scene, w, h, effect.params, 0), cache=not args.no_cache)
@@ -194,20 +208,31 @@ def _reference_out(out):
 
 # ---- run / report ---------------------------------------------------------------------------------
 def _run_args(p):
-    p.add_argument("suite", nargs="?", help="suite TOML file")
-    p.add_argument("--scene")
-    p.add_argument("--method", action="append")
+    from .resources import bundled_suites
+
+    p.add_argument("suite", nargs="?", metavar="SUITE",
+                   help="suite TOML file, or a bundled suite by name: " + ", ".join(bundled_suites()))
+    p.add_argument("--scene", help="instead of a suite: built-in or registered scene name (ldbench scenes), "
+                                   "a Mitsuba 3 .xml file or a .ply/.obj mesh")
+    p.add_argument("--method", action="append",
+                   help="instead of a suite: method adapter (ldbench methods); repeat for several")
     _effect_args(p, required=False)
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
-    p.add_argument("--size", default=None, help="WxH")
-    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel")
-    p.add_argument("--warmup", type=int, default=None)
-    p.add_argument("--frames", type=int, default=None)
-    p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE", help="method parameter")
-    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    p.add_argument("--size", default=None, metavar="WxH",
+                   help="image size (overrides the suite's; default: the suite's, else an XML scene's film, "
+                        "else 128x128)")
+    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default: the suite's, 256)")
+    p.add_argument("--warmup", type=int, default=None,
+                   help="frames run before timing starts (default: the suite's, 2)")
+    p.add_argument("--frames", type=int, default=None, help="timed frames per job (default: the suite's, 5)")
+    p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE",
+                   help="method parameter (repeatable; with a suite it overrides the suite's value)")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
+                   help="scene builder parameter (repeatable)")
     p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (it is shown only when stderr is a terminal anyway)")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
                    help="local: this process (default); ray: one task per job group on a Ray cluster "
                         "(pip install 'ldbench[ray]'; docs/ray.md)")
@@ -266,9 +291,14 @@ def suite_from_args(args):
             jobs = []
             for j in suite.jobs:
                 if j.method in params:
-                    merged = {**dict(j.params), **params[j.method]}
+                    cls = get_method(j.method)
+                    P = cls.Params
+                    try:  # --set overrides the suite's parameter of the same name
+                        merged = P.upgrade({**dict(j.params), **params[j.method]})
+                    except LdbenchError:  # the suite names it one way (build), --set the other (structure.source)
+                        merged = {**P.upgrade(dict(j.params)), **P.upgrade(params[j.method])}
                     from .suite import method_params
-                    method_params(get_method(j.method), merged, j.method)
+                    method_params(cls, merged, j.method)
                     j = dataclasses.replace(j, params=tuple(sorted(merged.items())))
                 jobs.append(j)
             suite.jobs = jobs
@@ -282,13 +312,22 @@ def suite_from_args(args):
             raise LdbenchError(f"--set names method {m!r}, which is not in --method")
     run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
            "scene_params": _scene_params(args.scene_set), "effect_params": _effect_opts(args)}
+    if args.effect == "ao" and "d_max" not in run["effect_params"]:  # unbounded AO blackens enclosed scenes
+        from .scenes import default_d_max
+        d, why = default_d_max(args.scene, **run["scene_params"])
+        run["effect_params"]["d_max"] = d
+    else:
+        why = None
     if args.seed is not None:
         run["seed"] = args.seed
     head = {"name": "adhoc"}
     for k in ("size", "spp", "warmup", "frames"):
         if getattr(args, k) is not None:
             head[k] = getattr(args, k)
-    return suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
+    suite = suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
+    if why:  # said (once the run's parameters are known to be valid) as a warning: -q keeps it, -qq not
+        log.warning(f"ao without --d-max: d_max = {d:g} ({why})")
+    return suite
 
 
 def _run(args):
@@ -300,17 +339,14 @@ def _run(args):
     from .naming import slug  # a suite named "../../x" stays inside reports/
     out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
-    cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
-                        "ssim", "status") if c in df.columns]
-    import pandas as pd
-    with pd.option_context("display.width", 200, "display.max_columns", 20):
-        print(df[cols].to_string(index=False))
+    from .report import terminal_table
+    print(terminal_table(df))
     print(f"wrote {out}")
     return 1 if (df["status"] != "ok").any() else 0
 
 
 def _report_args(p):
-    p.add_argument("run_dir")
+    p.add_argument("run_dir", help="run directory (written by ldbench run) whose report to rebuild")
 
 
 def _report(args):
@@ -353,8 +389,9 @@ def _reproduce_args(p):
     p.add_argument("--size", default=None, help="WxH, overrides the scale's image size")
     p.add_argument("--out", default=None, help="run directory (default reports/<table>-<scale>-<time>)")
     p.add_argument("--from-run", default=None, metavar="RUN_DIR", help="reuse an existing run directory")
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (it is shown only when stderr is a terminal anyway)")
 
 
 def _reproduce(args):
@@ -375,17 +412,59 @@ COMMANDS = {
 }
 
 
+EPILOG = ("Exit status: 0 success, 1 a run with failed jobs or a comparison with a regression, 2 bad input "
+          "(one line on stderr), 130 interrupted; docs/cli.md lists them with the accepted value ranges.")
+
+
+def _verbosity_args(p, default):
+    p.add_argument("-v", "--verbose", action="count", default=default,
+                   help="more messages on stderr (debug); repeatable")
+    p.add_argument("-q", "--quiet", action="count", default=default,
+                   help="fewer messages on stderr: -q warnings and errors only, -qq errors only")
+
+
 def build_parser():
-    parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth")
+    parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth",
+                     epilog=EPILOG)
+    _verbosity_args(parser, 0)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, (add, _, helptext) in COMMANDS.items():
-        add(sub.add_parser(name, help=helptext))
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=EPILOG)
+        _verbosity_args(p, argparse.SUPPRESS)  # -v/-q also after the sub-command
+        add(p)
     return parser
+
+
+class _StderrHandler(logging.Handler):
+    """Log records as ``ldbench: [level: ]message`` lines on the current ``sys.stderr``."""
+
+    def emit(self, record):
+        try:
+            msg = record.getMessage()
+            level = "" if record.levelno == logging.INFO else f"{record.levelname.lower()}: "
+            print(f"ldbench: {level}{msg}", file=sys.stderr)
+        except Exception:  # pragma: no cover - logging must never raise
+            self.handleError(record)
+
+
+def setup_logging(verbose: int = 0, quiet: int = 0) -> logging.Logger:
+    """Send the package's log records to stderr at the level ``-v``/``-q`` ask for (default INFO)."""
+    root = logging.getLogger(_LOG_ROOT)
+    for h in [h for h in root.handlers if getattr(h, "ldbench_cli", False)]:  # main() called again
+        root.removeHandler(h)
+    handler = _StderrHandler()
+    handler.ldbench_cli = True
+    root.addHandler(handler)
+    root.propagate = False
+    level = logging.INFO + 10 * (quiet - verbose)
+    root.setLevel(min(max(level, logging.DEBUG), logging.ERROR))
+    return root
 
 
 def main(argv=None) -> int:
     try:
         args = build_parser().parse_args(argv)
+        setup_logging(getattr(args, "verbose", 0), getattr(args, "quiet", 0))
         return COMMANDS[args.command][1](args) or 0
     except LdbenchError as e:
         print(f"ldbench: error: {e}", file=sys.stderr)

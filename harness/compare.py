@@ -51,8 +51,11 @@ status
     fails). A baseline row that had failed is not compared (``fixed`` if RUN's is ok).
 
 Exit status: 0 no regression, 1 regression, 2 bad input (:class:`~harness.errors.LdbenchError`).
-A Markdown report (``compare.md`` in RUN's directory, or ``--out FILE``) holds one table row per
-check: benchmark, metric, baseline, current, change, verdict, for a CI job summary.
+A Markdown report (``compare.md`` in RUN's directory, or ``--md FILE``) holds one table row per
+check: benchmark, metric, baseline, current, change, verdict, for a CI job summary. ``--json FILE``
+writes the same verdicts for machines (:func:`to_json`): per check the benchmark's match key, the
+metric, baseline and current values as numbers, the verdict and the thresholds it was judged by, and
+the overall exit status.
 """
 from __future__ import annotations
 
@@ -124,6 +127,7 @@ class Comparison:
     baseline_label: str = ""
     run_label: str = ""
     matched: int = 0
+    rows: dict = field(default_factory=dict)  # benchmark label -> (baseline row, run row), for to_json
 
     @property
     def regressions(self) -> list:
@@ -611,6 +615,7 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
     union = {**{k: v for k, v in ridx.items()}, **{k: v for k, v in bidx.items() if k not in ridx}}
     labels = _labels(union)
     comp = Comparison(match=match, thresholds=th)
+    comp.rows = {labels[k]: (bidx.get(k), ridx.get(k)) for k in union}
     machine_warned = set()
     nan_base: list = []  # benchmarks whose baseline has a NaN quality metric
 
@@ -803,6 +808,85 @@ def to_markdown(comp: Comparison) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: Format of :func:`to_json`'s document; bumped when a field is removed or changes meaning.
+JSON_FORMAT = "ldbench-compare/1"
+
+#: The column a check's metric reads (gated metrics of non-image effects are their own column).
+_METRIC_COLUMN = {"time": "total_ms", "status": "status"}
+
+
+def _json_value(v):
+    """A value as strict JSON: NaN -> None, ±inf -> "inf"/"-inf", numpy/pandas scalars unwrapped."""
+    v = _plain(v)
+    if isinstance(v, float) and not math.isfinite(v):
+        return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    if isinstance(v, dict):
+        return {str(k): _json_value(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_value(x) for x in v]
+    return v
+
+
+def _check_thresholds(c: Check, brow, rrow, th: Thresholds) -> dict:
+    """The thresholds a check was judged by (recomputed from the rows, as :func:`compare_frames` does)."""
+    if c.metric == "status":
+        return {"allow_missing": th.allow_missing} if c.verdict in ("missing", "n/a") else {}
+    if c.metric == "time":
+        return {"alpha": th.alpha, "min_effect": th.min_effect, "time": th.time, "cpu_time": th.cpu_time}
+    if brow is None or rrow is None:
+        return {}
+    if c.metric in ("psnr", "ssim"):
+        q = quality_thresholds(brow, rrow, th)
+        if c.metric == "psnr":
+            return {"tol_db": th.tol_db, "noise_z": th.noise_z, "noise_db": q["noise_db"],
+                    "allowed_drop_db": max(th.tol_db, q["noise_db"])}
+        return {"ssim_tol": th.ssim_tol, "noise_z": th.noise_z, "noise_ssim": q["noise_ssim"],
+                "allowed_drop": max(th.ssim_tol, q["noise_ssim"])}
+    for col, better, abs_tol, rel_tol in _gate(rrow):
+        if col == c.metric:
+            b = _f(_get(brow, col))
+            allowed = max(abs_tol, rel_tol * abs(b)) if b is not None and math.isfinite(b) else None
+            return {"better": better, "abs_tol": abs_tol, "rel_tol": rel_tol, "allowed_change": allowed}
+    return {}
+
+
+def to_json(comp: Comparison) -> dict:
+    """The comparison as a JSON-able dict (``--json``), strict JSON (no NaN: see :func:`_json_value`).
+
+    ``{"format", "exit_status", "regression", "baseline", "current", "match", "matched", "counts",
+    "thresholds", "warnings", "notes", "checks": [{"benchmark", "key", "metric", "column", "baseline",
+    "current", "baseline_text", "current_text", "change", "verdict", "regression", "note",
+    "thresholds"}]}``. ``key`` holds the match keys' values of the benchmark; ``baseline`` and
+    ``current`` the column's values (None where a side is missing), ``*_text`` and ``change`` what the
+    Markdown table shows.
+    """
+    import dataclasses
+
+    checks = []
+    for c in comp.checks:
+        brow, rrow = comp.rows.get(c.benchmark, (None, None))
+        row = rrow if rrow is not None else brow
+        col = _METRIC_COLUMN.get(c.metric, c.metric)
+        checks.append({
+            "benchmark": c.benchmark,
+            "key": {k: _json_value(_get(row, k)) for k in comp.match} if row is not None else {},
+            "metric": c.metric, "column": col,
+            "baseline": _json_value(_get(brow, col)) if brow is not None else None,
+            "current": _json_value(_get(rrow, col)) if rrow is not None else None,
+            "baseline_text": c.baseline, "current_text": c.current, "change": c.change,
+            "verdict": c.verdict, "regression": c.regression, "note": c.note,
+            "thresholds": _json_value(_check_thresholds(c, brow, rrow, comp.thresholds)),
+        })
+    counts: dict = {}
+    for c in comp.checks:
+        counts[c.verdict] = counts.get(c.verdict, 0) + 1
+    return {"format": JSON_FORMAT, "exit_status": comp.exit_code, "regression": bool(comp.regressions),
+            "baseline": comp.baseline_label, "current": comp.run_label, "match": list(comp.match),
+            "matched": comp.matched, "counts": counts,
+            "thresholds": _json_value(dataclasses.asdict(comp.thresholds)),
+            "warnings": list(comp.warnings), "notes": list(comp.notes), "checks": checks}
+
+
 def summary_text(comp: Comparison) -> str:
     """A few lines for the terminal."""
     n_reg = len(comp.regressions)
@@ -853,8 +937,27 @@ def add_arguments(p):
                    help="a quality metric that is NaN in the baseline (nothing to compare against) does not fail")
     p.add_argument("--cpu-time", action="store_true",
                    help="gate time on a software rasterizer (cpu-software) too; off by default")
-    p.add_argument("--out", default=None, metavar="FILE",
-                   help="Markdown report (default: compare.md in RUN's directory)")
+    p.add_argument("--md", "--out", dest="md", default=None, metavar="FILE",
+                   help="write the Markdown report here (default: compare.md in RUN's directory)")
+    p.add_argument("--json", dest="json", default=None, metavar="FILE",
+                   help="also write the verdicts as JSON for CI: per check the match key, metric, baseline, "
+                        "current, verdict and thresholds, and the exit status")
+
+
+def _write_text(path: Path, text: str):
+    """Write ``text`` to ``path`` through a temporary file and a rename (no half-written report)."""
+    import os
+
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as e:
+        raise LdbenchError(f"cannot write {path}: {e.strerror or e}")
+    finally:
+        if tmp.exists():
+            tmp.unlink()
 
 
 def run_cli(args) -> int:
@@ -865,15 +968,14 @@ def run_cli(args) -> int:
     match = parse_match(args.match)
     comp = compare_paths(args.baseline, args.run, match=match, thresholds=th)
     run_path = Path(args.run)
-    out = Path(args.out) if args.out else (run_path if run_path.is_dir() else run_path.parent) / "compare.md"
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(to_markdown(comp), encoding="utf-8")
-    except OSError as e:
-        raise LdbenchError(f"cannot write {out}: {e.strerror or e}")
-    import sys
+    out = Path(args.md) if args.md else (run_path if run_path.is_dir() else run_path.parent) / "compare.md"
+    _write_text(out, to_markdown(comp))
+    if args.json:
+        _write_text(Path(args.json), json.dumps(to_json(comp), indent=2, allow_nan=False) + "\n")
+    import logging
+    log = logging.getLogger(__name__)
     for w in comp.warnings:
-        print(f"ldbench: warning: {w}", file=sys.stderr)
+        log.warning(w)
     print(summary_text(comp))
-    print(f"wrote {out}")
+    print(f"wrote {out}" + (f" and {args.json}" if args.json else ""))
     return comp.exit_code

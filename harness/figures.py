@@ -21,7 +21,9 @@ Conventions
   method's absolute-error map |test − reference| (mean over channels, 0 on the background) coloured
   with ``magma`` on one scale per grid: 0 … the largest of the methods' 99th-percentile errors over
   valid pixels (``images.error_vmax`` written by the runner). The HTML page shows the grid from these
-  PNGs plus a colour-bar image; a matplotlib version of the whole grid is written too.
+  PNGs plus a colour-bar image; a matplotlib version of the whole grid is written too. For the
+  report's viewer each grid also gets signed-error and FLIP maps and the images' float values
+  (:func:`_viewer_maps`).
 """
 from __future__ import annotations
 
@@ -431,6 +433,9 @@ def figure_stages(df, run_dir: Path, scene: str, max_bars: int = 30) -> list[Fig
                 continue
             ax.bar(x, v, bottom=bottom, color=pal[s], label=s, width=0.7)
             bottom += v
+        # Headroom above the tallest bar: zero-height segments on top of a stack make matplotlib's
+        # autoscale stop exactly at the bar's top (their sticky edge), so set the limit explicitly.
+        ax.set_ylim(0.0, (float(bottom.max()) or 1.0) * 1.08)
         ax.set_xticks(x)
         ax.set_xticklabels(labels, rotation=30 if len(chunk) > 3 else 0, ha="right" if len(chunk) > 3 else "center",
                            fontsize=8)
@@ -515,6 +520,11 @@ class GridCell:
     image: str | None  # relative path of the method's preview PNG
     error: str | None  # relative path of the re-coloured error PNG (grid scale)
     caption: list = field(default_factory=list)
+    exr: str | None = None  # the method's linear EXR
+    signed: str | None = None  # signed-error PNG (diverging, symmetric grid scale)
+    flip: str | None = None  # FLIP map PNG (magma, 0 … 1); image effects only
+    values: str | None = None  # float values of the image for the viewer (imageio.save_values_js)
+    flip_values: str | None = None  # float values of the FLIP map
 
 
 @dataclass
@@ -530,6 +540,14 @@ class Grid:
     png: str | None = None
     pdf: str | None = None
     problems: list = field(default_factory=list)
+    reference_exr: str | None = None
+    reference_values: str | None = None
+    width: int = 0
+    height: int = 0
+    signed_vmax: float = 0.0  # the signed-error maps span -signed_vmax … +signed_vmax
+    signed_colorbar: str | None = None
+    flip_colorbar: str | None = None
+    maps_json: str | None = None  # ranges, colour maps and definitions of the maps (grids/<tag>/maps.json)
 
 
 def _read_exr(path: Path):
@@ -557,8 +575,9 @@ def _cell_label(r, diff):
     return lab + (f" ({extra})" if extra else "")
 
 
-def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid:
-    """Write the grid's assets (error PNGs on one scale, colour bar, matplotlib grid) and describe it."""
+def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_budget: dict | None = None) -> Grid:
+    """Write the grid's assets (error PNGs on one scale, colour bar, matplotlib grid) and describe it.
+    ``values_budget`` (``{"bytes": n}``, shared by the grids of one report) caps the viewer's value files."""
     import matplotlib.image as mpimg
     from . import metrics
 
@@ -617,28 +636,140 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True) -> Grid
     else:
         units = "AO units" if rows[0]["effect"] == "ao" else "linear radiance"
         err_label = f"|test − reference| ({units}, mean over channels)"
-    # colour bar
-    fig = plt.figure(figsize=(4.2, 0.85))
-    cax = fig.add_axes([0.05, 0.55, 0.9, 0.3])
-    import matplotlib as mpl
-
-    cb = mpl.colorbar.ColorbarBase(cax, cmap=mpl.colormaps["magma"], norm=mpl.colors.Normalize(0, vmax),
-                                   orientation="horizontal")
-    cb.set_label(err_label, fontsize=8)
-    cb.ax.tick_params(labelsize=7)
-    cb.set_ticks(np.linspace(0, vmax, 5))
-    cb.ax.set_xticklabels(["0"] + [f"{t:.2g}" for t in np.linspace(0, vmax, 5)[1:]])
     cbar = gdir / "colorbar.png"
-    fig.savefig(cbar, dpi=110)
-    plt.close(fig)
+    _colorbar(cbar, "magma", 0.0, vmax, err_label)
     ref_cap = (f"oracle ({rows[0].get('ref_variant')}): fraction of rays that hit" if rows[0]["effect"] == "rays"
                else f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})")
     g = Grid(title=f"{scene} — {eff} — {size.replace('x', '×')}", anchor=f"grid-{tag}", reference=ref,
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)
+    try:
+        _viewer_maps(run_dir, g, rows, gdir, values_budget)
+    except Exception as ex:  # noqa: BLE001 - the viewer's extras must not lose the grid
+        problems.append(f"viewer maps: {type(ex).__name__}: {ex}")
     if matplotlib_grid:
         g.png, g.pdf = _matplotlib_grid(run_dir, g, rows, errs, tag)
     return g
+
+
+def _colorbar(path: Path, cmap: str, lo: float, hi: float, label: str) -> None:
+    """A horizontal colour bar PNG from ``lo`` to ``hi`` with five ticks and a label."""
+    import matplotlib as mpl
+
+    plt = _plt()
+    fig = plt.figure(figsize=(4.2, 0.85))
+    cax = fig.add_axes([0.05, 0.55, 0.9, 0.3])
+    cb = mpl.colorbar.ColorbarBase(cax, cmap=mpl.colormaps[cmap], norm=mpl.colors.Normalize(lo, hi),
+                                   orientation="horizontal")
+    cb.set_label(label, fontsize=8)
+    cb.ax.tick_params(labelsize=7)
+    ticks = np.linspace(lo, hi, 5)
+    cb.set_ticks(ticks)
+    cb.ax.set_xticklabels(["0" if abs(t) < 1e-12 * max(abs(lo), abs(hi), 1e-30) else f"{t:.2g}" for t in ticks])
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+#: Disk the viewer's value files of one report may take (base64 float32: ~10 MB per 800x800 RGB image);
+#: beyond it the read-out shows coordinates only.
+VALUES_BUDGET_BYTES = 512 * 2**20
+
+#: Colour maps of the viewer's maps (signed: red = method brighter than the reference).
+SIGNED_CMAP, FLIP_CMAP = "RdBu_r", "magma"
+
+
+def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None = None) -> None:
+    """The maps the report's viewer shows beside each method's image, written into the grid folder:
+
+    * signed error ``mean over channels of (test − reference)`` (linear), coloured with ``RdBu_r`` on a
+      symmetric range ± the largest of the methods' 99th percentiles of ``|signed|`` over its non-zero
+      pixels (one range per grid);
+    * the FLIP map (image effects only) with the settings of :data:`harness.metrics.FLIP_SETTINGS`, on
+      FLIP's own range 0 … 1 with ``magma``. It is evaluated over every pixel (the run does not store
+      the reference's hit mask), so near silhouettes it can differ from the ``flip`` column's map;
+    * the images' float32 values for the per-pixel read-out (:func:`harness.imageio.save_values_js`),
+      while ``budget["bytes"]`` lasts (:data:`VALUES_BUDGET_BYTES` per report by default).
+
+    Ranges, colour maps and definitions are recorded in ``maps.json`` beside them."""
+    import matplotlib.image as mpimg
+
+    from . import metrics
+    from .effects import registry
+    from .imageio import save_values_js
+
+    ref_exr = g.reference[:-4] + ".exr" if g.reference and g.reference.endswith(".png") else None
+    if not ref_exr or not (run_dir / ref_exr).is_file():
+        if g.reference:  # no float data: the viewer still shows the PNGs
+            g.height, g.width = mpimg.imread(str(run_dir / g.reference)).shape[:2]
+        return
+    ref = _read_exr(run_dir / ref_exr)
+    g.height, g.width = ref.shape[:2]
+    g.reference_exr = ref_exr
+    vdir = gdir / "values"
+    rel = lambda p: p.relative_to(run_dir).as_posix()  # noqa: E731
+    budget = {"bytes": VALUES_BUDGET_BYTES} if budget is None else budget
+
+    def save_values(path: Path, a) -> str | None:
+        need = np.asarray(a).size * 4 * 4 // 3
+        if need > budget["bytes"] or not save_values_js(path, rel(path), a):
+            return None
+        budget["bytes"] -= need
+        return rel(path)
+
+    g.reference_values = save_values(vdir / "reference.js", ref)
+    spec = registry().get(str(rows[0]["effect"]))
+    with_flip = spec is not None and spec.output == "image"
+    signed, flips = [], []
+    for i, (r, c) in enumerate(zip(rows, g.cells)):
+        exr = r["images"].get("exr")
+        test = _read_exr(run_dir / exr) if exr and (run_dir / exr).is_file() else None
+        if test is None or test.shape != ref.shape:
+            signed.append(None), flips.append(None)
+            continue
+        c.exr = exr
+        stem = f"{i:02d}-{slug(r['method'], 30)}"
+        c.values = save_values(vdir / f"{stem}.js", test)
+        signed.append((test.astype(np.float64) - ref).mean(axis=2))
+        fmap = None
+        if with_flip:
+            _, fmap = metrics.flip(test, ref, hdr=False, pixels_per_degree=metrics.FLIP_SETTINGS["ppd"])
+            c.flip_values = save_values(vdir / f"{stem}-flip.js", fmap)
+        flips.append(fmap)
+    nz = [np.abs(d[d != 0]) for d in signed if d is not None]
+    sv = max((float(np.percentile(a, 99)) for a in nz if a.size), default=0.0)
+    g.signed_vmax = sv if sv > 0 else 1e-6
+    for i, (c, d, fmap) in enumerate(zip(g.cells, signed, flips)):
+        stem = f"{i:02d}-{slug(rows[i]['method'], 30)}"
+        if d is not None:
+            mpimg.imsave(str(gdir / f"{stem}-signed.png"),
+                         metrics.colorize((d + g.signed_vmax) / (2 * g.signed_vmax), vmax=1.0, cmap=SIGNED_CMAP))
+            c.signed = rel(gdir / f"{stem}-signed.png")
+        if fmap is not None:
+            mpimg.imsave(str(gdir / f"{stem}-flip.png"), metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
+            c.flip = rel(gdir / f"{stem}-flip.png")
+    units = {"ao": "AO units", "rays": "fraction of rays that hit"}.get(str(rows[0]["effect"]), "linear")
+    _colorbar(gdir / "colorbar-signed.png", SIGNED_CMAP, -g.signed_vmax, g.signed_vmax,
+              f"test − reference ({units}, mean over channels)")
+    g.signed_colorbar = rel(gdir / "colorbar-signed.png")
+    if any(f is not None for f in flips):
+        _colorbar(gdir / "colorbar-flip.png", FLIP_CMAP, 0.0, 1.0, "FLIP error (LDR, 0 … 1)")
+        g.flip_colorbar = rel(gdir / "colorbar-flip.png")
+    maps = {
+        "abs": {"range": [0.0, g.vmax], "cmap": "magma", "definition": g.error_label,
+                "scale_rule": "largest of the methods' 99th percentiles over valid pixels"},
+        "signed": {"range": [-g.signed_vmax, g.signed_vmax], "cmap": SIGNED_CMAP,
+                   "definition": "mean over channels of (test - reference), linear",
+                   "scale_rule": "largest of the methods' 99th percentiles of |signed| over non-zero pixels"},
+        "flip": {"range": [0.0, 1.0], "cmap": FLIP_CMAP, "settings": dict(metrics.FLIP_SETTINGS),
+                 "definition": "FLIP per pixel over every pixel (no hit mask)"} if g.flip_colorbar else None,
+        "png_encoding": "a map value v is shown with colour cmap((v - lo) / (hi - lo)), clipped",
+        "values": "values/*.js: float32 little-endian, row-major, channels last, base64 "
+                  "(ldbenchValues(key, width, height, channels, data))",
+        "cells": [{"label": c.label, "image": c.image, "exr": c.exr, "signed": c.signed, "flip": c.flip}
+                  for c in g.cells],
+    }
+    (gdir / "maps.json").write_text(json.dumps(maps, indent=1), encoding="utf-8")
+    g.maps_json = rel(gdir / "maps.json")
 
 
 def _f(v, nd):
@@ -672,11 +803,17 @@ def _matplotlib_grid(run_dir: Path, g: Grid, rows, errs, tag):
             im = axes[1, i].imshow(e, cmap="magma", vmin=0, vmax=g.vmax, interpolation="nearest")
         axes[1, i].set_title("\n".join(c.caption), fontsize=6.5)
     if im is not None:
-        fig.colorbar(im, ax=list(axes[1, 1:]), fraction=0.046, pad=0.02, label=g.error_label)
+        import textwrap
+
+        cb = fig.colorbar(im, ax=list(axes[1, 1:]), fraction=0.046, pad=0.02)
+        cb.set_label(textwrap.fill(g.error_label, 36), fontsize=7)
+        cb.ax.tick_params(labelsize=7)
     fig.suptitle(g.title, fontsize=10)
     d = run_dir / "figures"
-    fig.savefig(d / f"grid-{tag}.png", dpi=110)
-    fig.savefig(d / f"grid-{tag}.pdf")
+    # bbox "tight": with one method the colour bar's ticks and label lie right of the last axes and
+    # would be cut off at the figure's edge.
+    fig.savefig(d / f"grid-{tag}.png", dpi=110, bbox_inches="tight", pad_inches=0.08)
+    fig.savefig(d / f"grid-{tag}.pdf", bbox_inches="tight", pad_inches=0.08)
     plt.close(fig)
     return f"figures/grid-{tag}.png", f"figures/grid-{tag}.pdf"
 

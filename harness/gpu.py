@@ -100,6 +100,11 @@ class Resources:
         self.bytes[name] = int(nbytes)
         return obj
 
+    def adopt(self, name: str, obj, nbytes: int | None = None):
+        """Account ``obj``, made elsewhere (e.g. a grown copy of a buffer), as ``name``; the object
+        that held the name is released. ``nbytes`` defaults to the object's ``size``."""
+        return self._add(name, obj, obj.size if nbytes is None else nbytes)
+
     def buffer(self, name: str, data=None, *, reserve: int = 0, dynamic: bool = False):
         if data is not None:
             data = np.ascontiguousarray(data).tobytes() if isinstance(data, np.ndarray) else data

@@ -18,7 +18,9 @@ Plots
     quality (PSNR; for a non-image effect the first metric it gates, e.g. ``rays``: hit agreement, with
     an absolute change floor of 0.002), one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
     checkout) and date. Detected change points are drawn as vertical lines and listed in
-    ``changes.md``.
+    ``changes.md``. ``index.html`` beside them is a static page of every machine's benchmarks (small
+    plots linking to the full PNGs, the latest values, the change points), offline: no scripts or
+    styles from elsewhere, so it can be opened from disk or published as a CI artifact.
 
 Change-point detection (:func:`detect_change_points`)
     Binary segmentation with a rank test. For a segment of the series, every split ``k`` leaving at
@@ -394,10 +396,10 @@ def _quality_column(row) -> str:
 
 def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str | None = None,
                  alpha: float = 0.01, min_effect: float = 0.10, min_db: float = 0.5,
-                 min_size: int = 3) -> dict:
-    """Draw one PNG per machine and benchmark and write ``changes.md``.
+                 min_size: int = 3, html: bool = True) -> dict:
+    """Draw one PNG per machine and benchmark, write ``changes.md`` and (``html``) ``index.html``.
 
-    Returns ``{"pngs": [Path], "changes": Path, "change_points": [dict]}``.
+    Returns ``{"pngs": [Path], "changes": Path, "change_points": [dict], "html": Path | None}``.
     """
     import matplotlib
 
@@ -414,7 +416,7 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
     hist = load_history(history_dir, machine)
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
     out.mkdir(parents=True, exist_ok=True)
-    pngs, cps = [], []
+    pngs, cps, entries = [], [], []
     for mkey, df in hist.items():
         mdir = out / mkey
         mdir.mkdir(parents=True, exist_ok=True)
@@ -465,6 +467,8 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
             fig.savefig(path, dpi=100)
             plt.close(fig)
             pngs.append(path)
+            entries.append({"machine": mkey, "benchmark": label, "png": path, "points": p, "quality": qname,
+                            "changes": len(tcp) + len(qcp)})
             for metric, lst in (("total_ms", tcp), (qname, qcp)):
                 for c in lst:
                     r = p.iloc[c.index]
@@ -474,7 +478,80 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
                                 "png": path})
     changes = out / "changes.md"
     changes.write_text(_changes_md(cps, alpha, min_effect, min_db, min_size, out), encoding="utf-8")
-    return {"pngs": pngs, "changes": changes, "change_points": cps}
+    index = None
+    if html:
+        index = out / "index.html"
+        tmp = index.with_name(f".{index.name}.tmp-{os.getpid()}")
+        tmp.write_text(_index_html(entries, cps, out, alpha, min_effect, min_db, min_size), encoding="utf-8")
+        os.replace(tmp, index)
+    return {"pngs": pngs, "changes": changes, "change_points": cps, "html": index}
+
+
+_CSS = """body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}h1{font-size:1.4em}
+h2{font-size:1.15em;margin-top:1.6em;border-bottom:1px solid #ccc}.grid{display:flex;flex-wrap:wrap;gap:12px}
+.card{border:1px solid #ddd;border-radius:4px;padding:6px;width:320px;font-size:.8em}
+.card img{width:100%;height:auto;display:block}.card .name{font-weight:600;word-break:break-word}
+.changed{border-color:#c33}.badge{color:#c33;font-weight:600}table{border-collapse:collapse;font-size:.85em}
+td,th{border:1px solid #ccc;padding:2px 6px;text-align:left}input{margin:.5em 0;padding:3px;width:20em}"""
+
+_FILTER_JS = """function f(q){q=q.toLowerCase();document.querySelectorAll('.card').forEach(function(c){
+c.style.display=c.dataset.name.indexOf(q)<0?'none':''})}"""
+
+
+def _fmt_last(v, unit="") -> str:
+    return "—" if v is None or not math.isfinite(v) else f"{v:.4g}{unit}"
+
+
+def _index_html(entries, cps, out: Path, alpha, min_effect, min_db, min_size) -> str:
+    """The static page over all machines and benchmarks (relative links into ``out``)."""
+    from html import escape
+
+    def rel(path) -> str:
+        return escape(Path(os.path.relpath(path, out)).as_posix(), quote=True)
+
+    machines = list(dict.fromkeys(e["machine"] for e in entries))
+    n_runs = max((len(e["points"]) for e in entries), default=0)
+    lines = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+             "<title>ldbench history</title>", f"<style>{_CSS}</style>", f"<script>{_FILTER_JS}</script>",
+             "</head><body>", "<h1>ldbench benchmark history</h1>",
+             f"<p>{len(entries)} benchmark(s) on {len(machines)} machine(s), up to {n_runs} run(s) each, in "
+             "commit order (oldest left). Each plot: median frame time with its interquartile band (top) and "
+             "quality (bottom); dashed lines are detected change points (two-sided Mann-Whitney U, "
+             f"Bonferroni p &lt; {alpha:g}, at least {min_size} runs each side, shift ≥ {min_effect:.0%} "
+             f"in time or {min_db:g} dB in PSNR). Details: <a href=\"changes.md\">changes.md</a>.</p>",
+             '<input type="search" placeholder="filter benchmarks" oninput="f(this.value)">']
+    for m in machines:
+        lines += [f'<h2 id="{escape(m, quote=True)}">{escape(m)}</h2>', '<div class="grid">']
+        for e in (e for e in entries if e["machine"] == m):
+            p = e["points"]
+            last = p.iloc[-1]
+            q = e["quality"]
+            qv = _fmt_last(float(last["psnr"]), " dB" if q == "psnr" else "")
+            badge = f' <span class="badge">{e["changes"]} change(s)</span>' if e["changes"] else ""
+            cls = "card changed" if e["changes"] else "card"
+            lines.append(
+                f'<div class="{cls}" data-name="{escape(e["benchmark"].lower(), quote=True)}">'
+                f'<a href="{rel(e["png"])}"><img src="{rel(e["png"])}" loading="lazy" '
+                f'alt="{escape(e["benchmark"], quote=True)}"></a>'
+                f'<div class="name">{escape(e["benchmark"])}</div>'
+                f"<div>{len(p)} run(s); latest {escape(str(last['commit']))} {escape(str(last['time'])[:10])}: "
+                f"{_fmt_last(float(last['total_ms']), ' ms')}, {escape(q)} {qv}{badge}</div></div>")
+        lines.append("</div>")
+    lines.append("<h2>Change points</h2>")
+    if not cps:
+        lines.append("<p>No change points.</p>")
+    else:
+        lines.append("<table><tr><th>machine</th><th>benchmark</th><th>metric</th><th>first run after</th>"
+                     "<th>commit</th><th>date</th><th>before</th><th>after</th><th>change</th><th>p</th></tr>")
+        for c in cps:
+            t = c["metric"] == "total_ms"
+            ch = f"{c['change']:+.1%}" if t else f"{c['change']:+.3g}"
+            lines.append("<tr>" + "".join(f"<td>{escape(str(x))}</td>" for x in (
+                c["machine"], c["benchmark"], c["metric"], c["run_id"], c["commit"], c["time"][:10],
+                f"{c['before']:.4g}", f"{c['after']:.4g}", ch, f"{c['p']:.2g}")) + "</tr>")
+        lines.append("</table>")
+    lines.append("</body></html>")
+    return "\n".join(lines) + "\n"
 
 
 def _changes_md(cps, alpha, min_effect, min_db, min_size, out) -> str:
@@ -516,6 +593,8 @@ def add_arguments(p):
                    help="minimum relative time shift of a change point (default 0.10)")
     q.add_argument("--min-db", type=float, default=0.5, help="minimum PSNR shift of a change point (dB)")
     q.add_argument("--min-size", type=int, default=3, help="minimum runs on each side of a change point")
+    q.add_argument("--no-html", dest="html", action="store_false",
+                   help="skip index.html, the offline page of all benchmarks over commits (written by default)")
 
 
 def run_cli(args) -> int:
@@ -525,10 +604,11 @@ def run_cli(args) -> int:
                   f"({r['rows']} rows, {r['runs']} runs)")
         return 0
     res = plot_history(args.history_dir, args.out, machine=args.machine, alpha=args.alpha,
-                       min_effect=args.min_effect, min_db=args.min_db, min_size=args.min_size)
+                       min_effect=args.min_effect, min_db=args.min_db, min_size=args.min_size,
+                       html=args.html)
     print(f"history: {len(res['pngs'])} plot(s), {len(res['change_points'])} change point(s)")
     for c in res["change_points"]:
         ch = f"{c['change']:+.1%}" if c["metric"] == "total_ms" else f"{c['change']:+.2f} dB"
         print(f"  {c['benchmark']} [{c['metric']}] {ch} at {c['commit']} ({c['time'][:10]})")
-    print(f"wrote {res['changes']}")
+    print(f"wrote {res['changes']}" + (f" and {res['html']}" if res["html"] else ""))
     return 0

@@ -1,6 +1,8 @@
-"""Images a run writes: linear OpenEXR plus an sRGB PNG preview, and scalar error maps."""
+"""Images a run writes: linear OpenEXR plus an sRGB PNG preview, scalar error maps, and float values
+for the report's image viewer."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -38,3 +40,33 @@ def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
     write_exr(str(path_noext) + ".exr", {"Y": np.asarray(emap, np.float32)})
     mpimg.imsave(str(path_noext) + ".png", colorize(emap, vmax=max(vmax, 1e-6)))
     return vmax
+
+
+#: Largest image (pixels) whose float values the report writes for the viewer's per-pixel read-out.
+VALUES_MAX_PIXELS = 1 << 20
+
+
+def save_values_js(path: Path, key: str, values: np.ndarray) -> bool:
+    """Write an image's float32 values as a small script for the report's viewer.
+
+    The file calls ``ldbenchValues(key, width, height, channels, base64)`` with the little-endian
+    float32 pixels (row-major, channels last). A script, not a raw ``.f32`` fetched by the page,
+    because browsers block ``fetch`` of ``file://`` URLs while ``<script src>`` still loads, so the
+    exact values reach the page opened straight from disk. Images over :data:`VALUES_MAX_PIXELS`
+    are skipped (returns False): the viewer then shows coordinates only.
+    """
+    import base64
+
+    a = np.asarray(values, dtype="<f4")
+    if a.ndim == 2:
+        a = a[..., None]
+    h, w, c = a.shape
+    if h * w > VALUES_MAX_PIXELS:
+        return False
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    b64 = base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(f"ldbenchValues({json.dumps(key)},{w},{h},{c},\"{b64}\");\n", encoding="ascii")
+    tmp.replace(path)
+    return True

@@ -7,6 +7,11 @@ are :data:`COLUMNS`, each with a type in :data:`COLUMN_TYPES`:
 * ``json``: nested values (dicts, lists, dataclasses such as a method's ``Params``) stored as JSON
   strings, so Parquet and CSV hold the same text; :func:`read_results` parses them back.
 
+Every column's type, unit and meaning is in docs/results-columns.md. Every file carries
+:data:`SCHEMA_VERSION`: as the ``schema_version`` column, and in ``results.parquet`` also as the
+Parquet key-value metadata ``ldbench.schema_version``. The rule for changing it is written there too
+(major: a column removed, renamed, retyped or its meaning changed; minor: a column added).
+
 Timing columns follow the timing protocol: ``total_ms`` is the median of the per-frame totals,
 ``total_ms_iqr`` its interquartile range, ``wall_ms`` the median wall-clock frame time, ``stage_ms`` and
 ``stage_iqr`` map each stage to its median and IQR, ``raw_ms`` keeps every sample
@@ -47,9 +52,16 @@ from .naming import key_slug
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
 
+#: Version of the results schema, "MAJOR.MINOR" (docs/results-columns.md, "Schema version"): MAJOR
+#: goes up when a column is removed, renamed, retyped or changes meaning or unit, MINOR when a column is
+#: added. Readers accept every file of the same MAJOR.
+SCHEMA_VERSION = "1.0"
+#: The Parquet key-value metadata key holding :data:`SCHEMA_VERSION`.
+SCHEMA_VERSION_KEY = b"ldbench.schema_version"
+
 #: Column name -> type, in the order the files list them.
 COLUMN_TYPES: dict[str, str] = {
-    "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
+    "schema_version": "str", "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
     "scene": "str", "scene_hash": "str", "scene_params": "json", "triangles": "int",
     "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
     "width": "int", "height": "int", "seed": "int",
@@ -435,9 +447,9 @@ def make_row(**fields) -> dict:
     """One result row with every column of :data:`COLUMNS`, values normalized to the column types.
 
     Missing columns are None (NaN for floats); ``time`` defaults to now (ISO 8601, UTC), ``status`` to
-    ``"ok"``, ``memory_bytes`` to the sum of ``memory``. JSON columns accept dicts, lists, dataclasses
-    and numpy values and hold JSON text. Extra fields are kept as extra columns (after the standard
-    ones); their values are stored as given, dicts, lists and tuples as JSON text (not parsed back).
+    ``"ok"``, ``schema_version`` to :data:`SCHEMA_VERSION`, ``memory_bytes`` to the sum of ``memory``.
+    JSON columns accept dicts, lists, dataclasses and numpy values and hold JSON text. Extra fields are
+    kept as extra columns (after the standard ones); their values are stored as given, dicts, lists and tuples as JSON text (not parsed back).
 
     Raises
     ------
@@ -449,6 +461,8 @@ def make_row(**fields) -> dict:
         f["time"] = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     if f.get("status") is None:
         f["status"] = "ok"
+    if f.get("schema_version") is None:
+        f["schema_version"] = SCHEMA_VERSION
     if f.get("memory_bytes") is None and isinstance(f.get("memory"), dict):
         f["memory_bytes"] = int(sum(int(b) for b in f["memory"].values()))
     row = {c: _coerce(c, t, f.get(c)) for c, t in COLUMN_TYPES.items()}
@@ -503,6 +517,44 @@ def _atomic_write(path: Path, write):
             tmp.unlink()
 
 
+def _write_parquet(df, path):
+    """``df`` as Parquet with :data:`SCHEMA_VERSION` in the file's key-value metadata."""
+    import pyarrow as pa
+    import pyarrow.parquet as papq
+
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    table = table.replace_schema_metadata({**(table.schema.metadata or {}),
+                                           SCHEMA_VERSION_KEY: SCHEMA_VERSION.encode()})
+    papq.write_table(table, path)
+
+
+def _file_schema_version(path: Path, df) -> str | None:
+    """The schema version a results file declares: Parquet metadata, else its ``schema_version`` column
+    (None for files written before versions existed)."""
+    if path.suffix == ".parquet":
+        import pyarrow.parquet as papq
+
+        meta = papq.read_schema(path).metadata or {}
+        if SCHEMA_VERSION_KEY in meta:
+            return meta[SCHEMA_VERSION_KEY].decode()
+    if "schema_version" in df:
+        versions = {str(v) for v in df["schema_version"] if not _is_missing(v)}
+        if versions:
+            return max(versions, key=lambda v: tuple(int(x) for x in v.split(".") if x.isdigit()))
+    return None
+
+
+def _check_schema_version(version: str | None, path: Path):
+    if version is None:
+        return
+    major = version.split(".")[0]
+    if not major.isdigit():
+        raise LdbenchError(f"cannot read results {path}: bad schema_version {version!r}")
+    if int(major) > int(SCHEMA_VERSION.split(".")[0]):
+        raise LdbenchError(f"results {path} have schema version {version}, newer than this ldbench reads "
+                           f"({SCHEMA_VERSION}); update ldbench")
+
+
 def write_results(rows: list[dict], out_dir) -> dict:
     """Write ``results.parquet`` and ``results.csv`` into ``out_dir``.
 
@@ -518,7 +570,7 @@ def write_results(rows: list[dict], out_dir) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     df = _frame(list(rows))
     pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
-    _atomic_write(pq, lambda p: df.to_parquet(p, index=False, engine="pyarrow"))
+    _atomic_write(pq, lambda p: _write_parquet(df, p))
     _atomic_write(csv, lambda p: df.to_csv(p, index=False))
     return {"parquet": pq, "csv": csv}
 
@@ -554,9 +606,12 @@ def _parse_json(v):
 def read_results(path_or_dir, *, unfinished: bool = False):
     """Read a results file (or a run directory's ``results.parquet``, else ``results.csv``).
 
-    Columns get their :data:`COLUMN_TYPES` (floats as float64, ints as nullable ``Int64``, ``dirty``
+    The one reader of ldbench's results (docs/results-columns.md). ``path_or_dir`` is a run directory
+    or a ``.parquet``/``.csv`` results file; returns a pandas DataFrame. Columns get their :data:`COLUMN_TYPES` (floats as float64, ints as nullable ``Int64``, ``dirty``
     as nullable ``boolean``, strings as objects with None for missing) and JSON columns are parsed
-    back into dicts/lists. Extra columns read from CSV stay strings.
+    back into dicts/lists. Extra columns read from CSV stay strings. ``df.attrs["schema_version"]``
+    is the version the file declares (None for files older than versions); a file of a newer major
+    version than :data:`SCHEMA_VERSION` is refused.
 
     Raises
     ------
@@ -592,10 +647,13 @@ def read_results(path_or_dir, *, unfinished: bool = False):
             for c in df:
                 if COLUMN_TYPES.get(c) == "bool":
                     df[c] = [None if v is None else {"true": True, "false": False}[v.lower()] for v in df[c]]
+        version = _file_schema_version(p, df)
+        _check_schema_version(version, p)
         df = _apply_types(df)
         for c in JSON_COLUMNS:
             if c in df:
                 df[c] = pd.Series([_parse_json(v) for v in df[c]], index=df.index, dtype=object)
+        df.attrs["schema_version"] = version
     except (pyarrow.ArrowException, pd.errors.ParserError, pd.errors.EmptyDataError, OSError, ValueError,
             TypeError, KeyError, AttributeError) as e:  # a corrupt or foreign file: one line, not a traceback
         why = (str(e).strip().splitlines() or [type(e).__name__])[0][:200]

@@ -2,10 +2,10 @@
 
 ``write_report(run_dir)`` reads ``results.parquet`` (or ``.csv``) and writes:
 
-* ``index.html`` — one self-contained page (inline CSS, no scripts, no network: every link is a
-  relative path inside the run directory, every string from the records is escaped with
-  :func:`html.escape`). Sections: the machine/commit header (device, GL renderer and version, driver,
-  CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
+* ``index.html`` — one self-contained page (inline CSS and one inline script, the image viewer of
+  ``report_viewer.js``; no network: every link is a relative path inside the run directory, every
+  string from the records is escaped with :func:`html.escape`, the viewer's JSON data escapes ``<``).
+  Sections: the machine/commit header (device, GL renderer and version, driver, CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
   because then every time is wall clock on a software rasterizer), the results table, the figures,
   one image grid per scene × effect × size, and the paper-reproduction tables when the run was made by
   ``ldbench reproduce`` (``reproduce.json``).
@@ -14,11 +14,15 @@
   (``quality-*``), and the image grids (``grid-*`` plus ``grids/<tag>/`` assets), each as PNG and PDF.
 * ``summary.md`` — the results table in Markdown with links to the figures.
 
+Tables list only the parameters that differ from the adapter's defaults (:func:`shown_params`); the
+results files keep the full set. docs/reports.md describes the page and the viewer.
+
 A figure that fails is listed on the page (and on stderr) instead of aborting the report, so a long GPU
 run is never lost to a plotting problem.
 """
 from __future__ import annotations
 
+import functools
 import html
 import json
 import math
@@ -44,9 +48,68 @@ def _fmt(v, nd=2):
     return f"{v2:.{nd}f}"
 
 
-def _params_str(p) -> str:
+@functools.lru_cache(maxsize=None)
+def _defaults(method: str) -> tuple:
+    """(defaults dict, renamed dict) of an adapter's ``Params``; ({}, {}) for a method this version
+    does not know (then every parameter counts as non-default)."""
+    try:
+        from methods.base import get_method
+
+        cls = get_method(str(method)).Params
+        return cls().to_dict(), dict(getattr(cls, "renamed", None) or {})
+    except Exception:  # noqa: BLE001 - an old table may name a method that no longer exists
+        return {}, {}
+
+
+def _same(a, b) -> bool:
+    """Parameter values equal after a records round trip (128 == 128.0, "inf" == inf, tuple == list)."""
+    fa, fb = F._num(a), F._num(b)
+    if fa is not None and fb is not None and not isinstance(a, bool) and not isinstance(b, bool):
+        return fa == fb
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return a == b or str(a) == str(b)
+
+
+def shown_params(method, p, keep=()) -> list:
+    """The parameters of one row that differ from the adapter's defaults (plus those named in ``keep``,
+    e.g. swept ones), grouped as the adapter groups them: ``[(group, [(name, value), ...]), ...]`` with
+    the ungrouped ones first under group ``""``. A dotted name ("structure.source") belongs to the group
+    before its first dot; old flat names are read through ``Params.renamed``. The results files keep
+    the full set."""
     p = p if isinstance(p, dict) else F._as_dict(p)
-    return ", ".join(f"{k}={F.fmt_value(v)}" for k, v in p.items())
+    defaults, renamed = _defaults(str(method))
+    groups: dict = {}
+    for k, v in p.items():
+        name = renamed.get(k, k)
+        if name in defaults and _same(v, defaults[name]) and k not in keep and name not in keep:
+            continue
+        group, _, short = name.partition(".") if "." in name else ("", "", name)
+        groups.setdefault(group, []).append((short, v))
+    return sorted(groups.items(), key=lambda g: g[0] != "")
+
+
+def swept_params(df) -> dict:
+    """{method: names of the parameters that take more than one value among its rows}: a table shows
+    them in every row of the method, even where a row has the default value."""
+    seen: dict = {}
+    for m, p in zip(df["method"], df["params"]):
+        for k, v in (p if isinstance(p, dict) else F._as_dict(p)).items():
+            seen.setdefault(m, {}).setdefault(k, set()).add(json.dumps(v, sort_keys=True, default=str))
+    return {m: {k for k, vals in ks.items() if len(vals) > 1} for m, ks in seen.items()}
+
+
+def _params_str(p, method=None, sep=" · ", keep=()) -> str:
+    """Non-default parameters as text: ``directions=64 · structure: source=peel, depth=4``."""
+    parts = []
+    for group, items in shown_params(method, p, keep):
+        txt = ", ".join(f"{k}={F.fmt_value(v)}" for k, v in items)
+        parts.append(f"{group}: {txt}" if group else txt)
+    return sep.join(parts) if parts else "defaults"
+
+
+def _row_params(r, swept: dict, sep=" · ") -> str:
+    return _params_str(r["params"], r["method"], sep, swept.get(r["method"], ()))
 
 
 def esc(s) -> str:
@@ -100,27 +163,30 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     if (df["device"] == "cpu-software").any():
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
     img = df[image_rows(df)]
+    swept = swept_params(df)
     if len(img):
-        lines += ["| scene | method | effect | size | params | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
+        lines += ["| scene | method | effect | size | params (non-default) | total ms (IQR) | memory MB | PSNR dB | SSIM | FLIP | relMSE | status |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in img.iterrows():
         lines.append(
             f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | {r['width']}×{r['height']} | "
-            f"{_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
+            f"{_md(_row_params(r, swept))} | {_fmt(r['total_ms'])} ({_fmt(r['total_ms_iqr'])}) | "
             f"{_fmt(r['memory_mb'], 1)} | {_fmt(r['psnr'])} | {_fmt(r['ssim'], 3)} | {_fmt(r['flip'], 3)} | "
             f"{_fmt(r['relmse'], 4)} | {_md(r['status'])} |")
     for name, cols, rows in metric_tables(df):
         lines += ["", f"## Effect `{name}`", "",
-                  "| scene | method | effect | size | params | total ms | " + " | ".join(cols) + " | status |",
+                  "| scene | method | effect | size | params (non-default) | total ms | " + " | ".join(cols) + " | status |",
                   "|" + "---|" * (len(cols) + 7)]
         for _, r in rows.iterrows():
             lines.append(f"| {_md(r['scene'])} | {_md(r['method'])} | {_md(r['effect_text'])} | "
-                         f"{r['width']}×{r['height']} | {_md(_params_str(r['params']))} | {_fmt(r['total_ms'])} | "
+                         f"{r['width']}×{r['height']} | {_md(_row_params(r, swept))} | {_fmt(r['total_ms'])} | "
                          + " | ".join(_metric(r, c) for c in cols) + f" | {_md(r['status'])} |")
     if figs:
         lines += ["", "## Figures", ""] + [f"- [{_md(f.title)}]({f.png}) ([PDF]({f.pdf}))" for f in figs]
     if grids:
         lines += ["", "## Image grids", ""] + [f"![{_md(g.title)}]({g.png})" for g in grids if g.png]
+    if len(df):
+        lines += ["", PARAMS_NOTE]
     if (run_dir / "reproduce.md").is_file():
         lines += ["", "Paper reproduction: [reproduce.md](reproduce.md)"]
     lines += ["", "Full report: [index.html](index.html)"]
@@ -155,8 +221,19 @@ table.grid img.px{width:200px;height:auto;image-rendering:pixelated;border:1px s
 .holds{color:#060;font-weight:600} .fails{color:#a00;font-weight:600}
 """
 
-RESULT_COLUMNS = ("scene", "method", "effect", "size", "params", "total ms", "IQR ms", "wall ms",
+PARAMS_NOTE = ("Params: only those that differ from the adapter's defaults (grouped by the prefix of "
+               "dotted names); results.csv and results.parquet keep the full set.")
+
+RESULT_COLUMNS = ("scene", "method", "effect", "size", "params (non-default)", "total ms", "IQR ms", "wall ms",
                   "memory MB", "PSNR dB", "SSIM", "FLIP", "relMSE", "ref spp", "status")
+
+
+def _asset(name: str) -> str:
+    """A viewer asset shipped beside this module (inlined: the page stays one offline file)."""
+    text = (Path(__file__).with_name(name)).read_text(encoding="utf-8")
+    if "</script" in text.lower() or "</style" in text.lower():
+        raise ValueError(f"{name} must not contain a closing script/style tag")
+    return text
 
 
 class _Html:
@@ -212,15 +289,45 @@ def _metric(r, c) -> str:
     return f"{v:.4g}"
 
 
+def terminal_table(df) -> str:
+    """The end-of-run table for the terminal: one block per effect with that effect's own metrics
+    (its spec's ``metrics``; PSNR/SSIM for an effect this version does not know) and the non-default
+    parameters."""
+    import pandas as pd
+
+    from .effects import registry
+
+    if not len(df):
+        return "(no rows)"
+    d = F.prepare(df)
+    reg = registry()
+    swept = swept_params(d)
+    blocks = []
+    for eff in dict.fromkeys(d["effect"]):
+        rows = d[d["effect"] == eff]
+        spec = reg.get(eff)
+        cols = [c for c in (spec.metrics if spec is not None else ("psnr", "ssim"))
+                if c in rows.columns and any(F._num(v) is not None for v in rows[c])]
+        table = pd.DataFrame([{"scene": r["scene"], "method": r["method"], "effect": r["effect_text"],
+                               "size": r["size"], "params": _row_params(r, swept, "; "),
+                               "total ms": _fmt(r["total_ms"]), "memory MB": _fmt(r["memory_mb"], 1),
+                               **{c: _metric(r, c) for c in cols}, "status": r["status"]}
+                              for _, r in rows.iterrows()])
+        with pd.option_context("display.width", 200, "display.max_columns", 40, "display.max_colwidth", 80):
+            blocks.append(table.to_string(index=False))
+    return "\n\n".join(blocks)
+
+
 def _metric_tables_html(h: _Html, df):
+    swept = swept_params(df)
     for name, cols, rows in metric_tables(df):
         h.raw(f'<h3 id="effect-{esc(name)}">Effect <code>{esc(name)}</code></h3>')
-        heads = ["scene", "method", "effect", "size", "params", "total ms", "memory MB", *cols, "status"]
+        heads = ["scene", "method", "effect", "size", "params (non-default)", "total ms", "memory MB", *cols, "status"]
         h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in heads)
               + "</tr></thead><tbody>")
         for _, r in rows.iterrows():
             cells = [(r["scene"], False), (r["method"], False), (r["effect_text"], False),
-                     (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+                     (r["size"].replace("x", "×"), False), (_row_params(r, swept), False),
                      (_fmt(r["total_ms"]), True), (_fmt(r["memory_mb"], 1), True),
                      *[(_metric(r, c), True) for c in cols], (r["status"], False)]
             tr = "<tr>" if r["status"] == "ok" else '<tr class="bad">'
@@ -234,13 +341,14 @@ def _metric_tables_html(h: _Html, df):
 
 
 def _results_table(h: _Html, df):
+    swept = swept_params(df)
     h.raw('<table class="results"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in RESULT_COLUMNS)
           + "</tr></thead><tbody>")
     for _, r in df[image_rows(df)].iterrows():
         ok = r["status"] == "ok"
         cells = [
             (r["scene"], False), (r["method"], False), (r["effect_text"], False),
-            (r["size"].replace("x", "×"), False), (_params_str(r["params"]), False),
+            (r["size"].replace("x", "×"), False), (_row_params(r, swept), False),
             (_fmt(r["total_ms"]), True), (_fmt(r["total_ms_iqr"]), True), (_fmt(r.get("wall_ms")), True),
             (_fmt(r["memory_mb"], 1), True), (_fmt(r["psnr"]), True), (_fmt(r["ssim"], 3), True),
             (_fmt(r["flip"], 3), True), (_fmt(r["relmse"], 4), True), (_fmt(r.get("ref_spp"), 0), True),
@@ -253,34 +361,113 @@ def _results_table(h: _Html, df):
     h.text("p", "Times: median over the measured frames (IQR: interquartile range); on a GPU the sum of "
                 "the stages' GL timer queries, on a software rasterizer wall clock. Memory: GPU buffers "
                 "and textures of the method, MB = 2^20 bytes. PSNR/SSIM/FLIP/relMSE over pixels where "
-                "the reference hit geometry; exact settings are in results.csv (metric_settings).",
+                "the reference hit geometry; exact settings are in results.csv (metric_settings). "
+                f"{PARAMS_NOTE}",
            cls="cap")
 
 
-def _grid_html(h: _Html, run_dir: Path, g) -> None:
-    h.raw(f'<h3 id="{esc(g.anchor)}">{esc(g.title)}</h3>')
-    h.raw('<table class="grid"><tr>')
-    h.raw(f'<td>{_img(run_dir, g.reference, "reference", "px")}<div class="cap">{esc(g.reference_caption)}</div></td>')
+def _qurl(rel: str | None) -> str | None:
+    """A relative path percent-encoded for use as a URL inside the viewer's JSON (not HTML-escaped)."""
+    return urllib.parse.quote(str(rel).replace("\\", "/"), safe="/-_.~") if rel else None
+
+
+def _viewer_data(run_dir: Path, g) -> dict | None:
+    """What the viewer (report_viewer.js) needs of one grid: images, maps, value files, colour bars."""
+    if not g.width or not g.reference or not (run_dir / g.reference).is_file():
+        return None
+    items = [{"label": "reference", "png": _qurl(g.reference), "exr": _qurl(g.reference_exr),
+              "values": _qurl(g.reference_values)}]
     for c in g.cells:
-        h.raw(f'<td>{_img(run_dir, c.image, c.label, "px")}<div class="cap"><b>{esc(c.label)}</b></div></td>')
+        if not c.image:
+            continue
+        items.append({"label": c.label, "png": _qurl(c.image), "exr": _qurl(c.exr), "values": _qurl(c.values),
+                      "abs": _qurl(c.error), "signed": _qurl(c.signed), "flip": _qurl(c.flip),
+                      "flip_values": _qurl(c.flip_values)})
+    bars = {"abs": {"png": _qurl(g.colorbar), "lo": 0.0, "hi": g.vmax, "label": "|error|"}}
+    if g.signed_colorbar:
+        bars["signed"] = {"png": _qurl(g.signed_colorbar), "lo": -g.signed_vmax, "hi": g.signed_vmax,
+                          "label": "signed error"}
+    if g.flip_colorbar:
+        bars["flip"] = {"png": _qurl(g.flip_colorbar), "lo": 0.0, "hi": 1.0, "label": "FLIP"}
+    return {"anchor": g.anchor, "title": g.title, "w": int(g.width), "h": int(g.height), "items": items,
+            "bars": bars}
+
+
+def _json_script(data: dict) -> str:
+    """Data for the viewer as an inert JSON script element (``<``, ``>``, ``&`` escaped, so no record
+    text can close the element)."""
+    text = json.dumps(data, ensure_ascii=True, allow_nan=False)
+    text = text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+    return f'<script type="application/json" class="ldv-data">{text}</script>'
+
+
+def _thumb(run_dir: Path, rel: str | None, alt: str, anchor: str | None, idx: int, mode: str) -> str:
+    """A grid thumbnail: links to the full-size PNG; with the viewer, a click opens it there."""
+    img = _img(run_dir, rel, alt, "px")
+    if not (rel and (run_dir / rel).is_file()):
+        return img
+    data = f' data-ldv="{esc(anchor)}" data-idx="{idx}" data-mode="{esc(mode)}"' if anchor else ""
+    return f'<a class="ldv-thumb" href="{url(rel)}"{data} title="open in the viewer (full size)">{img}</a>'
+
+
+def _file_links(run_dir: Path, *rels) -> str:
+    out = [f'<a href="{url(r)}">{esc(Path(r).suffix[1:].upper())}</a>' for r in rels if r and (run_dir / r).is_file()]
+    return f'<div class="links">{" · ".join(out)}</div>' if out else ""
+
+
+def _grid_html(h: _Html, run_dir: Path, g) -> bool:
+    """One image grid; returns whether it carries viewer data."""
+    data = _viewer_data(run_dir, g)
+    anchor = g.anchor if data else None
+    h.raw(f'<h3 id="{esc(g.anchor)}">{esc(g.title)}</h3>')
+    if data:
+        h.raw(_json_script(data))
+    h.raw('<table class="grid"><tr>')
+    h.raw(f'<td>{_thumb(run_dir, g.reference, "reference", anchor, 0, "image")}'
+          f'<div class="cap">{esc(g.reference_caption)}</div>{_file_links(run_dir, g.reference, g.reference_exr)}</td>')
+    shown = [c for c in g.cells if c.image]
+    idx = {id(c): i for i, c in enumerate(shown, start=1)}
+    for c in g.cells:
+        i = idx.get(id(c), 0)
+        h.raw(f'<td>{_thumb(run_dir, c.image, c.label, anchor if i else None, i, "image")}'
+              f'<div class="cap"><b>{esc(c.label)}</b></div>{_file_links(run_dir, c.image, c.exr)}</td>')
     h.raw("</tr><tr>")
     vmax_txt = esc(f"{g.vmax:.3g}")
     h.raw(f'<td>{_img(run_dir, g.colorbar, "colour bar of the error maps")}'
-          f'<div class="cap">error colour scale: 0 … {vmax_txt}</div></td>')
+          f'<div class="cap">|error| colour scale: 0 … {vmax_txt}</div></td>')
     for c in g.cells:
         cap = "<br>".join(esc(x) for x in c.caption)
-        h.raw(f'<td>{_img(run_dir, c.error, c.label + " error map", "px")}<div class="cap">{cap}</div></td>')
-    h.raw("</tr></table>")
+        i = idx.get(id(c), 0)
+        h.raw(f'<td>{_thumb(run_dir, c.error, c.label + " error map", anchor if i else None, i, "abs")}'
+              f'<div class="cap">{cap}</div></td>')
+    h.raw("</tr>")
+    for attr, bar, cap in (("signed", g.signed_colorbar,
+                            f"signed error (test − reference), −{g.signed_vmax:.3g} … +{g.signed_vmax:.3g}"),
+                           ("flip", g.flip_colorbar, "FLIP error, 0 … 1")):
+        if not bar or not any(getattr(c, attr) for c in g.cells):
+            continue
+        h.raw(f'<tr><td>{_img(run_dir, bar, "colour bar: " + cap)}<div class="cap">{esc(cap)}</div></td>')
+        for c in g.cells:
+            i = idx.get(id(c), 0)
+            thumb = _thumb(run_dir, getattr(c, attr), f"{c.label} {attr} map", anchor if i else None, i, attr)
+            h.raw(f"<td>{thumb}</td>")
+        h.raw("</tr>")
+    h.raw("</table>")
     links = []
     if g.png and (run_dir / g.png).is_file():
         links.append(f'<a href="{url(g.png)}">grid as PNG</a>')
     if g.pdf and (run_dir / g.pdf).is_file():
         links.append(f'<a href="{url(g.pdf)}">PDF</a>')
-    h.raw(f'<p class="cap">Top: reference and each method (same exposure). Bottom: absolute error maps on '
+    if g.maps_json and (run_dir / g.maps_json).is_file():
+        links.append(f'<a href="{url(g.maps_json)}">map ranges (JSON)</a>')
+    h.raw(f'<p class="cap">Top: reference and each method (same exposure). Below: absolute error maps on '
           f'one colour scale for the whole grid (0 … {vmax_txt}; 99th percentile of the worst '
-          f'method). {" · ".join(links)}</p>')
+          f'method), signed error maps (red: the method is brighter; symmetric range, one per grid) and '
+          f'FLIP maps (0 … 1). Click an image to open the viewer (full size, zoom, keyboard flipping, '
+          f'values under the cursor). {" · ".join(links)}</p>')
     if g.problems:
         h.raw('<div class="problems">' + "<br>".join(esc(p) for p in g.problems) + "</div>")
+    return data is not None
 
 
 def _reproduce_html(h: _Html, run_dir: Path) -> bool:
@@ -372,8 +559,12 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
     h.raw('<h2 id="grids">Image grids</h2>')
     if not grids:
         h.text("p", "No images.", cls="muted")
+    viewer = False
     for g in grids:
-        _grid_html(h, run_dir, g)
+        viewer = _grid_html(h, run_dir, g) or viewer
+    if viewer:
+        h.raw(f"<style>{_asset('report_viewer.css')}</style>")
+        h.raw(f"<script>{_asset('report_viewer.js')}</script>")
     h.text("p", "Generated by ldbench report; this folder is self-contained (relative links only).", cls="muted")
     h.raw("</body></html>")
     path = run_dir / "index.html"
@@ -403,9 +594,10 @@ def write_grids(run_dir: Path, df, problems: list | None = None) -> list:
                                                   json.dumps(r["params"], sort_keys=True, default=str)
                                                   if k != "reference" else ""))
     shared = {rel for rel, u in users.items() if len(u) > 1}
+    budget = {"bytes": F.VALUES_BUDGET_BYTES}  # the viewer's value files, for all grids together
     for key, rows in F.grid_groups(df).items():
         try:
-            g = F.make_grid(run_dir, key, rows)
+            g = F.make_grid(run_dir, key, rows, values_budget=budget)
             clash = sorted({rel for r in rows for rel in (r["images"].get("image"), r["images"].get("reference"),
                                                            r["images"].get("error")) if rel in shared})
             if clash:

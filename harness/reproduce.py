@@ -263,9 +263,21 @@ def _matches(r, m: dict) -> bool:
     for col, key in (("params", "params"), ("scene_params", "scene_params")):
         want = m.get(key) or {}
         have = r.get(col) if isinstance(r.get(col), dict) else {}
+        if col == "params":  # earlier and current parameter names alike (Params.renamed)
+            want, have = _current_names(r.get("method"), want), _current_names(r.get("method"), have)
         if any(k not in have or not _same(have[k], v) for k, v in want.items()):
             return False
     return True
+
+
+def _current_names(method, params: dict) -> dict:
+    """``params`` under the method's current (dotted) names; as given when the method or a name is unknown."""
+    from methods.base import get_method
+
+    try:
+        return get_method(method).Params.upgrade(params)
+    except LdbenchError:
+        return params
 
 
 def find_row(rows: list, match: dict):
@@ -285,8 +297,8 @@ def _shown_params(r, match) -> dict:
         defaults = get_method(r["method"]).Params().to_dict()
     except Exception:  # noqa: BLE001 - unknown method in an old run: show what we have
         defaults = {}
-    want = match.get("params") or {}
-    return {k: v for k, v in r["params"].items()
+    want = _current_names(r.get("method"), match.get("params") or {})
+    return {k: v for k, v in _current_names(r.get("method"), r["params"]).items()
             if k in want or (k in defaults and not _same(defaults[k], v))}
 
 

@@ -20,6 +20,7 @@ directory stays with :func:`run_jobs`, in this process.
 from __future__ import annotations
 
 import json
+import logging
 import sys
 import time
 import uuid
@@ -66,7 +67,8 @@ def _progress(iterable, total, desc, enabled):
         return iterable
     from tqdm import tqdm
 
-    return tqdm(iterable, total=total, desc=desc, file=sys.stderr, leave=False)
+    # disable=None: no bar when stderr is not a terminal (CI logs, pipes), where \r updates are noise
+    return tqdm(iterable, total=total, desc=desc, file=sys.stderr, leave=False, disable=None)
 
 
 @dataclass
@@ -130,7 +132,7 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
         if job.scene_key not in scenes:
             scenes[job.scene_key] = load_scene(job.scene, **dict(job.scene_params))
             for w in scenes[job.scene_key].warnings:
-                print(f"ldbench: warning: {w}", file=sys.stderr)
+                logging.getLogger(__name__).warning(w)
         job.effect.check_scene(scenes[job.scene_key])
     scenes = unique_scene_names(scenes)  # a/scene.xml and b/scene.xml: two names, two image folders
     jobs = resolve_sizes(suite.jobs, scenes)  # no size given: the XML film's

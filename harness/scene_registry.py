@@ -66,6 +66,7 @@ class Entry:
     light: SpotLight
     files: tuple
     warning: str = ""
+    d_max: float | None = None  # the AO distance of an ad-hoc run without --d-max (harness.scenes.default_d_max)
 
 
 def _entry(name: str, d: dict) -> Entry:
@@ -83,7 +84,8 @@ def _entry(name: str, d: dict) -> Entry:
                      papers=tuple(d.get("papers", ())), folder=d["folder"], triangles=int(d["triangles"]),
                      notes=" ".join(d.get("notes", "").split()), load=load,
                      camera=Camera(**cam) if cam else None, light=SpotLight(**d["light"]), files=files,
-                     warning=d.get("warning", ""))
+                     warning=d.get("warning", ""),
+                     d_max=None if d.get("d_max") is None else float(d["d_max"]))
     except (KeyError, TypeError, ValueError, LdbenchError) as e:
         raise LdbenchError(f"scene registry {DATA}: bad entry {name!r}: {e}") from None
 

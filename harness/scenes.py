@@ -24,6 +24,7 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -655,15 +656,51 @@ def _builder_params(name: str) -> dict:
     return {k: p.default for k, p in sig.parameters.items()}
 
 
+def doc_summary(doc: str) -> str:
+    """The first sentence of a docstring's first paragraph, on one line, without RST literal marks.
+
+    A sentence ends at a full stop followed by a space and a capital letter, or at the paragraph's end,
+    so "Fig. 2" or a sentence wrapped over several lines stays whole."""
+    para = " ".join(" ".join((doc or "").strip().split("\n\n", 1)[0].split()).split())
+    para = para.replace("``", "")
+    m = re.search(r"\.\s+(?=[A-Z])", para)
+    return para[: m.start() + 1] if m else para
+
+
 def list_scenes() -> list[dict]:
-    """One dict per built-in scene: ``name``, ``description`` (one line), ``parameters`` (name → default)."""
+    """One dict per built-in scene: ``name``, ``description`` (its docstring's first sentence, one line:
+    :func:`doc_summary`), ``parameters`` (name → default)."""
     out = []
     for name, fn in BUILDERS.items():
         doc = inspect.getdoc(fn) or ""
         defaults = {k: (list(v) if isinstance(v, tuple) else v) for k, v in _builder_params(name).items()}
-        out.append({"name": name, "description": doc.splitlines()[0] if doc else "",
-                    "parameters": defaults, "doc": doc})
+        out.append({"name": name, "description": doc_summary(doc), "parameters": defaults, "doc": doc})
     return out
+
+
+#: An ad-hoc ``ldbench run --effect ao`` without ``--d-max`` on a scene with no registered d_max uses
+#: this fraction of the scene's largest bounding-box extent: the small radius of the aalund2015 AO
+#: suites (0.1 m in the 2 m Cornell box, 1.5 m in the 30 m atrium), where AO looks like AO and screen
+#: space has the information it needs. Unbounded AO leaves enclosed scenes nearly black.
+DEFAULT_D_MAX_FRACTION = 0.05
+
+
+def default_d_max(spec, **params) -> tuple[float, str]:
+    """The AO distance for a scene when the user gives none: ``(d_max, where it comes from)``.
+
+    A registered scene's ``d_max`` (harness/scene_registry.toml) if it has one, else
+    :data:`DEFAULT_D_MAX_FRACTION` of the largest extent of the scene's bounding box (3 significant
+    digits). Suites state their d_max; this is for ad-hoc runs only."""
+    from .scene_registry import registry
+
+    name = spec.split(":", 1)[0] if isinstance(spec, str) else None
+    entry = registry().get(name) if name else None
+    if entry is not None and entry.d_max is not None:
+        return float(entry.d_max), f"registered for scene {name!r}"
+    lo, hi = load_scene(spec, **params).bounds()
+    extent = float(np.max(hi - lo))
+    d = float(f"{DEFAULT_D_MAX_FRACTION * extent:.3g}")
+    return d, f"{DEFAULT_D_MAX_FRACTION:.0%} of the scene's largest bounding-box extent {extent:.3g}"
 
 
 def _parse_inline_params(text: str, spec: str) -> dict:

@@ -100,14 +100,20 @@ def method_params(cls, values: dict, method: str):
     import dataclasses
 
     params = cls.Params.from_dict(values, method=method)
-    for f in dataclasses.fields(params):
-        v = getattr(params, f.name)
-        if f.metadata.get("hi") is not None:
-            continue
-        if _is_int(v) and v > MAX_INT_PARAM:
-            raise LdbenchError(f"parameter {f.name}={v} of method {method!r} above its maximum {MAX_INT_PARAM}")
-        if isinstance(v, float) and not math.isfinite(v):
-            raise LdbenchError(f"parameter {f.name}={v} of method {method!r} must be finite")
+    todo = [(params, "")]
+    while todo:  # a parameter group (structure.source) is checked as its own fields, named group.field
+        obj, prefix = todo.pop()
+        for f in dataclasses.fields(obj):
+            v, name = getattr(obj, f.name), prefix + f.name
+            if "group" in f.metadata:
+                todo.append((v, name + "."))
+                continue
+            if f.metadata.get("hi") is not None:
+                continue
+            if _is_int(v) and v > MAX_INT_PARAM:
+                raise LdbenchError(f"parameter {name}={v} of method {method!r} above its maximum {MAX_INT_PARAM}")
+            if isinstance(v, float) and not math.isfinite(v):
+                raise LdbenchError(f"parameter {name}={v} of method {method!r} must be finite")
     return params
 
 
@@ -213,6 +219,17 @@ def _grid(d: dict) -> list[dict]:
     return [dict(zip(keys, combo)) for combo in itertools.product(*(_listify(d[k]) for k in keys))]
 
 
+def _dotted(d: dict, prefix: str = "") -> dict:
+    """Nested tables (TOML's ``structure.source = ...``) as flat dotted names (``structure.source``)."""
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_dotted(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
 def _frozen(d: dict) -> tuple:
     """Sorted (key, value) pairs with lists turned into tuples, so jobs are hashable."""
     return tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in d.items()))
@@ -295,7 +312,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
             if eff.name not in cls.effects:
                 raise LdbenchError(f"method {m!r} does not support effect {eff.name!r} "
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
-            for p in _grid(params.get(m, {})):
+            for p in _grid(_dotted(params.get(m, {}))):
                 method_params(cls, p, m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
                                 eff, w, h, spp, warmup, frames, seed))
@@ -311,6 +328,10 @@ def load_suite(path) -> Suite:
     from .resources import suite_path
 
     path = suite_path(path)
+    if not path.exists():  # neither a file nor a bundled suite: say which names would work
+        from .resources import bundled_suites
+        raise LdbenchError(f"no suite file {str(path)!r} and no bundled suite of that name "
+                           f"(bundled: {', '.join(bundled_suites())})")
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))  # TOML is UTF-8, whatever the locale
     except OSError as e:

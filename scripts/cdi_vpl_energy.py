@@ -21,22 +21,22 @@ from methods.base import View  # noqa: E402
 from methods.cdi_vpl import CdiVpl, CdiVplParams  # noqa: E402
 from references import render_reference  # noqa: E402
 
-UNCUT = {"range": "random", "r_min": 10.0, "r_max": 10.0}  # every VPL reaches every point
+UNCUT = {"vpl.range": "random", "vpl.r_min": 10.0, "vpl.r_max": 10.0}  # every VPL reaches every point
 VARIANTS = (
     ("default (CDI ranges, mean, miss 0.5 diag)", {}),
-    ("exact ranges (Mitsuba, same rays)", {"range": "exact"}),
-    ("range_mode = max", {"range_mode": "max"}),
-    ("miss_range = 2 diag", {"miss_range": 2.0}),
+    ("exact ranges (Mitsuba, same rays)", {"vpl.range": "exact"}),
+    ("range_mode = max", {"indirect.range_mode": "max"}),
+    ("miss_range = 2 diag", {"indirect.miss_range": 2.0}),
     ("ranges cut nowhere", UNCUT),
-    ("cut nowhere, grid = 1", {**UNCUT, "grid": 1}),
-    ("cut nowhere, no depth mask", {**UNCUT, "depth_mask": False}),
-    ("cut nowhere, RSM x2 (every 2nd texel, flux x4)", {**UNCUT, "vpl_step": 2, "rsm_scale": 2}),
+    ("cut nowhere, grid = 1", {**UNCUT, "indirect.grid": 1}),
+    ("cut nowhere, no depth mask", {**UNCUT, "indirect.depth_mask": False}),
+    ("cut nowhere, RSM x2 (every 2nd texel, flux x4)", {**UNCUT, "indirect.vpl_step": 2, "rsm_scale": 2}),
     ("cut nowhere, RSM x2, every texel", {**UNCUT, "rsm_scale": 2}),
 )
 
 
 def run(gpu, scene, size, **params):
-    m = CdiVpl(CdiVplParams(**params))
+    m = CdiVpl(CdiVplParams.from_dict(params))
     m.setup(gpu, scene)
     try:
         return m.frame(View(scene.camera, size, size), Effect("indirect")).resolve()
@@ -51,7 +51,7 @@ def budget(gpu, scene, ref, size, rsm, variants=VARIANTS):
     for label, kw in variants:
         kw = dict(kw)
         R = rsm * kw.pop("rsm_scale", 1)
-        r = run(gpu, scene, size, rsm=R, vpl_step=kw.pop("vpl_step", 1), **kw)
+        r = run(gpu, scene, size, **{"indirect.rsm": R, "indirect.vpl_step": kw.pop("indirect.vpl_step", 1), **kw})
         img, _ = spec.method_image(r, ref)
         m = ref.mask
         floor = m & floor_mask(scene, size)

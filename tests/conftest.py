@@ -55,3 +55,8 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
         terminalreporter.write_sep(
             "!", f"{n} test{'s' if n != 1 else ''} SKIPPED: the shared scenes are missing ({SHARED_SCENES}); real "
                  f"scenes, their checksums and `scenes fetch --from` went untested", red=True, bold=True)
+    c = sum("chromium not installed" in _skip_reason(r).lower() for r in terminalreporter.stats.get("skipped", []))
+    if c:
+        terminalreporter.write_sep(
+            "!", f"{c} test{'s' if c != 1 else ''} SKIPPED: chromium is not installed; the report's image viewer "
+                 f"went untested in a browser", yellow=True, bold=True)

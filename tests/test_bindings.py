@@ -13,7 +13,7 @@ from harness.gpu import METHODS_DIR, check_bindings
 def test_table_is_consistent():
     assert bindings.table_errors() == []
     assert {b.kind for b in TABLE.values()} <= set(bindings.KINDS)
-    # methods/linked_list.py binds node page p at B_NODES0 + p
+    # methods/structures/linked.py binds node page p at B_NODES0 + p
     assert [B.NODES0 + p for p in range(4)] == [B.NODES0, B.NODES1, B.NODES2, B.NODES3]
 
 
@@ -97,7 +97,7 @@ def test_the_project_shaders_agree(gpu):
     from harness.gpu import GLSL_DIR
     progs = [gpu.program(GLSL_DIR / "gbuffer.glsl"), gpu.program(GLSL_DIR / "layered_build.glsl"),
              gpu.compute(GLSL_DIR / "linked_list_sort.glsl"), gpu.compute(GLSL_DIR / "pairs_scatter.glsl"),
-             gpu.compute(GLSL_DIR / "scan.glsl"), gpu.compute(METHODS_DIR / "ldi" / "peel_commit.glsl"),
+             gpu.compute(GLSL_DIR / "scan.glsl"), gpu.compute(GLSL_DIR / "layered_peel_commit.glsl"),
              gpu.compute(METHODS_DIR / "ldm" / "photon_trace.glsl"),
              gpu.compute(METHODS_DIR / "ldi" / "trace_rays.glsl")]
     for p in progs:

@@ -1,4 +1,4 @@
-"""Build variants of the layered structures (methods/layered_builds.py, docs/fast_builds.md): every variant
+"""Build variants of the layered structures (methods/structures/, docs/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
 vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, zero-area and sliver
 triangles, triangles larger than the map, triangles crossing the far and the near plane); the sort
@@ -14,8 +14,8 @@ import pytest
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene
 from methods.gbuffer import SceneGeometry
-from methods.layered import make_structure
-from methods.layered_builds import fill_rule, list_counts, rule_from_probe
+from methods.structures import StructureSpec, make_structure
+from methods.structures.splat import fill_rule, rule_from_probe
 
 W = H = 32
 T = 2.0 / W  # one texel in NDC (= world units in layer 0)
@@ -108,7 +108,8 @@ def scene_geo(gpu):
 
 def build(scene_geo, layout, name, **kw):
     gpu, geo, res = scene_geo
-    s = make_structure(layout, gpu, geo, res, layers=3, width=W, height=H, prefix=f"b.{name}.", **kw)
+    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=3, width=W, height=H,
+                       prefix=f"b.{name}.")
     s.set_layers(*edge_case_layers())
     s.build()
     return s
@@ -166,7 +167,7 @@ def test_interpolation_rule_is_measured(gpu):
 
 
 def test_interpolation_probe_is_decoded_and_checked():
-    from methods.layered_builds import _IPROBE_POS, _IPROBE_VAL, plane_from_probe
+    from methods.structures.splat import _IPROBE_POS, _IPROBE_VAL, plane_from_probe
 
     y, x = np.mgrid[0:4, 0:4] + 0.5
     for snapped in (False, True):
@@ -188,15 +189,15 @@ def test_fill_rule_probe_is_decoded_and_checked():
 
 
 VARIANTS = {
-    "splat-linear": ("linear", dict(build="splat")),
-    "splat-linked-sorted": ("linked", dict(build="splat")),
-    "splat-linked-yang": ("linked", dict(build="splat", sorted_insert=False)),
-    "splat-linked-count": ("linked", dict(build="splat", pool="count")),
-    "splat-sort": ("linear", dict(build="splat", assembly="sort")),
+    "splat-linear": ("linear", dict(source="splat")),
+    "splat-linked-sorted": ("linked", dict(source="splat")),
+    "splat-linked-yang": ("linked", dict(source="splat", sorted_insert=False)),
+    "splat-linked-count": ("linked", dict(source="splat", pool="count")),
+    "splat-sort": ("linear", dict(source="splat", assembly="sort")),
     "raster-sort": ("linear", dict(assembly="sort")),
-    "splat-batch2-max2.5": ("linear", dict(build="splat", splat_batch=2, splat_max=2.5)),
-    "splat-linked-lazy": ("linked", dict(build="splat", pool="lazy", sorted_insert=False)),
-    "splat-sort-lazy": ("linear", dict(build="splat", assembly="sort", pool="lazy")),
+    "splat-batch2-max2.5": ("linear", dict(source="splat", splat_batch=2, splat_max=2.5)),
+    "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
+    "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),
 }
 
@@ -209,8 +210,8 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
     assert_same_lists(reference[0], multisets(s), name)
     st = s.stats()
     assert s.invariants(st) == [] and st["fragments"] == reference[1]["fragments"]
-    assert st["unsorted_lists"] == 0 and st["build_variant"] == kw.get("build", "raster")
-    if kw.get("build") == "splat":
+    assert st["unsorted_lists"] == 0 and st["build_variant"] == kw.get("source", "raster")
+    if kw.get("source") == "splat":
         assert st["splat_large_triangles"] == expected_large(kw.get("splat_max", 16.0))
 
 
@@ -224,7 +225,7 @@ def expected_large(splat_max):
 
 def test_splat_leaves_long_triangles_to_the_hardware(scene_geo, reference):
     """With splat_max = 1 texel most triangles take the hardware path; the lists stay the same."""
-    s = build(scene_geo, "linear", "max1", build="splat", splat_max=1.0)
+    s = build(scene_geo, "linear", "max1", source="splat", splat_max=1.0)
     assert_same_lists(reference[0], multisets(s), "splat_max=1")
     assert s.stats()["splat_large_triangles"] == expected_large(1.0) > scene_geo[1].triangles // 2
 
@@ -234,8 +235,8 @@ def test_payload_travels_with_the_splat_and_the_sort(scene_geo):
         return [sorted(d) for layer in s.lists(payload=True) for row in layer for d in row]
 
     want = lists(build(scene_geo, "linear", "pref", payload=("material", "normal")))
-    for name, layout, kw in (("psplat", "linked", dict(build="splat")),
-                             ("psort", "linear", dict(build="splat", assembly="sort"))):
+    for name, layout, kw in (("psplat", "linked", dict(source="splat")),
+                             ("psort", "linear", dict(source="splat", assembly="sort"))):
         got = lists(build(scene_geo, layout, name, payload=("material", "normal"), **kw))
         bad = sum(len(a) != len(b) or any(pa != pb or abs(za - zb) > 5e-4 for (za, pa), (zb, pb) in zip(a, b))
                   for a, b in zip(want, got))
@@ -244,9 +245,9 @@ def test_payload_travels_with_the_splat_and_the_sort(scene_geo):
 
 def test_one_pass_coverage_difference_is_measured(scene_geo, reference):
     """The one-pass raster is not conservative: list_counts gives its missing and extra fragments."""
-    s = build(scene_geo, "linear", "onepass", build="one_pass")
+    s = build(scene_geo, "linear", "onepass", source="one_pass")
     ref = build(scene_geo, "linear", "ref2")
-    a, b = list_counts(ref), list_counts(s)
+    a, b = ref.list_counts(), s.list_counts()
     np.testing.assert_array_equal(a, [len(x) for x in reference[0]])
     missing, extra = int(np.maximum(a - b, 0).sum()), int(np.maximum(b - a, 0).sum())
     assert missing > 0 and extra > 0  # the tilted layer 2 both loses and gains fragments
@@ -258,7 +259,7 @@ def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scen
     (here: the layers zoomed 2x, more fragments) that build overflows and says so, the next one fits."""
     gpu = scene_geo[0]
     for layout, kw in (("linked", dict(sorted_insert=False)), ("linear", {}), ("linear", dict(assembly="sort"))):
-        s = build(scene_geo, layout, f"lazy{layout}{len(kw)}", pool="lazy", build="splat", **kw)
+        s = build(scene_geo, layout, f"lazy{layout}{len(kw)}", pool="lazy", source="splat", **kw)
         n0 = s.stats()["fragments"]
         reads = []
         inside = [False]
@@ -309,13 +310,14 @@ def test_sort_assembly_overflow_is_reported(scene_geo, reference):
 
 def test_build_arguments(scene_geo):
     gpu, geo, res = scene_geo
-    with pytest.raises(LdbenchError, match="linear layout"):
-        make_structure("linked", gpu, geo, res, layers=1, width=4, assembly="sort")
+    with pytest.raises(LdbenchError, match="needs structure.layout"):
+        StructureSpec(layout="linked", assembly="sort")
     with pytest.raises(LdbenchError, match="assembly"):
-        make_structure("linear", gpu, geo, res, layers=1, width=4, assembly="radix")
+        StructureSpec(layout="linear", assembly="radix")
     with pytest.raises(LdbenchError, match="splat_max"):
-        make_structure("linear", gpu, geo, res, layers=1, width=4, build="splat", splat_max=100)
-    s = make_structure("linear", gpu, geo, res, layers=1, width=4, build="splat", prefix="b.persp.")
+        StructureSpec(layout="linear", source="splat", splat_max=100)
+    s = make_structure(StructureSpec(layout="linear", source="splat"), gpu, geo, res, layers=1, width=4,
+                       prefix="b.persp.")
     persp = np.eye(4)
     persp[3] = [0, 0, -1, 0]
     s.set_layers(persp[None], np.array([[0, 0, 1, 0]]))
@@ -333,10 +335,10 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
     view = View(sc.camera, 48, 48)
     eff = Effect("ao", d_max=1.0, falloff="quadratic")
     imgs = {}
-    for name, kw in {"raster": {}, "splat": dict(build="splat"), "splat-linear-sort": dict(
-            layout="linear", build="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
-            layout="linear", assembly="sort", pool="lazy"), "aggregate": dict(aggregate_atomics=True)}.items():
-        m = Ldm(LdmParams(directions=24, resolution=48, **kw))
+    for name, kw in {"raster": {}, "splat": dict(source="splat"), "splat-linear-sort": dict(
+            layout="linear", source="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
+            layout="linear", assembly="sort", pool="lazy"), "aggregate": dict(aggregate=True)}.items():
+        m = Ldm(LdmParams(directions=24, resolution=48, structure=kw))
         m.setup(gpu, sc)
         for _ in range(2):
             r = m.frame(view, eff)
@@ -352,7 +354,7 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
 
 
 def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
-    """``ldm`` with ``build = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
+    """``ldm`` with ``structure.source = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
     triangle's dominant-axis samples at density 1/cos θ, ~2× the raster's fragments, at the raster's sample
     positions). Through the adapter: every invariant holds, the lists hold at least the raster's fragments
     (measured 116,976 vs 58,520: 2.0×) and the AO image is darker (0.170 vs 0.269 mean)."""
@@ -364,7 +366,7 @@ def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
     sc = cornell_like(light=False)
     out = {}
     for build in ("raster", "one_pass"):
-        m = Ldm(LdmParams(directions=24, resolution=48, build=build))
+        m = Ldm(LdmParams(directions=24, resolution=48, structure=dict(source=build)))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 48, 48), Effect("ao")).resolve()

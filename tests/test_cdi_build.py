@@ -1,4 +1,4 @@
-"""The one-pass multi-direction build (methods/layered.py ``build="one_pass"``, archer2019 §3.1) against an
+"""The one-pass multi-direction build (methods/structures/sources.py ``source="one_pass"``, archer2019 §3.1) against an
 exact CPU rasterization and against itself split into one raster per direction; its counters; the
 per-list sort's long-list fallback; the GPU prefix sum it relies on.
 
@@ -20,7 +20,7 @@ from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene
 from methods.directions import stacks_slices
 from methods.gbuffer import SceneGeometry
-from methods.layered import bounding_sphere, make_structure, ortho_layers
+from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 from methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, cornell_like, expected_lists, layer_transforms
 
@@ -62,8 +62,8 @@ def test_one_pass_matches_the_cpu_raster(gpu, expected, axis, layout):
     res = gpu.resources()
     try:
         geo = SceneGeometry(gpu, scene, res)
-        s = make_structure(layout, gpu, geo, res, layers=2, width=W, height=H, payload=("material",),
-                           build="one_pass", sphere=((0, 0, 0), 1.0))
+        s = make_structure(StructureSpec(layout=layout, payload=("material",), source="one_pass"), gpu, geo, res,
+                           layers=2, width=W, height=H, sphere=((0, 0, 0), 1.0))
         s.set_layers(clip, rows)
         s.build()
         got = s.lists(payload=True)
@@ -88,8 +88,8 @@ def cdi(gpu, scene, res, build, n_dirs=24, size=24, **kw):
     geo = SceneGeometry(gpu, scene, res)
     c, r = bounding_sphere(scene)
     clip, rows, _ = ortho_layers(stacks_slices(n_dirs), c, r)
-    s = make_structure("linear", gpu, geo, res, layers=n_dirs, width=size, build=build,
-                       prefix=f"{build}{kw.get('pass_layers', '')}{kw.get('instanced', '')}.", **kw)
+    s = make_structure(StructureSpec(layout="linear", source=build, **kw), gpu, geo, res, layers=n_dirs, width=size,
+                       prefix=f"{build}{kw.get('pass_layers', '')}{kw.get('instanced', '')}.")
     s.set_layers(clip, rows)
     s.build()
     return s
@@ -149,8 +149,8 @@ def test_fragments_outside_a_layer_are_dropped(gpu, expected, build):
         clip = clip.copy()
         clip[:, 2, :] *= 3.5
         geo = SceneGeometry(gpu, scene, res)
-        s = make_structure("linear", gpu, geo, res, layers=2, width=W, height=H, payload=("material",),
-                           build=build, sphere=((0, 0, 0), 1.0))
+        s = make_structure(StructureSpec(layout="linear", payload=("material",), source=build), gpu, geo, res,
+                           layers=2, width=W, height=H, sphere=((0, 0, 0), 1.0))
         s.set_layers(clip, rows)
         s.build()
         got = s.lists(payload=True)
@@ -200,10 +200,10 @@ def test_build_arguments(gpu):
     res = gpu.resources()
     try:
         geo = SceneGeometry(gpu, cornell_like(), res)
-        with pytest.raises(LdbenchError, match="build"):
-            make_structure("linear", gpu, geo, res, layers=1, width=4, build="voxel")
+        with pytest.raises(LdbenchError, match="source"):
+            StructureSpec(layout="linear", source="voxel")
         with pytest.raises(LdbenchError, match="pass_layers"):
-            make_structure("linear", gpu, geo, res, layers=1, width=4, build="one_pass", pass_layers=-1)
+            StructureSpec(layout="linear", source="one_pass", pass_layers=-1)
     finally:
         res.release()
 

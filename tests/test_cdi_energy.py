@@ -46,9 +46,9 @@ def test_the_range_cut_off_is_the_loss(gpu, energy, case):
     scene, ref = case
     uncut = energy.UNCUT
     b = energy.budget(gpu, scene, ref, SIZE, RSM, (
-        ("default", {}), ("exact", {"range": "exact"}), ("far misses", {"miss_range": 2.0}),
-        ("uncut", uncut), ("uncut grid 1", {**uncut, "grid": 1}), ("uncut no mask", {**uncut, "depth_mask": False}),
-        ("uncut step 2", {**uncut, "vpl_step": 2, "rsm_scale": 2})))
+        ("default", {}), ("exact", {"vpl.range": "exact"}), ("far misses", {"indirect.miss_range": 2.0}),
+        ("uncut", uncut), ("uncut grid 1", {**uncut, "indirect.grid": 1}), ("uncut no mask", {**uncut, "indirect.depth_mask": False}),
+        ("uncut step 2", {**uncut, "indirect.vpl_step": 2, "rsm_scale": 2})))
     img, floor = {k: v[0] for k, v in b.items()}, {k: v[1] for k, v in b.items()}
     assert 0.70 <= img["default"] <= 0.77 and 0.62 <= floor["default"] <= 0.69, b
     assert abs(img["exact"] - img["default"]) < 0.02, b  # the CDI's ranges are not the loss

@@ -38,7 +38,7 @@ def cornell():
 
 
 def run(gpu, scene, effect, inputs=None, size=SIZE, keep=False, **params):
-    m = CdiVpl(CdiVplParams(**params))
+    m = CdiVpl(CdiVplParams.from_dict(params))
     m.setup(gpu, scene)
     if inputs is not None:
         inputs.upload(gpu)
@@ -57,11 +57,19 @@ def test_registered_and_params():
     assert get_method("cdi-vpl") is CdiVpl and CdiVpl.paper == "archer2019"
     assert CdiVpl.effects == frozenset({"vpl_range", "indirect", "rays"})
     p = CdiVplParams()
-    assert (p.directions, p.resolution, p.build, p.direction_set) == (169, 64, "one_pass", "stacks_slices")
+    assert (p.directions, p.resolution, p.structure.source, p.direction_set) == (169, 64, "one_pass", "stacks_slices")
+    assert (p.structure.layout, p.structure.max_list, p.structure.instanced) == ("linear", 32, False)
     with pytest.raises(LdbenchError, match="build"):
-        CdiVplParams(build="voxels")
+        CdiVplParams.from_dict({"build": "voxels"})
+    with pytest.raises(LdbenchError, match="structure.source='peel' not one of"):
+        CdiVplParams.from_dict({"structure.source": "peel"})
     with pytest.raises(LdbenchError, match="r_max"):
-        CdiVplParams(r_min=0.5, r_max=0.1)
+        CdiVplParams.from_dict({"r_min": 0.5, "r_max": 0.1})
+    # the earlier build names are the source and the raster's draw
+    for old, new in (("brute_force", ("raster", False)), ("instanced", ("raster", True)),
+                     ("one_pass", ("one_pass", False)), ("splat", ("splat", False))):
+        s = CdiVplParams.from_dict({"build": old}).structure
+        assert (s.source, s.instanced) == new, old
 
 
 @pytest.fixture(scope="module")

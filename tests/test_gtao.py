@@ -201,8 +201,8 @@ def test_broken_denoise_fails(gpu, tmp_path):
 
 def test_cornell_small_dmax_against_reference(gpu):
     """cornell, d_max = 5 % of the diagonal, 256², against Mitsuba (256 spp): the published "High" preset
-    (3 × 3 samples per side, fade, one denoise) 20.80 dB; without the fade 24.48 dB; 9 slices × 32 steps
-    without the fade 33.99 dB (measured on llvmpipe): sampling, not the integral, limits the preset."""
+    (3 × 3 samples per side, fade, one denoise) 20.66 dB; without the fade 24.30 dB; 9 slices × 32 steps
+    without the fade 34.00 dB (measured on llvmpipe): sampling, not the integral, limits the preset."""
     from harness.scenes import load_scene
     from references import render_reference
 
@@ -216,7 +216,7 @@ def test_cornell_small_dmax_against_reference(gpu):
         r, _, _ = render(gpu, sc, eff, size, **kw)
         assert np.array_equal(r.mask, ref.mask) and np.all(r.image[~r.mask] == 1.0)
         got[key] = M.psnr(r.image, ref.mean, mask=ref.mask, data_range=1.0)
-    assert got["high"] > 20.6 and got["no-fade"] > 24.3 and got["fine"] > 33.8, got
+    assert got["high"] > 20.6 and got["no-fade"] > 24.25 and got["fine"] > 33.95, got
 
 
 def test_rejects_other_effects(gpu):

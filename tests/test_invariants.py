@@ -20,7 +20,7 @@ from testkit import cornell_like
 def _frame(gpu, method, effect, size=16, inputs=None, **params):
     cls = get_method(method)
     scene = cornell_like()
-    m = cls(cls.Params(**params))
+    m = cls(cls.Params.from_dict(params, method=method))  # the earlier flat names (pool) through renamed
     m.setup(gpu, scene)
     try:
         if inputs is not None:

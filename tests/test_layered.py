@@ -1,4 +1,4 @@
-"""The layered-structure module (methods/layered.py): every layout and build against an exact CPU
+"""The layered-structure package (methods/structures/): every layout and build against an exact CPU
 rasterization, payload words, invariants, bounded walks, the GPU prefix sum, and a concurrency stress test
 of the lock-free insert."""
 from __future__ import annotations
@@ -11,7 +11,8 @@ import pytest
 from harness.bindings import B
 from harness.errors import LdbenchError
 from methods.gbuffer import SceneGeometry, face_normals
-from methods.layered import LAYOUT_CODES, fill_uint, make_structure
+from methods.structures import StructureSpec, fill_uint, make_structure
+from methods.structures.core import LAYOUT_CODES
 from methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, expected_lists, layer_transforms, quads_scene
 
@@ -35,7 +36,8 @@ def expected():
 
 def build(setup, layout, **kw):
     gpu, geo, res = setup
-    s = make_structure(layout, gpu, geo, res, layers=2, width=W, height=H, prefix=f"t{layout}.", **kw)
+    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=2, width=W, height=H,
+                       prefix=f"t{layout}.")
     s.set_layers(*layer_transforms())
     s.build()
     return s
@@ -101,7 +103,7 @@ def test_node_counter_saturates_at_the_capacity(setup, expected):
     """The node counter stops at the capacity (overflowing allocations undo their add), so it can never
     wrap around 2^32 and hand out live nodes again."""
     s = build(setup, "linked", pool="fixed", pool_capacity=10)
-    c = s._counters()
+    c = s.read_counters()
     n = sum(len(v) for v in expected.ravel())
     assert c[0] == 10 and c[7] == n - 10
 
@@ -123,9 +125,11 @@ def test_walks_are_bounded_and_a_cycle_is_a_violated_invariant(setup):
 
 
 def test_invariants_name_every_violation():
-    from methods.layered import LayeredStructure
+    from methods.structures import LayeredStructure
 
-    v = LayeredStructure.invariants(object.__new__(LayeredStructure), {
+    s = object.__new__(LayeredStructure)
+    s.overflow_allowed, s.source = False, None
+    v = LayeredStructure.invariants(s, {
         "fragments": 10, "fragments_stored": 9, "overflow": 1, "linked_nodes": 8, "unsorted_lists": 2,
         "insert_failures": 1})
     assert len(v) == 4
@@ -180,12 +184,12 @@ def test_gpu_prefix_sum_matches_numpy(gpu, n):
 def test_structure_arguments(setup):
     gpu, geo, res = setup
     with pytest.raises(LdbenchError, match="layout"):
-        make_structure("bogus", gpu, geo, res, layers=1, width=4)
+        StructureSpec(layout="bogus")
     with pytest.raises(LdbenchError, match="payload"):
-        make_structure("linear", gpu, geo, res, layers=1, width=4, payload=("colour",))
+        StructureSpec(layout="linear", payload=("colour",))
     with pytest.raises(LdbenchError, match="pool"):
-        make_structure("linear", gpu, geo, res, layers=1, width=4, pool="count")
-    s = make_structure("linear", gpu, geo, res, layers=1, width=4)
+        StructureSpec(layout="linear", pool="count")
+    s = make_structure(StructureSpec(layout="linear"), gpu, geo, res, layers=1, width=4)
     with pytest.raises(LdbenchError, match="set_layers"):
         s.build()
     assert s.defines()["LS_LAYOUT"] == LAYOUT_CODES["linear"]

@@ -17,7 +17,6 @@ from harness.scene import Camera, Mesh, Scene
 from methods.base import View, get_method
 from methods.directions import cube_cell, cube_directions, cube_k
 from methods.ldi import Ldi, LdiParams
-from methods.ldi.peel import PeeledLayers, SinglePassLayers
 from methods.scan import Scan
 
 
@@ -51,32 +50,37 @@ def test_registered_and_params():
     assert get_method("ldi") is Ldi and Ldi.paper == "niessner2010"
     assert {"rays", "indirect", "glossy_indirect", "soft_shadows"} == set(Ldi.effects)
     p = LdiParams()
-    assert (p.directions, p.resolution, p.build, p.share_opposite) == (150, 128, "peel", True)
+    assert (p.directions, p.resolution, p.structure.source, p.share_opposite) == (150, 128, "peel", True)
+    assert (p.structure.payload, p.structure.canonical, p.structure.indexed) == (("normal", "albedo"), True, False)
     with pytest.raises(LdbenchError, match="directions=100.*nearest: 96, 150"):
         LdiParams(directions=100)
     with pytest.raises(LdbenchError, match="filter_size"):
-        LdiParams(filter_size=10)
+        LdiParams.from_dict({"indirect.filter_size": 10})
     with pytest.raises(LdbenchError, match="build"):
-        LdiParams(build="hw")
+        LdiParams.from_dict({"build": "hw"})
+    with pytest.raises(LdbenchError, match="structure.source"):
+        LdiParams.from_dict({"structure.source": "one_pass"})
 
 
 # ---------------------------------------------------------------------------------------------------
 # structure: depth peeling, compaction, the one-pass build
 
-def _quads_structure(gpu, cls, **kw):
+def _quads_structure(gpu, build, **kw):
     from methods.gbuffer import SceneGeometry
+    from methods.structures import make_structure
 
     res = gpu.resources()
     geo = SceneGeometry(gpu, quads_scene(), res)
-    s = cls(gpu, geo, res, layers=2, width=LAYER_W, height=LAYER_H, **kw)
+    spec = LdiParams.from_dict({"build": build, **kw}).structure
+    s = make_structure(spec, gpu, geo, res, layers=2, width=LAYER_W, height=LAYER_H, prefix="ldi.")
     s.set_layers(*layer_transforms())
     return s, res
 
 
-@pytest.mark.parametrize("cls", [PeeledLayers, SinglePassLayers], ids=["peel", "single_pass"])
-def test_structure_matches_cpu_raster(gpu, cls):
+@pytest.mark.parametrize("build", ["peel", "single_pass"])
+def test_structure_matches_cpu_raster(gpu, build):
     """Both builds store exactly the CPU raster's fragments (incl. the coincident 'tie' quad), sorted."""
-    s, res = _quads_structure(gpu, cls)
+    s, res = _quads_structure(gpu, build)
     try:
         s.build()
         got, exp = s.lists(), expected_lists()
@@ -87,7 +91,7 @@ def test_structure_matches_cpu_raster(gpu, cls):
                 for x in range(LAYER_W):
                     assert np.allclose(got[k][y][x], exp[k, y, x], atol=5e-4), (k, y, x)  # NVIDIA: 1.7e-4 (H200)
         assert st["fragments"] == sum(len(exp[k, y, x]) for k in range(2) for y in range(16) for x in range(16))
-        if cls is PeeledLayers:
+        if build == "peel":
             assert st["peel_layers"] == st["max_list_length"] == 6 and st["peel_raster_passes"] == 14
     finally:
         res.release()
@@ -102,9 +106,9 @@ def test_compaction_against_cumsum(gpu):
     try:
         s = m.ls
         s.build()
-        counts = np.frombuffer(s._scratch["count"].read(), np.uint32).astype(np.int64)
+        counts = np.frombuffer(s.source.scratch["count"].read(), np.uint32).astype(np.int64)
         off = np.frombuffer(s.offsets.read(), np.uint32).astype(np.int64)
-        assert (counts == 0).sum() > 1000 and counts.max() == s.stats()["max_list_length"] == s.peel_layers
+        assert (counts == 0).sum() > 1000 and counts.max() == s.stats()["max_list_length"] == s.source.peel_layers
         assert np.array_equal(off[:-1], np.cumsum(counts)) and off[-1] == counts.sum()
         # random counts: zeros, runs of zeros, a long list, across several scan blocks
         rng = np.random.default_rng(3)
@@ -113,14 +117,14 @@ def test_compaction_against_cumsum(gpu):
         c[100:1200] = 0
         c[-1] = 0
         c[7] = 70000
-        s._scratch["count"].write(c.tobytes())
-        gpu.ctx.copy_buffer(s.offsets, s._scratch["count"], 4 * n)
+        s.source.scratch["count"].write(c.tobytes())
+        gpu.ctx.copy_buffer(s.offsets, s.source.scratch["count"], 4 * n)
         s.offsets.write(np.zeros(1, np.uint32).tobytes(), offset=4 * n)
         Scan(gpu).run(s.offsets, n + 1)
-        s._ends["n"].value = n
+        s.source._ends["n"].value = n
         s.offsets.bind_to_storage_buffer(B.HEADS)
-        s._scratch["count"].bind_to_storage_buffer(B.PEEL_COUNT)
-        s._ends.run(20)
+        s.source.scratch["count"].bind_to_storage_buffer(B.PEEL_COUNT)
+        s.source._ends.run(20)
         gpu.ctx.memory_barrier()
         off = np.frombuffer(s.offsets.read(size=4 * (n + 1)), np.uint32).astype(np.int64)
         assert np.array_equal(off[:-1], np.cumsum(c)) and off[-1] == c.sum()
@@ -129,7 +133,7 @@ def test_compaction_against_cumsum(gpu):
 
 
 def _ldi(gpu, scene, **kw):
-    m = Ldi(LdiParams(**kw))
+    m = Ldi(LdiParams.from_dict(kw))
     m.setup(gpu, scene)
     return m
 
@@ -189,8 +193,12 @@ def test_fast_build_parameters_need_the_single_pass():
     from methods.ldi import LdiParams
 
     with pytest.raises(LdbenchError, match="single_pass"):
-        LdiParams(raster="splat")
-    LdiParams(build="single_pass", raster="splat", assembly="sort")
+        LdiParams.from_dict({"raster": "splat"})
+    s = LdiParams.from_dict({"build": "single_pass", "raster": "splat", "assembly": "sort"}).structure
+    assert (s.source, s.assembly) == ("splat", "sort")
+    assert LdiParams.from_dict({"build": "single_pass"}).structure.source == "raster"
+    with pytest.raises(LdbenchError, match="assembly"):
+        LdiParams.from_dict({"structure.source": "peel", "structure.assembly": "sort"})
 
 
 def test_peel_invariants_report_truncation(gpu):
@@ -230,7 +238,7 @@ def cpu_walk(lists, m, o, d, n, tmax, k_ldi):
     res, R, c = p.resolution, m.radius, m.centre
     u, w, v = (np.frombuffer(m.axes_buf.read(), np.float32).reshape(-1, 3, 4)[k_ldi, i, :3].astype(np.float64)
                for i in range(3))
-    eps, bias = p.epsilon * m.pixel, p.bias * m.pixel
+    eps, bias = p.trace.epsilon * m.pixel, p.trace.bias * m.pixel
     ppu = res / (2 * R)
     r = o - c
     f = np.array([r @ u, r @ w]) * ppu + 0.5 * res
@@ -267,7 +275,7 @@ def cpu_walk(lists, m, o, d, n, tmax, k_ldi):
             return min(max(t, t_in), t_out), cross, False
         if t_out >= t_end:
             return -1.0, cross, False
-        if p.max_crossings and cross >= p.max_crossings:
+        if p.trace.max_crossings and cross >= p.trace.max_crossings:
             return -1.0, cross, True
         a = 0 if tnext[0] <= tnext[1] else 1
         px[a] += stp[a]

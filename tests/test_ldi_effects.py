@@ -70,7 +70,7 @@ def test_soft_shadows_closed_form(gpu, mitsuba):
     hard = render_soft_shadows(scene, Effect("soft_shadows", light_radius=0.0), width=24, height=24, spp=4,
                                progress=False)
     assert np.allclose(hard.mean, direct.mean, rtol=1e-5, atol=1e-7) and np.all(hard.variance == 0)
-    meth = Ldi(LdiParams(directions=24, resolution=64, rays_per_pixel=1024))
+    meth = Ldi(LdiParams.from_dict({"directions": 24, "resolution": 64, "image.rays_per_pixel": 1024}))
     meth.setup(gpu, scene)
     try:
         r = meth.frame(View(scene.camera, 24, 24), Effect("soft_shadows", light_radius=0.1)).resolve()
@@ -92,7 +92,7 @@ def _floor_wall():
 
 
 def _render(gpu, scene, effect, size, **params):
-    m = Ldi(LdiParams(**params))
+    m = Ldi(LdiParams.from_dict(params))
     m.setup(gpu, scene)
     try:
         gpu.begin_frame()

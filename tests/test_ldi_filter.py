@@ -6,7 +6,7 @@ In the band of floor pixels within 0.5 m of the wall and of wall pixels within 0
 per-channel ratio to the reference (measured on llvmpipe): unfiltered (256 rays) floor −14.0 / −13.7 / −12.3 %,
 wall −9.9 % in every channel (the LDIs' crease bias, no colour shift); the paper's Gaussian floor −25.8 / +8.0 /
 +82.2 %, wall +5.4 / −20.6 / −27.7 % (E mixed across the crease: the floor gets the wall's irradiance and
-the other way round); ``filter_kind = bilateral`` floor −12.4 / −12.1 / −10.7 %, wall −13.9 % in every
+the other way round); ``indirect.filter_kind = bilateral`` floor −12.4 / −12.1 / −10.7 %, wall −13.9 % in every
 channel. Mutations seen failing: the bilateral define not passed (the Gaussian), the normal term off
 (both tests), the plane-distance term off (e = 0: the depth-edge test), sharpness 4 instead of 40."""
 from __future__ import annotations
@@ -31,7 +31,7 @@ def case():
 
 
 def _render(gpu, scene, **params):
-    m = Ldi(LdiParams(**params))
+    m = Ldi(LdiParams.from_dict(params))
     m.setup(gpu, scene)
     try:
         r = m.frame(View(scene.camera, S, S), Effect("indirect")).resolve()
@@ -56,8 +56,8 @@ def _shift(img, ref, band):
 def test_bilateral_filter_does_not_mix_light_across_the_crease(gpu, case):
     scene, ref = case
     gauss, pos = _render(gpu, scene)
-    bil, _ = _render(gpu, scene, filter_kind="bilateral")
-    raw, _ = _render(gpu, scene, filter_size=0)
+    bil, _ = _render(gpu, scene, **{"indirect.filter_kind": "bilateral"})
+    raw, _ = _render(gpu, scene, **{"indirect.filter_size": 0})
     floor, wall = _bands(pos)
     assert floor.sum() > 50 and wall.sum() > 100
     for band in (floor, wall):
@@ -74,7 +74,7 @@ def test_filter_kind_is_validated():
     from harness.errors import LdbenchError
 
     with pytest.raises(LdbenchError):
-        LdiParams(filter_kind="median")
+        LdiParams.from_dict({"indirect.filter_kind": "median"})
 
 
 def _step_scene():
@@ -99,7 +99,7 @@ def test_bilateral_filter_stops_at_a_depth_edge(gpu):
     scene = _step_scene()
     ref = render_reference(scene, Effect("indirect"), width=S, height=S, spp=1024, progress=False)
     gauss, pos = _render(gpu, scene)
-    bil, _ = _render(gpu, scene, filter_kind="bilateral")
+    bil, _ = _render(gpu, scene, **{"indirect.filter_kind": "bilateral"})
     p, hit = pos[..., :3], pos[..., 3] > 0.5
     top = hit & (np.abs(p[..., 1] - 0.8) < 1e-3) & (p[..., 2] < 0.0)
     behind = hit & (np.abs(p[..., 1]) < 1e-3) & (p[..., 2] < -1.6) & (np.abs(p[..., 0]) < 0.6)

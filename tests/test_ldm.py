@@ -46,7 +46,7 @@ def test_disk_formula_matches_quadrature():
 # ---------------------------------------------------------------------------------------------------
 
 def render(gpu, scene, effect=Effect("ao"), size=64, camera=None, **params):
-    m = LdmAO(LdmAOParams(**params))
+    m = LdmAO(LdmAOParams.from_dict(params))
     m.setup(gpu, scene)
     try:
         view = View(camera or scene.camera, size, size)
@@ -69,14 +69,23 @@ def test_registered_and_params():
     assert get_method("ldm-ao") is LdmAO and get_method("ldm") is LdmAO and "ldm" in registry()
     assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao", "rays", "indirect"})
     p = LdmAOParams()
-    assert (p.directions, p.resolution, p.sorted_insert) == (128, 128, True)
+    assert (p.directions, p.resolution, p.structure.sorted_insert) == (128, 128, True)
     with pytest.raises(LdbenchError, match="directions"):
         LdmAOParams(directions=0)
     with pytest.raises(LdbenchError, match="pool"):
-        LdmAOParams(pool="bogus")
+        LdmAOParams.from_dict({"structure.pool": "bogus"})
     with pytest.raises(LdbenchError, match="unknown parameter"):
         LdmAOParams.from_dict({"nope": 1}, method="ldm-ao")
-    assert LdmAOParams.from_dict({"sorted_insert": "false"}).sorted_insert is False
+    assert LdmAOParams.from_dict({"structure.sorted_insert": "false"}).structure.sorted_insert is False
+    # an earlier flat name is its dotted name
+    assert LdmAOParams.from_dict({"sorted_insert": "false"}) == LdmAOParams.from_dict({"structure.sorted_insert": False})
+    assert LdmAOParams.from_dict({"photons": 64}).to_dict()["indirect.photons"] == 64
+    with pytest.raises(LdbenchError, match="structure.source given twice"):
+        LdmAOParams.from_dict({"build": "splat", "structure.source": "raster"})
+    with pytest.raises(LdbenchError, match=r"structure.source='peel' not one of \['raster', 'one_pass', 'splat'\]"):
+        LdmAOParams.from_dict({"structure.source": "peel"})
+    with pytest.raises(LdbenchError, match="unknown parameter 'structure.payload'"):
+        LdmAOParams.from_dict({"structure.payload": "normal"})
 
 
 @pytest.mark.parametrize("camera", [OVERHEAD, LOW], ids=["overhead", "low"])
@@ -246,7 +255,7 @@ def test_creases_are_not_bright(gpu):
 # rays
 
 def ldm_rays(gpu, scene, batch, size, **params):
-    m = LdmAO(LdmAOParams(**params))
+    m = LdmAO(LdmAOParams.from_dict(params))
     m.setup(gpu, scene)
     try:
         gpu.begin_frame()

@@ -26,7 +26,7 @@ IND = Effect("indirect")
 def render(gpu, scene, size=48, views=None, frames=1, keep=None, **params):
     """Indirect light of ``scene`` (one frame per view, or ``frames`` frames of the scene camera); returns
     the resolved results, each with its G-buffer attached as ``r.gbuf`` (position, normal, albedo)."""
-    m = Ldm(LdmParams(**params))
+    m = Ldm(LdmParams.from_dict(params))
     m.setup(gpu, scene)
     out = []
     try:
@@ -95,13 +95,13 @@ def receiver_radiance(points, n=32, nphi=256):
 
 def test_registered_and_params():
     assert "indirect" in Ldm.effects and {"ao", "rays"} <= Ldm.effects
-    p = LdmParams()
+    p = LdmParams().indirect
     assert (p.photons, p.footprint_scale, p.max_splat_px, p.splat, p.refine_hit, p.rotation) == \
         (128, 2.0, 400.0, "blend", True, "incident")
     with pytest.raises(LdbenchError, match="splat"):
-        LdmParams(splat="bogus")
+        LdmParams.from_dict({"indirect.splat": "bogus"})
     with pytest.raises(LdbenchError, match="photons"):
-        LdmParams(photons=2)
+        LdmParams.from_dict({"photons": 2})
     wide = SpotLight(position=(0, 1, 0), target=(0, 0, 0), cutoff_angle=120.0)
     with pytest.raises(LdbenchError, match="cutoff_angle"):
         light_camera(wide)
@@ -321,7 +321,7 @@ def test_overflow_is_reported(gpu):
     from harness.scenes import load_scene
 
     scene = load_scene("cornell")
-    m = Ldm(LdmParams(directions=16, resolution=32, photons=16))
+    m = Ldm(LdmParams.from_dict({"directions": 16, "resolution": 32, "indirect.photons": 16}))
     m.setup(gpu, scene)
     try:
         m.frame(View(scene.camera, 24, 24), IND)
@@ -399,7 +399,7 @@ def test_stored_photons_lie_on_the_surfaces_the_camera_sees(gpu):
     view = View(scene.camera, 48, 48)
 
     def keep(m):
-        got.update(ph=m.indirect.photon_array(), vp=m.gbuf.view_proj(view), tol=m.params.visibility_bias * m.texel)
+        got.update(ph=m.indirect.photon_array(), vp=m.gbuf.view_proj(view), tol=m.params.indirect.visibility_bias * m.texel)
 
     (r,) = render(gpu, scene, 48, directions=64, resolution=64, photons=32, keep=keep)
     ph, vp = got["ph"], got["vp"]

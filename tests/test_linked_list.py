@@ -1,4 +1,4 @@
-"""Layered per-pixel linked lists (methods/linked_list.py) against an exact CPU rasterization."""
+"""Layered per-pixel linked lists (methods/structures/linked.py) against an exact CPU rasterization."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +6,8 @@ import pytest
 
 from harness.errors import LdbenchError
 from methods.gbuffer import SceneGeometry
-from methods.linked_list import EOL, LayeredLinkedLists
+from methods.structures import StructureSpec, make_structure
+from methods.structures.linked import EOL
 from testkit import LAYER_H as H, LAYER_W as W, expected_lists, layer_transforms, quads_scene as scene
 
 
@@ -25,7 +26,7 @@ def expected():
 
 def _build(setup, **kw):
     gpu, geo, res = setup
-    ll = LayeredLinkedLists(gpu, geo, res, layers=2, width=W, height=H, **kw)
+    ll = make_structure(StructureSpec(layout="linked", **kw), gpu, geo, res, layers=2, width=W, height=H, prefix="ll.")
     ll.set_layers(*layer_transforms())
     ll.build()
     return ll
@@ -82,8 +83,8 @@ def test_grow_policy_redoes_once_then_fits(setup, expected):
 
 def test_unsorted_build_is_unsorted_before_the_sort_pass(setup, expected):
     gpu, geo, res = setup
-    ll = LayeredLinkedLists(gpu, geo, res, layers=2, width=W, height=H, sorted_insert=False,
-                            pool="fixed", pool_capacity=4000)
+    ll = make_structure(StructureSpec(layout="linked", sorted_insert=False, pool="fixed", pool_capacity=4000),
+                        gpu, geo, res, layers=2, width=W, height=H, prefix="ll.")
     ll.set_layers(*layer_transforms())
     ll._build_once()  # raster only, no sort pass
     assert ll.stats()["unsorted_lists"] > 0
@@ -149,9 +150,9 @@ def test_heads_and_memory(setup, expected):
 def test_bad_arguments(setup):
     gpu, geo, res = setup
     with pytest.raises(LdbenchError, match="pool"):
-        LayeredLinkedLists(gpu, geo, res, layers=1, width=4, pool="bogus")
+        StructureSpec(pool="bogus")
     with pytest.raises(LdbenchError, match="pool_capacity"):
-        LayeredLinkedLists(gpu, geo, res, layers=1, width=4, pool="fixed")
-    ll = LayeredLinkedLists(gpu, geo, res, layers=1, width=4)
+        StructureSpec(pool="fixed")
+    ll = make_structure(StructureSpec(), gpu, geo, res, layers=1, width=4, prefix="ll.")
     with pytest.raises(LdbenchError, match="set_layers"):
         ll.build()

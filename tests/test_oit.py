@@ -98,7 +98,7 @@ def refs(scenes):
 
 def run(gpu, scene, method, size=(W, H), method_cls=None, **params):
     cls = method_cls or get_method(method)
-    m = cls(cls.Params(**params))
+    m = cls(cls.Params.from_dict(params))
     m.setup(gpu, scene)
     try:
         return m.frame(View(scene.camera, *size), Effect("oit")).resolve()
@@ -223,7 +223,7 @@ def test_ll_oit_pool_policies_and_aggregated_counter(gpu, scenes, refs, params):
     the per-subgroup aggregated node counter store every fragment: the composite equals the reference."""
     for name in ("intersecting", "stack"):
         cls = get_method("ll-oit")
-        m = cls(cls.Params(**params))
+        m = cls(cls.Params.from_dict(params, method="ll-oit"))  # earlier flat names
         m.setup(gpu, scenes[name])
         try:
             for _ in range(2):  # lazy sizes the second frame from the first

@@ -40,7 +40,7 @@ def _expected_files() -> set:
     out = set()
     for pkg in PACKAGES:
         for p in (ROOT / pkg).rglob("*"):
-            if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".glsl", ".toml"):
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".glsl", ".toml", ".js", ".css"):
                 out.add(p.relative_to(ROOT).as_posix())
     out |= {f"harness/suites/{p.name}" for p in (ROOT / "suites").glob("*.toml")}
     return out

@@ -189,7 +189,7 @@ def test_params_record_the_values_used():
         return R.make_row(**row)["params"]
 
     vr = json.loads(params("cdi-vpl", Effect("vpl_range", rsm=32, miss_range=1.0), rsm=256))
-    assert (vr["rsm"], vr["miss_range"], vr["cone_angle"]) == (32, 1.0, 45.0), vr
+    assert (vr["indirect.rsm"], vr["indirect.miss_range"], vr["indirect.cone_angle"]) == (32, 1.0, 45.0), vr
     ind = json.loads(params("cdi-vpl", Effect("indirect")))
-    assert (ind["rsm"], ind["miss_range"]) == (256, 0.5)
-    assert json.loads(params("ldi", Effect("rays", rays_per_pixel=4)))["rays_per_pixel"] == 0
+    assert (ind["indirect.rsm"], ind["indirect.miss_range"]) == (256, 0.5)
+    assert json.loads(params("ldi", Effect("rays", rays_per_pixel=4)))["image.rays_per_pixel"] == 0

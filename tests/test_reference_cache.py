@@ -114,6 +114,12 @@ def test_a_non_finite_reference_never_scores_a_row():
     mask2 = mask.copy()
     mask2[1, 2] = False  # background: not scored, not refused
     finite_reference(cornell_like(), SimpleNamespace(mean=mean2, variance=ok.variance, mask=mask2), "ao")
+    # a NaN variance is refused too, except with one sample per pixel, where it is undefined
+    var = ok.variance.copy()
+    var[0, 0] = np.nan
+    with pytest.raises(LdbenchError, match="1 non-finite pixel"):
+        finite_reference(cornell_like(), SimpleNamespace(mean=mean, variance=var, mask=mask, meta={"spp": 4}), "ao")
+    finite_reference(cornell_like(), SimpleNamespace(mean=mean, variance=var, mask=mask, meta={"spp": 1}), "ao")
 
 
 def test_a_run_stops_before_scoring_against_a_non_finite_reference(tmp_path, monkeypatch):

@@ -122,6 +122,14 @@ def test_command_line_rejects(tmp_path, extra, needle):
         run_args(str(f), *extra)
 
 
+def test_a_grouped_parameter_is_held_to_the_integer_bound():
+    """structure.pool_capacity (no declared maximum) sits in a parameter group: the 2^31 - 1 bound of
+    harness.suite.method_params applies to it as to a flat parameter, by its dotted and its earlier name."""
+    for kv in (f"ldm.structure.pool_capacity={2 ** 31}", f"ldm.pool_capacity={2 ** 31}"):
+        with pytest.raises(LdbenchError, match="structure.pool_capacity=2147483648 of method 'ldm' above its max"):
+            run_args("--scene", "cornell", "--method", "ldm", "--effect", "ao", "--size", "16x16", "--set", kv)
+
+
 def test_a_sweep_may_give_a_parameter_some_of_its_kinds_use():
     """ray_kind = [diffuse, glossy, shadow] with light_radius: shadow uses it (the bundled suites do this)."""
     s = suite(effect="rays", methods=["ldi"], effect_params={"ray_kind": ["diffuse", "shadow"], "light_radius": 0.2})

@@ -166,7 +166,7 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
     np.testing.assert_allclose(ref.range, r_exact, rtol=1e-4)
     limits = {"one_pass": (0.037, 0.38, 0.0140, 0.0005), "brute_force": (0.036, 0.25, 0.0120, 0.0025)}
     for build, (p50, p95, missing, at_zero) in limits.items():
-        m = CdiVpl(CdiVplParams(build=build))
+        m = CdiVpl(CdiVplParams.from_dict({"build": build}))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 8, 8), eff, b).resolve()
@@ -182,7 +182,7 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
 def test_random_range_is_uniform_in_its_bounds(gpu, box_batch):
     """The random baseline: uniform in [r_min, r_max] × diagonal, deterministic for a seed."""
     sc, eff, b, _ = box_batch
-    m = CdiVpl(CdiVplParams(range="random", r_min=0.1, r_max=0.3))
+    m = CdiVpl(CdiVplParams.from_dict({"vpl.range": "random", "vpl.r_min": 0.1, "vpl.r_max": 0.3}))
     m.setup(gpu, sc)
     try:
         r1 = m.frame(View(sc.camera, 8, 8), eff, b).resolve().arrays["range"]
@@ -244,7 +244,7 @@ ranges above 1.2 × the mean)."""
     for mode in ("mean", "max"):
         eff = Effect("vpl_range", rsm=24, cone_angle=50.0, miss_range=2.0, range_mode=mode)
         b = make_vpls(sc, eff.params, seed=5)
-        m = CdiVpl(CdiVplParams(build="brute_force"))
+        m = CdiVpl(CdiVplParams(structure=dict(source="raster", instanced=False)))
         m.setup(gpu, sc)
         try:
             r = m.frame(View(sc.camera, 8, 8), eff, b).resolve()

@@ -44,7 +44,6 @@ import logging
 import math
 import os
 import shutil
-import sys
 import tempfile
 import time
 import uuid
@@ -347,8 +346,8 @@ class RayExecutor:
             env = forwarded_env()
             workers = [worker_cls.remote(env) for _ in range(n)]
             scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
-            print(f"ldbench: ray: {len(plan.jobs)} jobs in {len(groups)} groups, {len(keys)} references, "
-                  f"{n} {kind} workers", file=sys.stderr)
+            logging.getLogger(__name__).info(f"ray: {len(plan.jobs)} jobs in {len(groups)} groups, "
+                                             f"{len(keys)} references, {n} {kind} workers")
 
             rows: list = [None] * len(plan.jobs)
             metas: dict = {}
@@ -389,8 +388,8 @@ class RayExecutor:
                         queue.remove(w)
                         settle(w.items, w.key, status=f"error: reference task failed: {_reason(e)}")
                 elif len(work.items) > 1:  # find the job that fails, spare the others
-                    print(f"ldbench: ray: a group of {len(work.items)} jobs failed ({_reason(e)}); "
-                          f"running them one by one", file=sys.stderr)
+                    logging.getLogger(__name__).warning(f"ray: a group of {len(work.items)} jobs failed "
+                                                        f"({_reason(e)}); running them one by one")
                     for item in reversed(work.items):
                         queue.appendleft(_Work(work.key, [item]))
                 else:
@@ -422,10 +421,10 @@ class RayExecutor:
                 bar.close()
             self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
                           "processes": self._processes(ray, workers)}
-            print("ldbench: ray: " + "; ".join(
+            logging.getLogger(__name__).info("ray: " + "; ".join(
                 f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
                 f"{p['omp_threads']} OpenMP threads): "
-                f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]), file=sys.stderr)
+                f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]))
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:

@@ -2,9 +2,9 @@
 ``indirect`` and ``rays``.
 
 **CDI** (§3.1): ``directions`` orthographic deep images of ``resolution``² texels over the scene's bounding
-sphere (:func:`methods.layered.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
+sphere (:func:`methods.structures.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
 spherical coordinates (:func:`methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
-(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.linear_arrays`). Build
+(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.structures.linear`). Build
 (stages ``count``, ``scan``, ``fill``, ``sort``), a variant of the shared layered-structure module:
 
 * ``one_pass`` (the paper): one raster of the scene per pass, each triangle swizzled to its dominant axis in
@@ -41,31 +41,36 @@ Stages: ``count``, ``scan``, ``fill``, ``sort`` (CDI); ``raycast`` (``vpl_range`
 ``exact_range``); ``trace`` (``rays``); ``gbuffer``, ``rsm``, ``vpl``, ``grid_mask``, ``grid_count``,
 ``grid_scan``, ``grid_fill``, ``shade`` (``indirect``).
 
-=================  ==============  ==============  ===========================================================
-Parameter          Default         Paper           Meaning
-=================  ==============  ==============  ===========================================================
-``directions``     169             169             number of deep images
-``direction_set``  stacks_slices   stacks_slices   stacks × slices (spherical coordinates) | eqsp (zonal)
-``resolution``     64              64              texels per side of each deep image
-``build``          one_pass        one_pass        one_pass | brute_force | instanced | splat (compute, = instanced)
-``assembly``       direct                          count + fill passes | one pass of pairs sorted by list
-``pass_directions`` 0                              one_pass: directions per raster pass (0 = all)
-``max_list``       32                              register-sort length (longer lists: exact slow path)
-``cdi``            frame           frame           build the CDI every frame | once in setup (static)
-``bias``           0.25                            self-intersection bias, in CDI texels
-``lookup``         auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
-``range``          cdi             cdi             cdi | random | exact (Mitsuba, once in setup)
-``r_min``          0.01                            random range: lower bound × scene diagonal
-``r_max``          0.25                            random range: upper bound × scene diagonal
-``rsm``            256             256             indirect: RSM side R
-``vpl_step``       2               (≈20k of 65k)   indirect: every vpl_step-th RSM texel is a VPL
-``primary``        normal          either          indirect: primary ray = normal | reflected light
-``cone_angle``     45              –               indirect: angle of the five rays around it (degrees)
-``range_mode``     mean            either          indirect: mean | max of the six distances
-``miss_range``     0.5             –               indirect: distance of a miss, × scene diagonal
-``grid``           16              –               indirect: light-grid cells along the longest side
-``depth_mask``     True            True            indirect: VPLs only into cells holding visible surfaces
-=================  ==============  ==============  ===========================================================
+Parameters are grouped by role (``ldbench methods``); the earlier flat names still work
+(:attr:`CdiVplParams.renamed`; ``build = brute_force`` is ``structure.source = raster`` with
+``structure.instanced = false``, ``build = instanced`` the same with ``true``).
+
+=========================  ==============  ==============  ===========================================================
+Parameter                  Default         Paper           Meaning
+=========================  ==============  ==============  ===========================================================
+``directions``             169             169             number of deep images
+``direction_set``          stacks_slices   stacks_slices   stacks × slices (spherical coordinates) | eqsp (zonal)
+``resolution``             64              64              texels per side of each deep image
+``structure.source``       one_pass        one_pass        one_pass | raster | splat (compute, = the raster)
+``structure.instanced``    False                           raster: one instanced draw (False: one per direction)
+``structure.assembly``     direct                          count + fill passes | one pass of pairs sorted by list
+``structure.pass_layers``  0                               one_pass: directions per raster pass (0 = all)
+``structure.max_list``     32                              register-sort length (longer lists: exact slow path)
+``cdi``                    frame           frame           build the CDI every frame | once in setup (static)
+``trace.bias``             0.25                            self-intersection bias, in CDI texels
+``trace.lookup``           auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
+``vpl.range``              cdi             cdi             cdi | random | exact (Mitsuba, once in setup)
+``vpl.r_min``              0.01                            random range: lower bound × scene diagonal
+``vpl.r_max``              0.25                            random range: upper bound × scene diagonal
+``indirect.rsm``           256             256             indirect: RSM side R
+``indirect.vpl_step``      2               (≈20k of 65k)   indirect: every vpl_step-th RSM texel is a VPL
+``indirect.primary``       normal          either          indirect: primary ray = normal | reflected light
+``indirect.cone_angle``    45              –               indirect: angle of the five rays around it (degrees)
+``indirect.range_mode``    mean            either          indirect: mean | max of the six distances
+``indirect.miss_range``    0.5             –               indirect: distance of a miss, × scene diagonal
+``indirect.grid``          16              –               indirect: light-grid cells along the longest side
+``indirect.depth_mask``    True            True            indirect: VPLs only into cells holding visible surfaces
+=========================  ==============  ==============  ===========================================================
 """
 from __future__ import annotations
 
@@ -76,13 +81,64 @@ import numpy as np
 
 from harness.bindings import B
 from harness.errors import LdbenchError
-from methods.base import Method, ParamsBase, Result, param
+from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from methods.invariants import layered_invariants
-from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
+
+
+@dataclass(frozen=True)
+class CdiTrace(ParamsBase):
+    """A ray's walk through the CDI, for every effect that casts rays (``trace.``)."""
+
+    prefix = "trace."
+    bias: float = param(0.25, "self-intersection bias along the ray, in CDI texels", lo=0.0, hi=64.0)
+    lookup: str = param("auto", "nearest direction of a ray: from the (theta, phi) grid (stacks_slices) or a "
+                        "cube table of candidates (eqsp), or a scan of all directions", choices=("auto", "scan"),
+                        paper="closest matching direction")
+
+
+@dataclass(frozen=True)
+class CdiVplRanges(ParamsBase):
+    """Where the VPL ranges come from, for ``vpl_range`` and ``indirect`` (``vpl.``)."""
+
+    prefix = "vpl."
+    range: str = param("cdi", "VPL ranges from the CDI raycast, random, or exact (Mitsuba, in setup)",
+                       choices=("cdi", "random", "exact"), paper="cdi (random: the baseline)")
+    r_min: float = param(0.01, "random range: lower bound, x scene diagonal", lo=0.0, hi=10.0)
+    r_max: float = param(0.25, "random range: upper bound, x scene diagonal", lo=0.0, hi=10.0)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.r_max < self.r_min:
+            raise LdbenchError(f"parameter vpl.r_max={self.r_max} below vpl.r_min={self.r_min}")
+
+
+@dataclass(frozen=True)
+class CdiVplIndirect(ParamsBase):
+    """The ``indirect`` effect: RSM, VPLs and the light grid (``indirect.``)."""
+
+    prefix = "indirect."
+    rsm: int = param(256, "reflective shadow map side R", lo=4, hi=4096, paper=256)
+    vpl_step: int = param(2, "every vpl_step-th RSM texel in x and y is a VPL", lo=1, hi=64,
+                          paper="about 20,000 of 65,536 texels")
+    primary: str = param("normal", "primary ray direction", choices=("normal", "reflected"), paper="either")
+    cone_angle: float = param(45.0, "angle of the five rays around the primary one (degrees)", lo=0.0, hi=89.0)
+    range_mode: str = param("mean", "range = mean or max of the six distances", choices=("mean", "max"),
+                            paper="either")
+    miss_range: float = param(0.5, "distance of a miss (and clamp), x scene diagonal", lo=1e-4, hi=10.0)
+    grid: int = param(16, "light-grid cells along the longest side of the scene bounds", lo=1, hi=256)
+    depth_mask: bool = param(True, "bin VPLs only into cells holding a visible surface", paper=True)
+
+
+#: the earlier ``build`` values: brute_force = the raster one draw per direction, instanced = one draw
+_BUILDS = {"one_pass": {"structure.source": "one_pass"},
+           "brute_force": {"structure.source": "raster", "structure.instanced": False},
+           "instanced": {"structure.source": "raster", "structure.instanced": True},
+           "splat": {"structure.source": "splat"}}
 
 
 @dataclass(frozen=True)
@@ -91,42 +147,26 @@ class CdiVplParams(ParamsBase):
     direction_set: str = param("stacks_slices", "stacks x slices in spherical coordinates, or the zonal "
                                "equal-area set", choices=("stacks_slices", "eqsp"), paper="stacks_slices")
     resolution: int = param(64, "texels per side of each deep image", lo=4, hi=4096, paper=64)
-    build: str = param("one_pass", "CDI build: one pass for all directions, one raster per direction, the "
-                       "per-direction raster as one instanced draw, or the compute splat (the instanced raster's "
-                       "fragments; docs/fast_builds.md)", choices=("one_pass", "brute_force", "instanced", "splat"),
-                       paper="one_pass (brute_force: the baseline)")
-    assembly: str = param("direct", "count + fill passes, or one pass of (list, depth) pairs sorted by list",
-                          choices=("direct", "sort"))
-    pass_directions: int = param(0, "one_pass: directions per raster pass (0 = all in one)", lo=0)
-    max_list: int = param(32, "register-array length of the per-pixel sort (longer lists: exact slow path)",
-                          lo=1, hi=1024)
     cdi: str = param("frame", "build the CDI every frame, or once in setup (static scene)",
                      choices=("frame", "static"), paper="frame")
-    bias: float = param(0.25, "self-intersection bias along the ray, in CDI texels", lo=0.0, hi=64.0)
-    lookup: str = param("auto", "nearest direction of a ray: from the (theta, phi) grid (stacks_slices) or a "
-                        "cube table of candidates (eqsp), or a scan of all directions", choices=("auto", "scan"),
-                        paper="closest matching direction")
-    range: str = param("cdi", "VPL ranges from the CDI raycast, random, or exact (Mitsuba, in setup)",
-                       choices=("cdi", "random", "exact"), paper="cdi (random: the baseline)")
-    r_min: float = param(0.01, "random range: lower bound, x scene diagonal", lo=0.0, hi=10.0)
-    r_max: float = param(0.25, "random range: upper bound, x scene diagonal", lo=0.0, hi=10.0)
-    rsm: int = param(256, "indirect: reflective shadow map side R", lo=4, hi=4096, paper=256)
-    vpl_step: int = param(2, "indirect: every vpl_step-th RSM texel in x and y is a VPL", lo=1, hi=64,
-                          paper="about 20,000 of 65,536 texels")
-    primary: str = param("normal", "indirect: primary ray direction", choices=("normal", "reflected"),
-                         paper="either")
-    cone_angle: float = param(45.0, "indirect: angle of the five rays around the primary one (degrees)",
-                              lo=0.0, hi=89.0)
-    range_mode: str = param("mean", "indirect: range = mean or max of the six distances", choices=("mean", "max"),
-                            paper="either")
-    miss_range: float = param(0.5, "indirect: distance of a miss (and clamp), x scene diagonal", lo=1e-4, hi=10.0)
-    grid: int = param(16, "indirect: light-grid cells along the longest side of the scene bounds", lo=1, hi=256)
-    depth_mask: bool = param(True, "indirect: bin VPLs only into cells holding a visible surface", paper=True)
+    structure: StructureSpec = group(
+        StructureSpec, "the CDI: linearised arrays; source one_pass (the paper: one raster for all directions), "
+        "raster (one raster per direction: instanced = false is the paper's brute force, true one instanced "
+        "draw) or splat (the instanced raster's fragments; docs/fast_builds.md)",
+        expose=("source", "instanced", "assembly", "pass_layers", "max_list"),
+        choices={"source": ("one_pass", "raster", "splat")},
+        paper={"source": "one_pass (raster, instanced = false: the baseline)"},
+        layout="linear", source="one_pass", instanced=False, max_list=32)
+    trace: CdiTrace = group(CdiTrace, "the walk of a ray through the CDI")
+    vpl: CdiVplRanges = group(CdiVplRanges, "effects vpl_range and indirect: the VPL ranges")
+    indirect: CdiVplIndirect = group(CdiVplIndirect, "effect indirect: RSM, VPLs, light grid")
 
-    def __post_init__(self):
-        super().__post_init__()
-        if self.r_max < self.r_min:
-            raise LdbenchError(f"parameter r_max={self.r_max} below r_min={self.r_min}")
+    renamed = {"build": "structure.source", "assembly": "structure.assembly", "pass_directions": "structure.pass_layers",
+               "max_list": "structure.max_list", "bias": "trace.bias", "lookup": "trace.lookup",
+               "range": "vpl.range", "r_min": "vpl.r_min", "r_max": "vpl.r_max",
+               **{k: f"indirect.{k}" for k in ("rsm", "vpl_step", "primary", "cone_angle", "range_mode",
+                                               "miss_range", "grid", "depth_mask")}}
+    renamed_values = {"build": _BUILDS}
 
 
 class CdiVpl(Method):
@@ -154,21 +194,18 @@ class CdiVpl(Method):
         self._exact_cache = None
         self._geometry_released = False
         self._choose_lookup()
-        if p.range == "cdi":
+        if p.vpl.range == "cdi":
             self._cdi()
             gpu.compute(self.shader("trace.glsl"), {**self.cdi_defines(), "CDI_VPL": 1})  # compiled untimed
-        elif p.range == "random":
+        elif p.vpl.range == "random":
             gpu.compute(self.shader("trace.glsl"), {"CDI_RANDOM": 1})
 
     def _cdi(self):
         """The CDI (created at the first use that needs it; a static one is built then, untimed)."""
         if self.cdi_struct is None:
             p = self.params
-            build = {"one_pass": "one_pass", "brute_force": "raster", "instanced": "raster", "splat": "splat"}[p.build]
-            s = make_structure(
-                "linear", self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
-                max_list=p.max_list, instanced=p.build == "instanced", prefix="cdi.", build=build, assembly=p.assembly,
-                pass_layers=p.pass_directions, sphere=(self.centre, self.radius))
+            s = make_structure(p.structure, self.gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+                               prefix="cdi.", sphere=(self.centre, self.radius))
             s.set_layers(*self._layers)
             self.axes_buf = self.res.buffer("cdi.axes", self._basis)
             self.cdi_struct = s
@@ -189,7 +226,7 @@ class CdiVpl(Method):
         table of candidates for the zonal set (the scan where no table of ≤ 4 candidates exists)."""
         p = self.params
         self._lookup, self.lut_buf, self.lut_res = "scan", None, 0
-        if p.lookup == "scan":
+        if p.trace.lookup == "scan":
             return
         if p.direction_set == "stacks_slices":
             self._lookup = "grid"
@@ -207,7 +244,8 @@ class CdiVpl(Method):
         """CDI uniforms and buffers of a program that includes cdi_trace.glsl."""
         p = self.params
         for name, v in (("cdi_dirs", p.directions),
-                        ("cdi_bias", p.bias * self.texel), ("cdi_spread", 1.0 if p.build == "one_pass" else 0.0),
+                        ("cdi_bias", p.trace.bias * self.texel),
+                        ("cdi_spread", 1.0 if p.structure.source == "one_pass" else 0.0),
                         ("cdi_grid", stacks_slices_shape(p.directions)), ("cdi_lut_res", self.lut_res)):
             if name in cs:
                 cs[name].value = v
@@ -273,7 +311,7 @@ class CdiVpl(Method):
         nr = len(batch.rays)
         self._buffer("ranges", 4 * n)
         self._buffer("t", 4 * nr)
-        if p.range == "cdi":
+        if p.vpl.range == "cdi":
             if p.cdi == "static":
                 self._release_geometry()
             self._build_cdi()
@@ -282,7 +320,7 @@ class CdiVpl(Method):
                     cs["cap"].value = float(batch.cap)
                     cs["range_max"].value = int(batch.mode == "max")
                 self._dispatch_rays({"CDI_VPL": 1}, batch.upload(gpu), n, 6, extra)
-        elif p.range == "random":
+        elif p.vpl.range == "random":
             if p.cdi == "static":
                 self._release_geometry()
             diag = self.scene.diagonal()
@@ -290,8 +328,8 @@ class CdiVpl(Method):
             with gpu.stage("random_range"):
                 cs["n_items"].value = n
                 cs["seed"].value = int(batch.seed) & 0xFFFFFFFF
-                cs["r_min"].value = p.r_min * diag
-                cs["r_max"].value = p.r_max * diag
+                cs["r_min"].value = p.vpl.r_min * diag
+                cs["r_max"].value = p.vpl.r_max * diag
                 self._out["ranges"].bind_to_storage_buffer(B.VPL_RANGES)
                 cs.run(min(-(-n // 64), MAX_GROUPS))
                 gpu.ctx.memory_barrier()
@@ -307,7 +345,7 @@ class CdiVpl(Method):
                 gpu.ctx.copy_buffer(self._out["ranges"], rng)
                 gpu.ctx.copy_buffer(self._out["t"], tt)
         ranges, t = self._out["ranges"], self._out["t"]
-        has_t = p.range != "random"
+        has_t = p.vpl.range != "random"
         arrays = {"range": lambda: np.frombuffer(self.gpu.read(ranges, 4 * n), np.float32).copy()}
         if has_t:
             arrays["t"] = lambda: np.frombuffer(self.gpu.read(t, 4 * nr), np.float32).copy()
@@ -337,7 +375,7 @@ class CdiVpl(Method):
             raise LdbenchError("method 'cdi-vpl': a static CDI that answered rays no longer holds the scene")
         if self.lighting is None:
             self.lighting = VplLighting(self, self.scene)
-        if self.params.range == "cdi":
+        if self.params.vpl.range == "cdi":
             self._build_cdi()
         with self.gpu.stage("gbuffer"):
             self.gbuf.render(view)
@@ -353,7 +391,7 @@ class CdiVpl(Method):
 
     def _counters(self) -> dict:
         p = self.params
-        c = {"directions": p.directions, "resolution": p.resolution, "build": p.build,
+        c = {"directions": p.directions, "resolution": p.resolution, "build": p.structure.source,
              "texel_world": self.texel, "bounding_radius": self.radius}
         if self._uses_cdi():
             c.update(self.cdi_struct.stats())

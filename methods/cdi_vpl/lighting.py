@@ -19,7 +19,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.lights import set_spot_uniforms
 from methods.gbuffer import mat_bytes
-from methods.layered import fill_uint
+from methods.structures import fill_uint
 from methods.scan import Scan
 
 VPL_BYTES = 48
@@ -31,7 +31,7 @@ class VplLighting:
 
     def __init__(self, method, scene):
         self.m = method
-        p, gpu, res = method.params, method.gpu, method.res
+        p, gpu, res = method.params.indirect, method.gpu, method.res
         self.gpu, self.res, self.p = gpu, res, p
         if not scene.lights:
             raise LdbenchError(f"scene {scene.name!r} has no light: cdi-vpl needs a spot light")
@@ -74,7 +74,7 @@ class VplLighting:
         self.total = 0
         self.out = None
         self._out_size = None
-        if p.range == "exact":
+        if self.m.params.vpl.range == "exact":
             self._exact_table(scene)
 
     def _grid_allocate(self, n: int):
@@ -98,8 +98,8 @@ class VplLighting:
 
     def build_vpls(self):
         p = self.p
-        mode = {"cdi": "VPL_RANGE_CDI", "random": "VPL_RANGE_RANDOM", "exact": "VPL_RANGE_TABLE"}[p.range]
-        defines = {mode: 1, **(self.m.cdi_defines() if p.range == "cdi" else {})}
+        mode = {"cdi": "VPL_RANGE_CDI", "random": "VPL_RANGE_RANDOM", "exact": "VPL_RANGE_TABLE"}[self.m.params.vpl.range]
+        defines = {mode: 1, **(self.m.cdi_defines() if self.m.params.vpl.range == "cdi" else {})}
         cs = self.gpu.compute(self.m.shader("vpl_build.glsl"), defines)
         for name, v in (("rsm_size", self.R), ("vpl_step", p.vpl_step), ("vpl_side", self.side),
                         ("light_position", tuple(self.light.position)), ("cap", self.cap),
@@ -107,13 +107,13 @@ class VplLighting:
                         ("cos_a", math.cos(math.radians(p.cone_angle))),
                         ("sin_a", math.sin(math.radians(p.cone_angle))),
                         ("primary_reflected", int(p.primary == "reflected")), ("seed", 0),
-                        ("r_min", p.r_min * self.diag), ("r_max", p.r_max * self.diag),
+                        ("r_min", self.m.params.vpl.r_min * self.diag), ("r_max", self.m.params.vpl.r_max * self.diag),
                         ("rsm_position", 0), ("rsm_normal", 1), ("rsm_flux", 2)):
             if name in cs:
                 cs[name].value = v
         for i, t in enumerate((self.rsm_pos, self.rsm_nrm, self.rsm_flux)):
             t.use(i)
-        if p.range == "cdi":
+        if self.m.params.vpl.range == "cdi":
             self.m.bind_cdi(cs)
         if self.table is not None:
             self.table.bind_to_storage_buffer(B.VPL_TABLE)

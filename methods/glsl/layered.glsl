@@ -1,4 +1,4 @@
-// The layered-structure access interface (methods/layered.py): one GLSL API for every layout, so a
+// The layered-structure access interface (methods/structures/): one GLSL API for every layout, so a
 // tracer is written once and reads linked lists, linearised arrays and compacted depth-peeled layers.
 //
 //   LS_LAYOUT = 1  linked lists (yang2010; linked_list.glsl)
@@ -59,7 +59,7 @@ uint ls_count(uint list) { return la_end(list) - la_begin(list); }
 #error "unknown LS_LAYOUT"
 #endif
 
-// ---- standard payload words (methods/layered.py PAYLOAD_WORDS): packing shared by builds and tracers ----
+// ---- standard payload words (methods/structures/spec.py PAYLOAD_WORDS): packing shared by builds and tracers ----
 // normal: octahedral, 2 × snorm16; albedo: RGBA unorm8; material: the id as is.
 vec2 ls_oct_wrap(vec2 v) { return (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 uint ls_pack_normal(vec3 n) {

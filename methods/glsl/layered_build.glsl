@@ -1,4 +1,4 @@
-// Rasterize the scene into a layered structure (methods/layered.py): every fragment of both faces of
+// Rasterize the scene into a layered structure (methods/structures/sources.py): every fragment of both faces of
 // every triangle, in every layer. One instance (gl_InstanceID) or one draw (layer_base) per layer; the
 // layer's clip transform and depth row come from ls_layers. Depth test, culling and colour writes are
 // off; no early_fragment_tests (nothing depth-tests here).

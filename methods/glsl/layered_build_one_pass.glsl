@@ -1,4 +1,4 @@
-// One-pass multi-direction build of a layered structure (archer2019 §3.1; methods/layered.py
+// One-pass multi-direction build of a layered structure (archer2019 §3.1; methods/structures/sources.py
 // build = "one_pass"): the scene is rasterized ONCE (per pass of layer_count layers), each triangle
 // swizzled to its dominant axis, and every fragment is projected into each layer itself.
 //

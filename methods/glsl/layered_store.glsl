@@ -1,11 +1,11 @@
-// Store one fragment in a layered structure: the write side of every build (methods/layered.py), shared
+// Store one fragment in a layered structure: the write side of every build (methods/structures/), shared
 // by the per-layer raster (layered_build.glsl) and the one-pass multi-direction raster
 // (layered_build_one_pass.glsl). Include after layered.glsl, with LL_WRITABLE / LA_WRITABLE defined.
 //
 //   void ls_store(uint list, float depth, vec3 normal, uint material)
 //
 // LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
-// LS_EMIT         linear, sort assembly (methods/layered_builds.py): append (list, depth, payload) to the
+// LS_EMIT         linear, sort assembly (methods/structures/linear.py): append (list, depth, payload) to the
 //                 pairs (B_PAIRS; one atomicAdd per subgroup with LL_AGGREGATE) and count la_off[list]++
 // otherwise       linked: insert (LL_SORTED: lock-free sorted insert, else yang2010's atomicExchange);
 //                 linear: fill (slot = atomicAdd(la_off[list], 1))

@@ -1,5 +1,5 @@
 // Linearised per-pixel arrays (archer2019 §3; pknowles' "linearised" fragment buffer): the "linear"
-// layout of the layered-structure module (methods/layered.py, methods/linear_arrays.py).
+// layout of the layered-structure module (methods/structures/core.py, methods/structures/linear.py).
 //
 // The fragments of list i are contiguous: la_depth[begin(i) .. end(i)), sorted by ascending depth after
 // the sort pass. Build: count pass (atomicAdd on la_off[i]), exclusive prefix sum of la_off over all
@@ -20,7 +20,7 @@
 #define LA_QUAL readonly
 #endif
 
-// B_COUNTERS: counters (indices shared with methods/linear_arrays.py)
+// B_COUNTERS: counters (indices shared with methods/structures/linear.py)
 #define LA_C_COUNTED 0u     // fragments of the count pass
 #define LA_C_SORT_LONG 1u   // lists longer than LA_MAX_LIST met by the sort pass (sorted in global memory)
 #define LA_C_NONEMPTY 2u    // statistics pass: non-empty lists

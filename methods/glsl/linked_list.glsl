@@ -1,7 +1,7 @@
 // Per-pixel linked lists (yang2010 §3), N layers of W×H lists sharing one head buffer and one node pool:
-// the "linked" layout of the layered-structure module (methods/layered.py, methods/linked_list.py).
+// the "linked" layout of the layered-structure module (methods/structures/core.py, methods/structures/linked.py).
 //
-// Defines (methods/linked_list.py: LayeredLinkedLists.defines()):
+// Defines (methods/structures/linked.py: LayeredLinkedLists.defines()):
 //   LL_PAGES       1..4   number of SSBO pages the node pool is split into (SSBO size limits)
 //   LL_PAGE_SHIFT         log2(nodes per page); node i lives in page i >> LL_PAGE_SHIFT
 //   LS_PAYLOAD     0..8   payload words per node (a parallel buffer, read only on a hit)
@@ -38,7 +38,7 @@
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)
 
-// B_COUNTERS: counters (indices shared with methods/linked_list.py)
+// B_COUNTERS: counters (indices shared with methods/structures/linked.py)
 #define LL_C_NODES 0u       // nodes handed out; saturates at the capacity (an overflowing alloc undoes its add)
 #define LL_C_SORT_LONG 1u   // lists longer than LL_MAX_LIST met by the sort pass
 #define LL_C_NONEMPTY 2u    // statistics pass: non-empty lists

@@ -1,4 +1,4 @@
-// Sort assembly of the linearised arrays (methods/layered_builds.py, assembly = "sort"), the scatter:
+// Sort assembly of the linearised arrays (methods/structures/linear.py, assembly = "sort"), the scatter:
 // the emit pass appended every fragment as a pair (list, depth bits, payload words...) to ls_pairs and
 // counted it in la_off[list]; after the exclusive scan each pair takes slot = atomicAdd(la_off[list], 1)
 // (a counting sort by list id; afterwards la_off[i] = end of list i, the layout's convention) and is

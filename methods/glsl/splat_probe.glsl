@@ -1,4 +1,4 @@
-// The hardware's raster rules, measured once per context (methods/layered_builds.py fill_rule).
+// The hardware's raster rules, measured once per context (methods/structures/splat.py fill_rule).
 // probe_mode 0, the fill rule: triangles whose edges pass exactly through texel centres are rasterized
 // into a small framebuffer and every covered texel records the bit of its primitive (gl_PrimitiveID).
 // probe_mode 1, the interpolation rule: one triangle with vertices off the sub-pixel grid and a steep

@@ -1,4 +1,4 @@
-// Compute-shader rasterizer of small triangles into a layered structure (methods/layered_builds.py,
+// Compute-shader rasterizer of small triangles into a layered structure (methods/structures/splat.py,
 // build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
 // stored with the same ls_store as the hardware raster (layered_store.glsl).
 //

@@ -16,10 +16,10 @@ edge-on (not at all), and rays grazing such walls miss them (measured in docs/ld
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
-farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.layered.ortho_layers`).
+farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.structures.ortho_layers`).
 
-**Build** (:mod:`methods.ldi.peel`): ``build = "peel"``, depth peeling (stages ``peel``, ``scan``,
-``scatter``, ``canon``) into the ``linear`` layout of :mod:`methods.layered`, compacted by the GPU prefix
+**Build** (:mod:`methods.structures`): ``build = "peel"``, depth peeling (the ``peel`` source, stages
+``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU prefix
 sum; ``build = "single_pass"``, the shared one-pass linearised arrays (``count``, ``scan``, ``fill``,
 ``sort``) + ``canon``: the same structure bit for bit. Payload per fragment: normal and albedo; the spot
 light's direct light at a hit is computed with the cube shadow map (stage ``shadow``), as in the paper.
@@ -33,30 +33,33 @@ Counters: ``crossings_mean``, ``crossings_max`` (pixel crossings per ray), ``ray
 Stages: ``gbuffer`` (image effects), ``shadow`` (indirect, glossy), the build's, ``trace`` (rays: the
 batch; image effects: tracing and shading of every pixel's rays), ``filter`` (indirect).
 
-======================  ===========  ==========  ===================================================
-Parameter               Default      Paper       Meaning
-======================  ===========  ==========  ===================================================
-``directions``          150          96/150/384  cube-sampled directions, 6k²
-``resolution``          128          128, 512    LDI pixels per side
-``rotated``             False        False       rotate the direction cube (CUBE_ROTATION; see below)
-``share_opposite``      True         False       one LDI answers v and −v (3k² LDIs stored)
-``build``               peel         peel        peel | single_pass (same structure)
-``raster``              hardware                 single_pass: hardware raster | compute splat (same fragments)
-``assembly``            direct                   single_pass: count + fill | one pass of pairs sorted by list
-``prebuild``            False                    build once in setup (untimed); frames only trace
-``epsilon``             1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
-``bias``                0.25                     tangent-plane bias of the self-hit test, LDI pixels
-``max_crossings``       0                        pixel crossings per ray before giving up (0: none)
-``max_layers``          1024                     depth-peeling passes at most (reaching it: degraded)
-``rays_per_pixel``      0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
-``samples_per_dispatch``  1                      rays per pixel per dispatch of image effects (0: all)
-``filter_size``         11           11          Gaussian taps of the indirect filter (0 = off; odd)
-``filter_kind``         gaussian     gaussian    gaussian | bilateral (plane-distance weight, no mixing across edges)
-``shadow_size``         1024                     cube shadow-map texels per face (indirect, glossy)
-``normal_offset``       1.5                      shadow lookup offset along n2, shadow texels
-``depth_bias``          1e-3                     shadow depth bias, fraction of the scene diagonal
-``seed``                0                        GPU random-number seed of the image effects
-======================  ===========  ==========  ===================================================
+Parameters are grouped by role (``ldbench methods``); the earlier flat names still work
+(:attr:`LdiParams.renamed`; ``build = single_pass`` is ``structure.source = raster``, with
+``raster = splat`` ``structure.source = splat``).
+
+==============================  ===========  ==========  ===================================================
+Parameter                       Default      Paper       Meaning
+==============================  ===========  ==========  ===================================================
+``directions``                  150          96/150/384  cube-sampled directions, 6k²
+``resolution``                  128          128, 512    LDI pixels per side
+``rotated``                     False        False       rotate the direction cube (CUBE_ROTATION; see below)
+``share_opposite``              True         False       one LDI answers v and −v (3k² LDIs stored)
+``structure.source``            peel         peel        peel | raster | splat (single pass: the same structure)
+``structure.assembly``          direct                   raster, splat: count + fill | one pass of pairs sorted by list
+``prebuild``                    False                    build once in setup (untimed); frames only trace
+``trace.epsilon``               1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
+``trace.bias``                  0.25                     tangent-plane bias of the self-hit test, LDI pixels
+``trace.max_crossings``         0                        pixel crossings per ray before giving up (0: none)
+``structure.max_layers``        1024                     depth-peeling passes at most (reaching it: degraded)
+``image.rays_per_pixel``        0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
+``image.samples_per_dispatch``  1                        rays per pixel per dispatch of image effects (0: all)
+``indirect.filter_size``        11           11          Gaussian taps of the indirect filter (0 = off; odd)
+``indirect.filter_kind``        gaussian     gaussian    gaussian | bilateral (plane-distance and normal weights)
+``shadow.shadow_size``          1024                     cube shadow-map texels per face (indirect, glossy)
+``shadow.normal_offset``        1.5                      shadow lookup offset along n2, shadow texels
+``shadow.depth_bias``           1e-3                     shadow depth bias, fraction of the scene diagonal
+``image.seed``                  0                        GPU random-number seed of the image effects
+==============================  ===========  ==========  ===================================================
 """
 from __future__ import annotations
 
@@ -69,13 +72,13 @@ from harness.bindings import B
 from harness.conventions import RAY_EPSILON, SHADOW_EPSILON
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
+from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import CUBE_ROTATION, cube_directions, cube_k
 from methods.invariants import layered_invariants
-from methods.layered import bind_ortho_layers, bounding_sphere, ortho_layers
 from methods.lights import CubeShadowMap, set_spot_uniforms
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 
-from .peel import make_ldi_structure
+PAYLOAD = ("normal", "albedo")
 
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
@@ -88,6 +91,54 @@ def _untimed(name):
 
 
 @dataclass(frozen=True)
+class LdiTrace(ParamsBase):
+    """The pixel-crossing walk of every ray (``trace.``)."""
+
+    prefix = "trace."
+    epsilon: float = param(1.0, "hit tolerance in LDI pixels (world = value * 2R / resolution)", lo=0.0, hi=1e4)
+    bias: float = param(0.25, "tangent-plane bias of the self-hit test, LDI pixels", lo=0.0, hi=1e4)
+    max_crossings: int = param(0, "pixel crossings per ray before the ray gives up as a miss (0: no limit)",
+                               lo=0, hi=1 << 30)
+
+
+@dataclass(frozen=True)
+class LdiImage(ParamsBase):
+    """The rays of every pixel of the image effects indirect, glossy_indirect, soft_shadows (``image.``)."""
+
+    prefix = "image."
+    rays_per_pixel: int = param(0, "rays per pixel (0: indirect 8, glossy 16, soft shadows 16)",
+                                lo=0, hi=4096, paper="8, 16, 16")
+    samples_per_dispatch: int = param(1, "rays per pixel traced by one dispatch (0: all)", lo=0, hi=4096)
+    seed: int = param(0, "random-number seed", lo=0, hi=(1 << 32) - 1)
+
+
+@dataclass(frozen=True)
+class LdiIndirect(ParamsBase):
+    """The ``indirect`` effect's filter (``indirect.``)."""
+
+    prefix = "indirect."
+    filter_size: int = param(11, "taps of the separable Gaussian on indirect light (0 = off, odd)", lo=0, hi=63,
+                             paper=11)
+    filter_kind: str = param("gaussian", "the paper's Gaussian, or cross-bilateral (plane-distance and normal "
+                             "weights: no mixing across edges)", choices=("gaussian", "bilateral"), paper="gaussian")
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.filter_size and self.filter_size % 2 == 0:
+            raise LdbenchError(f"parameter indirect.filter_size={self.filter_size} must be odd (or 0)")
+
+
+@dataclass(frozen=True)
+class LdiShadow(ParamsBase):
+    """The spot light's cube shadow map of indirect and glossy_indirect (``shadow.``)."""
+
+    prefix = "shadow."
+    shadow_size: int = param(1024, "cube shadow-map texels per face", lo=16, hi=8192)
+    normal_offset: float = param(1.5, "shadow lookup offset along the normal, shadow texels", lo=0.0, hi=16.0)
+    depth_bias: float = param(1e-3, "shadow depth bias, fraction of the scene diagonal", lo=0.0, hi=0.1)
+
+
+@dataclass(frozen=True)
 class LdiParams(ParamsBase):
     directions: int = param(150, "cube-sampled directions n = 6k^2 (96, 150, 384 in the paper)", lo=6, hi=6 * 64 * 64,
                             paper="96, 150, 384")
@@ -96,31 +147,26 @@ class LdiParams(ParamsBase):
                                  "axis-aligned wall", paper=False)
     share_opposite: bool = param(True, "one LDI answers v and -v (3k^2 stored); False: all 6k^2 as the paper",
                                  paper=False)
-    build: str = param("peel", "peel (depth peeling + GPU compaction) | single_pass (shared one-pass arrays)",
-                       choices=("peel", "single_pass"), paper="peel")
-    raster: str = param("hardware", "single_pass: fragments from the hardware raster or the compute splat (the "
-                        "same fragments; docs/fast_builds.md)", choices=("hardware", "splat"), paper="hardware")
-    assembly: str = param("direct", "single_pass: count + fill passes, or one pass of (list, depth) pairs sorted "
-                          "by list", choices=("direct", "sort"))
     prebuild: bool = param(False, "build once in setup (untimed, the paper's precomputation); frames only trace")
-    epsilon: float = param(1.0, "hit tolerance in LDI pixels (world = value * 2R / resolution)", lo=0.0, hi=1e4)
-    bias: float = param(0.25, "tangent-plane bias of the self-hit test, LDI pixels", lo=0.0, hi=1e4)
-    max_crossings: int = param(0, "pixel crossings per ray before the ray gives up as a miss (0: no limit)",
-                               lo=0, hi=1 << 30)
-    max_layers: int = param(1024, "depth-peeling passes at most", lo=1, hi=1 << 20)
-    rays_per_pixel: int = param(0, "rays per pixel of image effects (0: indirect 8, glossy 16, soft shadows 16)",
-                                lo=0, hi=4096, paper="8, 16, 16")
-    samples_per_dispatch: int = param(1, "rays per pixel traced by one dispatch of an image effect (0: all)",
-                                      lo=0, hi=4096)
-    filter_size: int = param(11, "taps of the separable Gaussian on indirect light (0 = off, odd)", lo=0, hi=63,
-                             paper=11)
-    filter_kind: str = param("gaussian", "indirect filter: the paper's Gaussian, or cross-bilateral (a plane-"
-                             "distance weight: no mixing across edges)", choices=("gaussian", "bilateral"),
-                             paper="gaussian")
-    shadow_size: int = param(1024, "cube shadow-map texels per face", lo=16, hi=8192)
-    normal_offset: float = param(1.5, "shadow lookup offset along the normal, shadow texels", lo=0.0, hi=16.0)
-    depth_bias: float = param(1e-3, "shadow depth bias, fraction of the scene diagonal", lo=0.0, hi=0.1)
-    seed: int = param(0, "random-number seed of the image effects", lo=0, hi=(1 << 32) - 1)
+    # linear arrays with normal and albedo, ties at equal depth in payload order (so that every source gives
+    # the peel's structure bit for bit)
+    structure: StructureSpec = group(
+        StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
+        "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
+        expose=("source", "assembly", "max_layers"), choices={"source": ("peel", "raster", "splat")},
+        paper={"source": "peel"}, layout="linear", source="peel", payload=PAYLOAD, indexed=False, max_list=64,
+        canonical=True)
+    trace: LdiTrace = group(LdiTrace, "the walk of every ray")
+    image: LdiImage = group(LdiImage, "effects indirect, glossy_indirect, soft_shadows: rays per pixel")
+    indirect: LdiIndirect = group(LdiIndirect, "effect indirect: the filter")
+    shadow: LdiShadow = group(LdiShadow, "effects indirect and glossy_indirect: the spot light's shadow map")
+
+    renamed = {"build": "structure.source", "raster": "structure.source", "assembly": "structure.assembly",
+               "max_layers": "structure.max_layers", "epsilon": "trace.epsilon", "bias": "trace.bias",
+               "max_crossings": "trace.max_crossings", "rays_per_pixel": "image.rays_per_pixel",
+               "samples_per_dispatch": "image.samples_per_dispatch", "seed": "image.seed",
+               "filter_size": "indirect.filter_size", "shadow_size": "shadow.shadow_size",
+               "normal_offset": "shadow.normal_offset", "depth_bias": "shadow.depth_bias"}
 
     def __post_init__(self):
         super().__post_init__()
@@ -128,11 +174,26 @@ class LdiParams(ParamsBase):
             cube_k(self.directions)
         except ValueError as e:
             raise LdbenchError(f"parameter directions={self.directions}: {e}") from None
-        if self.filter_size and self.filter_size % 2 == 0:
-            raise LdbenchError(f"parameter filter_size={self.filter_size} must be odd (or 0)")
-        if self.build == "peel" and (self.raster, self.assembly) != ("hardware", "direct"):
-            raise LdbenchError("parameters raster and assembly apply to build = single_pass (depth peeling "
-                               "rasterizes every pass on the hardware)")
+
+    @classmethod
+    def upgrade(cls, values: dict) -> dict:
+        """The earlier ``build`` (peel | single_pass) and ``raster`` (hardware | splat) together are
+        ``structure.source``: peel, or raster | splat of the single-pass arrays."""
+        values = dict(values)
+        if "build" in values or "raster" in values:
+            build, raster = values.pop("build", None), values.pop("raster", None)
+            if build not in (None, "peel", "single_pass"):
+                raise LdbenchError(f"parameter build={build!r} (now structure.source) not one of ['peel', 'single_pass']")
+            if raster not in (None, "hardware", "splat"):
+                raise LdbenchError(f"parameter raster={raster!r} (now structure.source) not one of ['hardware', 'splat']")
+            if build != "single_pass" and raster not in (None, "hardware"):
+                raise LdbenchError("parameter raster applies to build = single_pass (depth peeling rasterizes "
+                                   "every pass on the hardware); now: structure.source = splat")
+            if build == "single_pass":
+                values["structure.source"] = "splat" if raster == "splat" else "raster"
+            elif build == "peel":
+                values["structure.source"] = "peel"
+        return super().upgrade(values)
 
 
 class Ldi(Method):
@@ -155,9 +216,8 @@ class Ldi(Method):
         self.rotation = CUBE_ROTATION if p.rotated else np.eye(3)
         axes = cube_directions(self.k, half=p.share_opposite, rotation=self.rotation)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        self.ls = make_ldi_structure(p.build, gpu, self.geo, self.res, layers=len(axes), width=p.resolution,
-                                     max_layers=p.max_layers, max_list=64, prefix="ldi.ls.", raster=p.raster,
-                                     assembly=p.assembly)
+        self.ls = make_structure(p.structure, gpu, self.geo, self.res, layers=len(axes),
+                                 width=p.resolution, prefix="ldi.ls.")
         self.ls.set_layers(clip, rows)
         basis = np.zeros((len(axes), 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
@@ -175,8 +235,8 @@ class Ldi(Method):
     def _bind_ldis(self, cs):
         p = self.params
         for name, val in (("ldi_k", self.k), ("ldi_half", int(p.share_opposite)),
-                          ("ldi_eps", p.epsilon * self.pixel), ("ldi_bias", p.bias * self.pixel),
-                          ("ldi_max_cross", p.max_crossings),
+                          ("ldi_eps", p.trace.epsilon * self.pixel), ("ldi_bias", p.trace.bias * self.pixel),
+                          ("ldi_max_cross", p.trace.max_crossings),
                           ("ldi_to_cube", tuple(float(x) for x in self.rotation.reshape(-1)))):  # Rᵀ, column-major
             if name in cs:
                 cs[name].value = val
@@ -237,7 +297,7 @@ class Ldi(Method):
         """The spot light's cube shadow atlas (methods/lights.py), made at its first use."""
         if self._shadow is None:
             self._shadow = CubeShadowMap(self.gpu, self.geo, self.res, self.scene, self.scene.lights[0],
-                                         self.params.shadow_size)
+                                         self.params.shadow.shadow_size)
         return self._shadow
 
     def _render_shadow(self):
@@ -246,7 +306,7 @@ class Ldi(Method):
             sm.render()
 
     def spp_for(self, effect) -> int:
-        return self.params.rays_per_pixel or DEFAULT_SPP[effect.name]
+        return self.params.image.rays_per_pixel or DEFAULT_SPP[effect.name]
 
     def _gather_program(self, effect, stats: bool = False):
         d = {**self.ls.defines(), "EFFECT": EFFECT_CODES[effect.name]}
@@ -258,7 +318,7 @@ class Ldi(Method):
 
         p, light = self.params, self.scene.lights[0]
         set_spot_uniforms(cs, light)
-        values = {"spp": self.spp_for(effect), "seed": p.seed, "ray_eps": RAY_EPSILON,
+        values = {"spp": self.spp_for(effect), "seed": p.image.seed, "ray_eps": RAY_EPSILON,
                   "eye": tuple(float(x) for x in view.camera.origin), "g_position": 0, "g_normal": 1, "g_albedo": 2}
         self.gbuf.bind(0)
         if effect.name == "soft_shadows":
@@ -267,8 +327,8 @@ class Ldi(Method):
             sm = self._shadow_map()
             sm.atlas.use(3)
             cs["face_vp"].write(sm.face_vp_bytes())
-            values.update(shadow_atlas=3, normal_offset=p.normal_offset * 2.0 / p.shadow_size,
-                          depth_bias=p.depth_bias * self.scene.diagonal())
+            values.update(shadow_atlas=3, normal_offset=p.shadow.normal_offset * 2.0 / p.shadow.shadow_size,
+                          depth_bias=p.shadow.depth_bias * self.scene.diagonal())
             if effect.name == "glossy_indirect":
                 values["exponent"] = float(effect.exponent)
         for name, v in values.items():
@@ -308,7 +368,7 @@ class Ldi(Method):
 
     def _dispatch(self, cs, target, effect, w, h):
         """The gather pass, ``samples_per_dispatch`` rays per pixel per dispatch (gather.glsl)."""
-        spp, chunk = self.spp_for(effect), self.params.samples_per_dispatch or self.spp_for(effect)
+        spp, chunk = self.spp_for(effect), self.params.image.samples_per_dispatch or self.spp_for(effect)
         target.bind_to_image(B.OUT_IMAGE, read=True, write=True)
         for base in range(0, spp, chunk):
             cs["sample_base"].value = base
@@ -318,11 +378,11 @@ class Ldi(Method):
 
     def _filter(self, w, h, view):
         """Stage ``filter``: E → separable Gaussian (if on) → × albedo (``blur.glsl``)."""
-        gpu, r = self.gpu, self.params.filter_size // 2
+        gpu, r = self.gpu, self.params.indirect.filter_size // 2
         with gpu.stage("filter"):
             passes = [((1, 0), self.tmp2, self.tmp, False), ((0, 1), self.tmp, self.out, True)] if r else \
                 [((1, 0), self.tmp2, self.out, True)]
-            bilateral = self.params.filter_kind == "bilateral" and r > 0
+            bilateral = self.params.indirect.filter_kind == "bilateral" and r > 0
             for axis, src, dst, final in passes:
                 defines = {**({"FINAL": 1} if final else {}), **({"BILATERAL": 1} if bilateral else {})}
                 cs = gpu.compute(self.shader("blur.glsl"), defines)
@@ -362,8 +422,8 @@ class Ldi(Method):
     def _counters(self) -> dict:
         c = self.ls.stats()
         p = self.params
-        c.update(directions=p.directions, ldis=self.n_ldis, k=self.k, resolution=p.resolution,
-                 pixel_world=self.pixel, epsilon_world=p.epsilon * self.pixel, bounding_radius=self.radius,
+        c.update(build="peel" if p.structure.source == "peel" else "single_pass", directions=p.directions, ldis=self.n_ldis, k=self.k, resolution=p.resolution,
+                 pixel_world=self.pixel, epsilon_world=p.trace.epsilon * self.pixel, bounding_radius=self.radius,
                  ldi_bytes=int(sum(v for k, v in self.ls.memory().items() if ".peel." not in k)))
         if self._last is not None:
             if self._last[0] == "rays":

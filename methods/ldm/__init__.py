@@ -6,12 +6,12 @@ Also registered as ``ldm-ao`` (its earlier name): suites and command lines using
 Per frame (stages):
 
 ``gbuffer``  (``ao``) camera G-buffer (position, camera-facing geometric normal).
-build        the N maps as a layered structure (:mod:`methods.layered`), ``layout = "linked"``: one
+build        the N maps as a layered structure (:mod:`methods.structures`), ``layout = "linked"``: one
              instanced draw rasterizes the scene into all maps (both faces, no depth test), every fragment
-             inserted into its texel's linked list (:mod:`methods.linked_list`), pre-sorted by a lock-free
+             inserted into its texel's linked list (:mod:`methods.structures.linked`), pre-sorted by a lock-free
              CAS insert (``sorted_insert = True``, the paper's PSPPSLL) — stages ``count`` (only
              ``pool = "count"``), ``build``, ``sort`` (only ``sorted_insert = False``);
-             ``layout = "linear"``: linearised arrays (:mod:`methods.linear_arrays`) — stages ``count``,
+             ``layout = "linear"``: linearised arrays (:mod:`methods.structures.linear`) — stages ``count``,
              ``scan``, ``fill``, ``sort``. Both give the same sorted lists, hence the same images.
 ``ao``       compute pass over the G-buffer pixels, looping over the N maps.
 ``trace``    (``rays``) one invocation per ray of the harness's batch: the map whose axis is nearest to the
@@ -37,42 +37,47 @@ direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with 
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
-======================  ========  =======  ========================================================
-Parameter               Default   Paper    Meaning
-======================  ========  =======  ========================================================
-``layout``              linked    linked   layered structure: linked (lists) | linear (arrays)
-``directions``          128       512      number of LDMs (axes; each answers ±v)
-``resolution``          128       200, 50  texels per side of each LDM
-``bias``                0.25               self-intersection bias along the ray, in LDM texels
-``crease``              0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
-``pool``                grow               pool sizing: grow | count | fixed | lazy (count: linked only;
-                                           lazy: no read-back inside a build, docs/fast_builds.md)
-``build``               raster    raster   fragments from: raster (hardware, per map) | one_pass
-                                           (archer2019, not conservative) | splat (compute, same
-                                           fragments as raster; long triangles on the hardware)
-``assembly``            direct             linear layout: direct (count, scan, fill, sort) | sort
-                                           (one pass of (list, depth) pairs, scan, scatter, sort)
-``pool_capacity``       0                  nodes for ``fixed`` (and first size for ``grow``)
-``sorted_insert``       True      True     lock-free sorted insert; False = yang2010 + sort pass
-``max_list``            64                 register-array length of the sort passes (longer: slow path)
-``instanced``           True               one instanced draw for all maps (False: a draw per map)
-``aggregate_atomics``   False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
-``indexed``             True               build from indexed position-only geometry (vertex reuse)
-``estimator``           ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
-                                           photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
-``map_lookup``          table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
-                                           (methods/directions.py; the true nearest for all but ~1e-5 of
-                                           directions, then the second nearest) or ``scan`` of all N axes
-``photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
-``footprint_scale``     2.0       ≈24      (indirect) multiplies the photon differentials before splatting
-``differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
-``max_splat_px``        400       400      (indirect) largest splat kept: screen diagonal in pixels
-``topology_bias``       1.0                (indirect) the paper's a: off-plane cut-off, per footprint size
-``visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
-``refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
-``rotation``            incident  (engine) (indirect) differential turned by α(−d₁, d₂), or α(d₁, d₂) (propagation)
-``splat``               blend     blend    (indirect) additive blending, or float atomics in a compute pass
-======================  ========  =======  ========================================================
+Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
+still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
+(:class:`~methods.structures.spec.StructureSpec`), ``trace.*`` the map query of every effect,
+``rays.*`` and ``indirect.*`` one effect's.
+
+===============================  ========  =======  ========================================================
+Parameter                        Default   Paper    Meaning
+===============================  ========  =======  ========================================================
+``structure.layout``             linked    linked   layered structure: linked (lists) | linear (arrays)
+``directions``                   128       512      number of LDMs (axes; each answers ±v)
+``resolution``                   128       200, 50  texels per side of each LDM
+``trace.bias``                   0.25               self-intersection bias along the ray, in LDM texels
+``trace.crease``                 0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
+``structure.pool``               grow               pool sizing: grow | count | fixed | lazy (count: linked only;
+                                                    lazy: no read-back inside a build, docs/fast_builds.md)
+``structure.source``             raster    raster   fragments from: raster (hardware, per map) | one_pass
+                                                    (archer2019, not conservative) | splat (compute, same
+                                                    fragments as raster; long triangles on the hardware)
+``structure.assembly``           direct             linear layout: direct (count, scan, fill, sort) | sort
+                                                    (one pass of (list, depth) pairs, scan, scatter, sort)
+``structure.pool_capacity``      0                  nodes for ``fixed`` (and first size for ``grow``)
+``structure.sorted_insert``      True      True     lock-free sorted insert; False = yang2010 + sort pass
+``structure.max_list``           64                 register-array length of the sort passes (longer: slow path)
+``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
+``structure.aggregate``          False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
+``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
+``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
+                                                    photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
+``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
+                                                    (methods/directions.py; the true nearest for all but ~1e-5 of
+                                                    directions, then the second nearest) or ``scan`` of all N axes
+``indirect.photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
+``indirect.footprint_scale``     2.0       ≈24      (indirect) multiplies the photon differentials before splatting
+``indirect.differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
+``indirect.max_splat_px``        400       400      (indirect) largest splat kept: screen diagonal in pixels
+``indirect.topology_bias``       1.0                (indirect) the paper's a: off-plane cut-off, per footprint size
+``indirect.visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
+``indirect.refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
+``indirect.rotation``            incident  (engine) (indirect) differential turned by α(−d₁, d₂), or α(d₁, d₂) (propagation)
+``indirect.splat``               blend     blend    (indirect) additive blending, or float atomics in a compute pass
+===============================  ========  =======  ========================================================
 """
 from __future__ import annotations
 
@@ -84,11 +89,10 @@ import numpy as np
 from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
+from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import ldm_axes, nearest_axis_table
 from methods.invariants import layered_invariants
-from methods.layered import bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
-from methods.linked_list import POLICIES
+from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
 from methods.scan import groups_2d
 
 LUT_RES = 128
@@ -96,64 +100,82 @@ FAR = 3.0e38
 
 
 @dataclass(frozen=True)
-class LdmParams(ParamsBase):
-    layout: str = param("linked", "layered structure: linked lists or linearised arrays", choices=("linked", "linear"),
-                        paper="linked")
-    directions: int = param(128, "number of LDMs (axes; each answers +v and -v)", lo=1, hi=4096, paper=512)
-    resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
+class LdmTrace(ParamsBase):
+    """The map query every effect traces with (``trace.``)."""
+
+    prefix = "trace."
     bias: float = param(0.25, "self-intersection bias along the ray, in LDM texels", lo=0.0, hi=64.0)
     crease: float = param(0.5, "crease window behind the point, in LDM texels (0 = plain skip rule)",
                           lo=0.0, hi=64.0, paper=0)
-    pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed / lazy (sized from the "
-                      "previous build: no read-back inside a build)", choices=POLICIES)
-    build: str = param("raster", "fragments from the hardware raster per map, the one-pass raster (not "
-                       "conservative) or the compute splat (same fragments as raster)",
-                       choices=("raster", "one_pass", "splat"), paper="raster")
-    assembly: str = param("direct", "linear layout: count + fill passes, or one pass of (list, depth) pairs "
-                          "sorted by list", choices=("direct", "sort"))
-    pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per texel)", lo=0)
-    sorted_insert: bool = param(True, "lock-free sorted insert (PSPPSLL); False = yang2010 insert + sort pass",
-                                paper=True)
-    max_list: int = param(64, "register-array length of the sort passes (longer lists take a slow exact path)",
-                          lo=1, hi=1024)
-    instanced: bool = param(True, "one instanced draw for all maps (False: one draw per map)")
-    aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
-    indexed: bool = param(True, "build from indexed position-only geometry (else the triangle list)")
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
                            "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
                            paper="paper")
-    photons: int = param(128, "indirect: light raster side R (one photon per texel inside the spot cone)",
-                         lo=4, hi=4096, paper="not published (the author's engine: 100)")
-    footprint_scale: float = param(2.0, "indirect: multiplies the photon differentials before splatting",
-                                   lo=1e-3, hi=1e4, paper="engine: 2000 per far-plane unit, about 24 light texels")
-    differential_bias: float = param(1.0, "indirect: a photon whose positional differential has a component "
-                                     "above this fraction of the scene's bounding radius is dropped", lo=0.0,
-                                     paper="engine: 0.5 (two-pass) / 10 (atomic) model units")
-    max_splat_px: float = param(400.0, "indirect: largest splat kept, screen-rectangle diagonal in pixels",
-                                lo=1.0, paper="engine (atomic variant): 400")
-    topology_bias: float = param(1.0, "indirect: the paper's a (eq. 7); an offset along the normal of one "
-                                 "footprint size / a leaves the kernel", lo=0.0, paper="engine: a = footprint scale")
-    visibility_bias: float = param(2.0, "indirect: a second hit is visible when it lies within this many LDM "
-                                   "texels of the camera pixel's tangent plane", lo=0.0)
-    refine_hit: bool = param(True, "indirect: move the second hit along the ray onto the tangent plane of the "
-                             "camera pixel that sees it (False: the map's texel-centre depth, as the paper)",
-                             paper=False)
-    rotation: str = param("incident", "indirect: the diffuse reflection of the directional differential, "
-                          "alpha(w_i, d2) with w_i = -d1 (incident: pointing back to the light, as the author's "
-                          "engine; keeps a diverging beam diverging) or w_i = d1 (propagation: d* = alpha d "
-                          "alpha-bar taking d1 to d2)", choices=("incident", "propagation"),
-                          paper="w_i 'the incoming direction' (engine: incident)")
-    splat: str = param("blend", "indirect: additive blending of rasterized quads, or float atomics in a "
-                       "compute pass", choices=("blend", "atomic"), paper="blend")
-    map_lookup: str = param("table", "rays: the nearest map by a cube table of candidates, or a scan of all maps",
+
+
+@dataclass(frozen=True)
+class LdmRays(ParamsBase):
+    """The ``rays`` effect (``rays.``)."""
+
+    prefix = "rays."
+    map_lookup: str = param("table", "the nearest map by a cube table of candidates, or a scan of all maps",
                             choices=("table", "scan"))
 
-    def __post_init__(self):
-        super().__post_init__()
-        if self.layout == "linear" and self.pool == "count":
-            raise LdbenchError("parameter pool='count' needs layout='linked' (linear arrays always count)")
-        if self.assembly == "sort" and self.layout != "linear":
-            raise LdbenchError("parameter assembly='sort' needs layout='linear'")
+
+@dataclass(frozen=True)
+class LdmIndirect(ParamsBase):
+    """The ``indirect`` effect: photons and their splats (``indirect.``)."""
+
+    prefix = "indirect."
+    photons: int = param(128, "light raster side R (one photon per texel inside the spot cone)",
+                         lo=4, hi=4096, paper="not published (the author's engine: 100)")
+    footprint_scale: float = param(2.0, "multiplies the photon differentials before splatting",
+                                   lo=1e-3, hi=1e4, paper="engine: 2000 per far-plane unit, about 24 light texels")
+    differential_bias: float = param(1.0, "a photon whose positional differential has a component above this "
+                                     "fraction of the scene's bounding radius is dropped", lo=0.0,
+                                     paper="engine: 0.5 (two-pass) / 10 (atomic) model units")
+    max_splat_px: float = param(400.0, "largest splat kept, screen-rectangle diagonal in pixels",
+                                lo=1.0, paper="engine (atomic variant): 400")
+    topology_bias: float = param(1.0, "the paper's a (eq. 7); an offset along the normal of one footprint "
+                                 "size / a leaves the kernel", lo=0.0, paper="engine: a = footprint scale")
+    visibility_bias: float = param(2.0, "a second hit is visible when it lies within this many LDM texels of "
+                                   "the camera pixel's tangent plane", lo=0.0)
+    refine_hit: bool = param(True, "move the second hit along the ray onto the tangent plane of the camera "
+                             "pixel that sees it (False: the map's texel-centre depth, as the paper)",
+                             paper=False)
+    rotation: str = param("incident", "the diffuse reflection of the directional differential, alpha(w_i, d2) "
+                          "with w_i = -d1 (incident: pointing back to the light, as the author's engine; keeps a "
+                          "diverging beam diverging) or w_i = d1 (propagation: d* = alpha d alpha-bar taking d1 "
+                          "to d2)", choices=("incident", "propagation"),
+                          paper="w_i 'the incoming direction' (engine: incident)")
+    splat: str = param("blend", "additive blending of rasterized quads, or float atomics in a compute pass",
+                       choices=("blend", "atomic"), paper="blend")
+
+
+#: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
+LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorted_insert", "max_list",
+                 "instanced", "aggregate", "indexed")
+
+
+@dataclass(frozen=True)
+class LdmParams(ParamsBase):
+    directions: int = param(128, "number of LDMs (axes; each answers +v and -v)", lo=1, hi=4096, paper=512)
+    resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
+    structure: StructureSpec = group(StructureSpec, "the N maps as one layered structure", expose=LDM_STRUCTURE,
+                                     choices={"source": ("raster", "one_pass", "splat")},
+                                     paper={"layout": "linked", "source": "raster", "sorted_insert": True})
+    trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
+    rays: LdmRays = group(LdmRays, "effect rays")
+    indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")
+
+    renamed = {"layout": "structure.layout", "build": "structure.source", "assembly": "structure.assembly",
+               "pool": "structure.pool", "pool_capacity": "structure.pool_capacity",
+               "sorted_insert": "structure.sorted_insert", "max_list": "structure.max_list",
+               "instanced": "structure.instanced", "aggregate_atomics": "structure.aggregate",
+               "indexed": "structure.indexed", "bias": "trace.bias", "crease": "trace.crease",
+               "estimator": "trace.estimator", "map_lookup": "rays.map_lookup",
+               **{k: f"indirect.{k}" for k in ("photons", "footprint_scale", "differential_bias", "max_splat_px",
+                                               "topology_bias", "visibility_bias", "refine_hit", "rotation",
+                                               "splat")}}
 
 
 class Ldm(Method):
@@ -172,12 +194,8 @@ class Ldm(Method):
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        common = dict(layers=p.directions, width=p.resolution, pool=p.pool, pool_capacity=p.pool_capacity,
-                      build=p.build, assembly=p.assembly,
-                      max_list=p.max_list, instanced=p.instanced, indexed=p.indexed, prefix="ldm.")
-        if p.layout == "linked":
-            common.update(sorted_insert=p.sorted_insert, aggregate=p.aggregate_atomics)
-        self.ls = make_structure(p.layout, gpu, self.geo, self.res, **common)
+        self.ls = make_structure(p.structure, gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+                                 prefix="ldm.")
         self.ls.set_layers(clip, rows)
         basis = np.zeros((p.directions, 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
@@ -191,7 +209,8 @@ class Ldm(Method):
 
     def _bind_maps(self, cs):
         p = self.params
-        for name, v in (("n_maps", p.directions), ("bias", p.bias * self.texel), ("ldm_crease", p.crease * self.texel)):
+        for name, v in (("n_maps", p.directions), ("bias", p.trace.bias * self.texel),
+                        ("ldm_crease", p.trace.crease * self.texel)):
             if name in cs:  # a statistics variant may not use all of them
                 cs[name].value = v
         self.ls.bind()
@@ -218,7 +237,7 @@ class Ldm(Method):
         cs["g_normal"].value = 1
         cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
         cs["falloff"].value = 0 if effect.falloff == "step" else 1
-        cs["estimator"].value = 0 if p.estimator == "ratio" else 1
+        cs["estimator"].value = 0 if p.trace.estimator == "ratio" else 1
         with gpu.stage("ao"):
             self.gbuf.bind(0)
             self._bind_maps(cs)
@@ -231,7 +250,7 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _rays_defines(self) -> dict:
-        if self.params.map_lookup == "table" and self.lut_buf is None:
+        if self.params.rays.map_lookup == "table" and self.lut_buf is None:
             self.lut_buf = self.res.buffer("ldm.map_table", nearest_axis_table(ldm_axes(self.params.directions),
                                                                                 LUT_RES))
         return {**self.ls.defines(), **({"LDM_LUT": 1} if self.lut_buf is not None else {})}

@@ -44,7 +44,7 @@ from harness.scene import Camera
 from methods.base import View
 from methods.lights import set_spot_uniforms
 from methods.gbuffer import GBuffer, mat_bytes
-from methods.layered import fill_uint
+from methods.structures import fill_uint
 
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
@@ -75,7 +75,7 @@ class IndirectLight:
     """The indirect-light passes of one :class:`~methods.ldm.Ldm` adapter (its maps, G-buffer, params)."""
 
     def __init__(self, ldm):
-        self.m, self.gpu, self.p = ldm, ldm.gpu, ldm.params
+        self.m, self.gpu, self.p = ldm, ldm.gpu, ldm.params.indirect
         self.lights = list(ldm.scene.lights)
         if not self.lights:
             raise LdbenchError("method 'ldm': the indirect effect needs a spot light in the scene")
@@ -137,7 +137,7 @@ class IndirectLight:
         cs["image_size"].value = (view.width, view.height)
         cs["vis_tol"].value = p.visibility_bias * m.texel
         cs["diff_max"].value = p.differential_bias * m.radius
-        cs["estimator"].value = 0 if p.estimator == "ratio" else 1
+        cs["estimator"].value = 0 if m.params.trace.estimator == "ratio" else 1
         if "capacity" in cs:
             cs["capacity"].value = self.capacity
         for name, unit in (("l_position", 0), ("l_normal", 1), ("l_albedo", 2), ("c_position", 3),
@@ -318,7 +318,7 @@ class IndirectLight:
                                    "photons_dropped"))
         if fates != c["photon_candidates"]:
             out.append(f"{c['photon_candidates']} candidate photons but {fates} fates")
-        if self.p.estimator == "ratio" and c["power_reflected"] > 0:
+        if self.m.params.trace.estimator == "ratio" and c["power_reflected"] > 0:
             err = abs(c["power_candidates"] / c["power_reflected"] - 1.0)
             if err > 1e-3:
                 out.append(f"split weights do not sum to 1 (candidates carry {err:.2%} off the reflected power)")

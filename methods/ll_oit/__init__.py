@@ -4,7 +4,7 @@ Per frame (stages):
 
 ``build``    (``count`` first with ``pool = "count"``) one raster pass of the whole scene (both faces, no
              depth test) into one layer of ``width × height`` linked lists of the shared module
-             (:func:`methods.layered.make_structure` ``"linked"``, ``layers = 1``): yang2010's insert — a node
+             (:func:`methods.structures.make_structure`, ``layout = "linked"``, ``layers = 1``): yang2010's insert — a node
              from the atomic counter, ``atomicExchange`` on the pixel's head — with one payload word per
              node, the fragment's material id. The layer's transform is the camera's clip matrix and its
              depth row the linear view depth (:func:`methods.oit.camera_transform`). The lists stay in
@@ -30,15 +30,19 @@ Counters: ``fragments`` (rasterized), ``fragments_stored``, ``overflow``, ``dept
 ``degraded``): every fragment stored — pool overflow is reported even with ``pool = "fixed"``, because a
 lost fragment changes the image — every stored node reachable once, no abandoned insert.
 
-======================  ========  ===========  ==================================================
-Parameter               Default   Paper        Meaning
-======================  ========  ===========  ==================================================
-``max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
-``max_list``            64                     register array of the resolve's sort (longer: slow path)
-``pool``                grow                   node pool: grow | count | fixed (methods/linked_list.py)
-``pool_capacity``       0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
-``aggregate_atomics``   False                  one atomicAdd per subgroup on the node counter
-======================  ========  ===========  ==================================================
+==========================  ========  ===========  ==============================================
+Parameter                   Default   Paper        Meaning
+==========================  ========  ===========  ==============================================
+``oit.max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
+``oit.max_list``            64                     register array of the resolve's sort (longer: slow path)
+``structure.pool``          grow                   node pool: grow | count | fixed | lazy
+                                                   (methods/structures/linked.py)
+``structure.pool_capacity`` 0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
+``structure.aggregate``     False                  one atomicAdd per subgroup on the node counter
+==========================  ========  ===========  ==============================================
+
+The earlier flat names (``max_layers``, ``pool``, ``aggregate_atomics``, ...) still work
+(:attr:`LLOITParams.renamed`).
 """
 from __future__ import annotations
 
@@ -47,22 +51,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from harness.bindings import B
-from methods.base import ParamsBase, param
+from methods.base import ParamsBase, group, param
 from methods.invariants import layered_invariants
-from methods.layered import make_structure
-from methods.linked_list import POLICIES
+from methods.structures import StructureSpec, make_structure
 from methods.oit import OITMethod, camera_transform
 
 
 @dataclass(frozen=True)
-class LLOITParams(ParamsBase):
+class LLOITResolve(ParamsBase):
+    """The ``oit`` effect's resolve (``oit.``)."""
+
+    prefix = "oit."
     max_layers: int = param(0, "composite only the n nearest fragments (0 = all: exact)", lo=0, hi=256,
                             paper="all (Table 1); 8 of 64 (§4.1.3)")
     max_list: int = param(64, "register array of the resolve's insertion sort (longer lists: exact O(n^2) path)",
                           lo=1, hi=256)
-    pool: str = param("grow", "node pool sizing: grow and redo / counting pass / fixed", choices=POLICIES)
-    pool_capacity: int = param(0, "nodes for pool=fixed (first size for grow; 0 = 1 per pixel)", lo=0)
-    aggregate_atomics: bool = param(False, "warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
+
+
+@dataclass(frozen=True)
+class LLOITParams(ParamsBase):
+    # yang2010's lists: one layer, the material id per node, arrival order (the resolve sorts)
+    structure: StructureSpec = group(StructureSpec, "one layer of per-pixel linked lists (yang2010's insert)",
+                                     expose=("pool", "pool_capacity", "aggregate"), layout="linked",
+                                     payload=("material",), sorted_insert=False)
+    oit: LLOITResolve = group(LLOITResolve, "effect oit: the per-pixel sort and composite")
+
+    renamed = {"max_layers": "oit.max_layers", "max_list": "oit.max_list", "pool": "structure.pool",
+               "pool_capacity": "structure.pool_capacity", "aggregate_atomics": "structure.aggregate"}
 
 
 class LLOIT(OITMethod):
@@ -83,16 +98,15 @@ class LLOIT(OITMethod):
         if self.ls is not None:
             self.ls.fbo.release()
             self.fbo.release()
-        self.ls = make_structure("linked", self.gpu, self.geo, self.res, layers=1, width=w, height=h,
-                                 payload=("material",), sorted_insert=False, pool=p.pool,
-                                 pool_capacity=p.pool_capacity, aggregate=p.aggregate_atomics, prefix="oit.ll.")
+        self.ls = make_structure(p.structure, self.gpu, self.geo, self.res, layers=1, width=w, height=h,
+                                 prefix="oit.ll.")
         self.fbo = self.gpu.ctx.framebuffer([self.out])
 
     def _program(self):
         p = self.params
-        d = {**self.ls.defines(), "OIT_ARRAY": p.max_list}
-        if p.max_layers:
-            d["OIT_FIRST_N"] = p.max_layers
+        d = {**self.ls.defines(), "OIT_ARRAY": p.oit.max_list}
+        if p.oit.max_layers:
+            d["OIT_FIRST_N"] = p.oit.max_layers
         return self.gpu.program(self.shader("resolve.glsl"), d)
 
     def frame(self, view, effect, inputs=None):
@@ -131,7 +145,7 @@ class LLOIT(OITMethod):
                 "depth_complexity_mean": st["mean_list_length"], "pixels_covered": st["lists_nonempty"],
                 "linked_nodes": st["linked_nodes"], "insert_failures": st["insert_failures"],
                 "pool_capacity": st["pool_capacity"], "build_passes": st["build_passes"],
-                "slow_path_lists": slow, "max_layers": self.params.max_layers}
+                "slow_path_lists": slow, "max_layers": self.params.oit.max_layers}
 
     def _invariants(self, c: dict) -> list[str]:
         # the lists are unsorted by design (yang2010): the resolve sorts, so "sorted" is not an invariant here

@@ -1,7 +1,7 @@
 // yang2010 §4.1 resolve: one full-screen pass; per pixel, walk the unsorted linked list, sort its fragments
 // by the effect's order (oit_before: depth, then material id) and composite them front to back.
 //
-// Defines: the layered structure's (methods/layered.py: LS_LAYOUT, LS_PAYLOAD, LS_PL_MATERIAL, LL_PAGES, ...)
+// Defines: the layered structure's (methods/structures/: LS_LAYOUT, LS_PAYLOAD, LS_PL_MATERIAL, LL_PAGES, ...)
 //   OIT_ARRAY     register array length: lists up to this long are sorted in registers
 //   OIT_FIRST_N   composite only the n nearest fragments (yang2010's first n layers)
 // A list of L <= OIT_ARRAY fragments is gathered into the array and sorted: all of it by insertion sort

@@ -26,7 +26,7 @@ def main(out="docs/img/crease-cornell.png", size=128):
     gpu = Gpu()
     imgs = {}
     for crease in (0.0, 0.5):
-        m = Ldm(LdmParams(directions=128, resolution=128, crease=crease))
+        m = Ldm(LdmParams.from_dict({"directions": 128, "resolution": 128, "trace.crease": crease}))
         m.setup(gpu, scene)
         imgs[crease] = m.frame(View(scene.camera, size, size), eff).resolve().image[..., 0]
         m.release()

@@ -21,8 +21,7 @@ from harness.gpu import Gpu
 from harness.scenes import load_scene
 from methods.directions import ldm_axes
 from methods.gbuffer import SceneGeometry
-from methods.layered import make_structure
-from methods.layered import bounding_sphere, ortho_layers
+from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
 DRY = "--dry" in sys.argv
 gpu = Gpu()
@@ -91,7 +90,7 @@ def series(geo, name, kw, maps, res, n=5, between=None, defines=None):
     centre, radius = bounding_sphere(geo.scene)
     clip, rows, _ = ortho_layers(ldm_axes(maps), centre, radius)
     r = gpu.resources()
-    s = make_structure("linked", gpu, geo, r, layers=maps, width=res, prefix="d.", **kw)
+    s = make_structure(StructureSpec(layout="linked", **kw), gpu, geo, r, layers=maps, width=res, prefix="d.")
     if defines:
         orig = s.defines
         s.defines = lambda: {**orig(), **defines}
@@ -122,7 +121,7 @@ V = [
     ("sorted fixed, nodes read directly", F, lambda s: s.node_pages[0].read(size=1 << 20), None),
     ("yang fixed", dict(F, sorted_insert=False), None, None),
     ("yang fixed, counters read directly", dict(F, sorted_insert=False), lambda s: s.counters_buf.read(), None),
-    ("splat sorted grow (gpu.read)", dict(build="splat"), None, None),
+    ("splat sorted grow (gpu.read)", dict(source="splat"), None, None),
 ]
 for name, kw, between, d in V:
     try:

@@ -46,7 +46,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit (× K), log, continu
 }
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$R/gpu.txt" 2>&1
-step 10 probe $PY -c "from harness.gpu import Gpu; from methods.layered_builds import fill_rule
+step 10 probe $PY -c "from harness.gpu import Gpu; from methods.structures.splat import fill_rule
 g = Gpu(); print(g.info, g.device); print('fill rule', fill_rule(g))"
 # the splat's fragments against this GPU's hardware raster (edge cases: ties on texel centres, snapping)
 step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py

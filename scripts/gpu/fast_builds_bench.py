@@ -1,5 +1,5 @@
 """Fast-build measurements (run by scripts/gpu/fast-builds.sh; docs/fast_builds.md): the build variants of the
-layered structures (methods/layered_builds.py) timed alone, on the LDM's maps of aalund2015 Figure 8.
+layered structures (methods/structures/) timed alone, on the LDM's maps of aalund2015 Figure 8.
 
     python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION]
 
@@ -30,22 +30,20 @@ from harness.gpu import Gpu
 from harness.scenes import load_scene
 from methods.directions import ldm_axes
 from methods.gbuffer import SceneGeometry
-from methods.layered import make_structure
-from methods.layered_builds import list_counts
-from methods.layered import bounding_sphere, ortho_layers
+from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
-#: name -> make_structure arguments; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
+#: name -> StructureSpec fields; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
 #: pool grow with its read-back); every other variant uses the lazy pool (no read-back inside a build).
 VARIANTS = {
     "raster/linked/grow (today)": dict(layout="linked"),
     "raster/linked": dict(layout="linked", pool="lazy"),
     "raster/linear": dict(layout="linear", pool="lazy"),
     "raster/linear-sort": dict(layout="linear", pool="lazy", assembly="sort"),
-    "one_pass/linear": dict(layout="linear", pool="lazy", build="one_pass"),
-    "splat/linked": dict(layout="linked", pool="lazy", build="splat"),
-    "splat/linked-yang": dict(layout="linked", pool="lazy", build="splat", sorted_insert=False),
-    "splat/linear": dict(layout="linear", pool="lazy", build="splat"),
-    "splat/linear-sort": dict(layout="linear", pool="lazy", build="splat", assembly="sort"),
+    "one_pass/linear": dict(layout="linear", pool="lazy", source="one_pass"),
+    "splat/linked": dict(layout="linked", pool="lazy", source="splat"),
+    "splat/linked-yang": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False),
+    "splat/linear": dict(layout="linear", pool="lazy", source="splat"),
+    "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
@@ -144,8 +142,7 @@ def measure(gpu, geo, scene_label, maps, res, name, kw, frames, bw, rows: Rows, 
     clip, drows, _ = ortho_layers(ldm_axes(maps), centre, radius)
     r = gpu.resources()
     try:
-        s = make_structure(kw["layout"], gpu, geo, r, layers=maps, width=res, prefix="b.",
-                           **{k: v for k, v in kw.items() if k != "layout"})
+        s = make_structure(StructureSpec(**kw), gpu, geo, r, layers=maps, width=res, prefix="b.")
         s.set_layers(clip, drows)
         t0 = time.perf_counter()
         s.build()  # sizes the pool (the lazy policy's synchronous first build)
@@ -237,10 +234,11 @@ def main():
         counts = {}
         for name in ("raster", "one_pass", "splat"):
             sr = gpu.resources()  # one structure at a time
-            s = make_structure("linear", gpu, geo, sr, layers=maps, width=res, build=name, prefix=f"c.{name}.")
+            s = make_structure(StructureSpec(layout="linear", source=name), gpu, geo, sr, layers=maps, width=res,
+                               prefix=f"c.{name}.")
             s.set_layers(clip, drows)
             s.build()
-            counts[name] = list_counts(s)
+            counts[name] = s.list_counts()
             sr.release()
         ref = counts["raster"]
         for name, c in counts.items():

@@ -1,30 +1,18 @@
-"""Fast builds of the layered structures: the compute splat, the sort assembly and the hardware fill rule.
+"""The ``splat`` source: a compute rasterizer of small triangles with the hardware's fill rule.
 
-Variants of the one build stage of :mod:`methods.layered` (docs/fast_builds.md). The hardware raster of
-every triangle in every layer is the reference build; it is bound by the rasterizer's triangle rate, not
+Variant of the fragment pass of :mod:`methods.structures` (docs/fast_builds.md). The hardware raster of
+every triangle in every layer is the reference source; it is bound by the rasterizer's triangle rate, not
 by memory (measured in docs/fast_builds.md).
 
-``build = "splat"`` (:class:`Splat`)
-    A compute-shader rasterizer for small triangles (``methods/glsl/splat_raster.glsl``): one invocation
-    per (triangle, batch of ``splat_batch`` layers) projects the triangle into each layer of its batch,
-    snaps it to the hardware's sub-pixel grid and stores every texel centre it covers with the same
-    ``ls_store`` as the raster (every layout and pass works unchanged). Coverage follows the hardware's
-    fill rule exactly: integer edge functions on ``GL_SUBPIXEL_BITS`` fixed point, samples at texel
-    centres, ties on an edge resolved by the edge classes this GPU includes, and depth on the plane
-    through the snapped or the given vertices as this GPU interpolates, measured once per context by
-    :func:`fill_rule`. A triangle whose longest edge exceeds ``splat_max`` texels in some
-    layer is appended by the splat to an index list that one instanced indirect draw gives to the
-    hardware in the same pass. Layers must be affine (orthographic maps: LDM, CDI).
-
-``assembly = "sort"`` (:func:`build_sorted`, linear layout)
-    One fragment pass (any build) appends every fragment as a pair (list id, depth, payload words) and
-    counts it in its list; an exclusive scan of the counts (:class:`methods.scan.Scan`), a scatter of the
-    pairs into their lists (a counting sort by list id, ``methods/glsl/pairs_scatter.glsl``) and the
-    per-list depth sort give the same contiguous sorted lists as the count → scan → fill → sort build
-    with one fragment pass instead of two, and no compare-and-swap anywhere. Stages ``emit``, ``scan``,
-    ``fill``, ``sort``.
-
-The pool policy ``lazy`` of both layouts (no read-back inside a build) is in the layouts' modules.
+:class:`Splat` (``methods/glsl/splat_raster.glsl``): one invocation per (triangle, batch of
+``splat_batch`` layers) projects the triangle into each layer of its batch, snaps it to the hardware's
+sub-pixel grid and stores every texel centre it covers with the same ``ls_store`` as the raster (every
+layout and pass works unchanged). Coverage follows the hardware's fill rule exactly: integer edge
+functions on ``GL_SUBPIXEL_BITS`` fixed point, samples at texel centres, ties on an edge resolved by the
+edge classes this GPU includes, and depth on the plane through the snapped or the given vertices as this
+GPU interpolates, measured once per context by :func:`fill_rule`. A triangle whose longest edge exceeds
+``splat_max`` texels in some layer is appended by the splat to an index list that one instanced indirect
+draw gives to the hardware in the same pass. Layers must be affine (orthographic maps: LDM, CDI).
 """
 from __future__ import annotations
 
@@ -34,10 +22,11 @@ from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
-from .gbuffer import VERTEX_ATTRS
-from .layered import fill_uint
+from methods.gbuffer import VERTEX_ATTRS
 
-SPLAT_MAX_LIMIT = 64       # texels: keeps the splat's integer edge functions within int32
+from .core import B_ALBEDO, fill_uint
+from .sources import FragmentSource, Raster
+
 B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
@@ -138,27 +127,15 @@ def rule_from_probe(px: np.ndarray) -> dict:
     return {k: bool(ccw[k]) for k in ("top", "bottom", "left", "right")}
 
 
-def layer_scale(clip: np.ndarray, width: int, height: int) -> tuple[float, bool]:
-    """(the most texels per world unit of any layer, whether every layer is affine (w = 1))."""
-    clip = np.asarray(clip, np.float64)
-    s = np.maximum(np.linalg.norm(clip[:, 0, :3], axis=1) * width / 2,
-                   np.linalg.norm(clip[:, 1, :3], axis=1) * height / 2)
-    affine = bool(np.all(clip[:, 3, :3] == 0) and np.all(clip[:, 3, 3] == 1))
-    return float(s.max()), affine
+class Splat(FragmentSource):
+    """The ``splat`` source of one structure: the compute pass and the hardware draw of large triangles.
 
+    The spec's ``splat_max`` (texels, ≤ 64): longest edge rasterized in the compute pass;
+    ``splat_batch``: layers per invocation."""
 
-class Splat:
-    """The ``splat`` build of one structure: the compute pass and the hardware draw of large triangles.
-
-    Parameters: ``splat_max`` (texels, 1 … 64): longest edge rasterized in the compute pass;
-    ``batch``: layers per invocation."""
-
-    def __init__(self, structure, splat_max: float = 16.0, batch: int = 8):
-        if not 0 < float(splat_max) <= SPLAT_MAX_LIMIT:
-            raise LdbenchError(f"splat_max must be in (0, {SPLAT_MAX_LIMIT}] texels, got {splat_max}")
-        if int(batch) < 1:
-            raise LdbenchError(f"splat_batch must be >= 1, got {batch}")
-        self.s, self.splat_max, self.batch = structure, float(splat_max), int(batch)
+    def __init__(self, structure):
+        super().__init__(structure)
+        self.splat_max, self.batch = structure.spec.splat_max, structure.spec.splat_batch
         self.rule = fill_rule(structure.gpu)
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
@@ -199,24 +176,24 @@ class Splat:
                 cs[name].value = v
         s.bind()
         if "albedo" in s.payload:
-            s.geo.albedo.bind_to_storage_buffer(B.LS_ALBEDO)
+            s.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         self.large.bind_to_storage_buffer(B_LARGE)
         groups = max(1, min(-(-s.geo.triangles // 64), 65535))
         cs.run(groups, -(-s.layers // self.batch))
         ctx.memory_barrier()
-        prog = gpu.program(GLSL_DIR / "layered_build.glsl", {**s.defines(), **extra})
-        for name, v in (("ls_size", (s.width, s.height)), ("ls_capacity", int(capacity)), ("layer_base", 0)):
-            if name in prog:
-                prog[name].value = v
-        s.bind()
-        if "albedo" in s.payload:
-            s.geo.albedo.bind_to_storage_buffer(B.LS_ALBEDO)
+        prog = gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})
+        if "layer_base" in prog:
+            prog["layer_base"].value = 0
+        self.uniforms(prog, capacity)
         s.fbo.use()
         s.fbo.viewport = (0, 0, s.width, s.height)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
         self._large_vao(prog).render_indirect(self.large, ctx.TRIANGLES, 1, 0)
         ctx.memory_barrier()
+
+    def stats(self) -> dict:
+        return {"splat_large_triangles": self.large_triangles()}
 
     def large_triangles(self) -> int:
         """Triangles the last pass gave to the hardware (a read-back)."""
@@ -226,55 +203,3 @@ class Splat:
         for v in self._vaos.values():
             v.release()
         self._vaos.clear()
-
-
-# ---- sort assembly (linear layout) ------------------------------------------------------------------
-def _aggregate(gpu) -> dict:
-    ext = gpu.ctx.extensions
-    return {"LL_AGGREGATE": 1} if "GL_ARB_shader_ballot" in ext and "GL_ARB_gpu_shader_int64" in ext else {}
-
-
-def _emit(s):
-    fill_uint(s.gpu, s.offsets, s.n_lists + 1, 0)
-    s._reset_counters(s.capacity)
-    s._raster({"LS_EMIT": 1, **_aggregate(s.gpu)}, s.capacity)
-
-
-def emitted(s) -> int:
-    """Fragments the last emit pass appended (stored or not; a read-back)."""
-    from .linear_arrays import C_EMITTED
-
-    return int(s._counters()[C_EMITTED])
-
-
-def build_sorted(s, stage, sync_sizing: bool):
-    """The sort assembly of :class:`~methods.linear_arrays.LinearisedArrays` ``s`` (module docstring).
-    ``sync_sizing``: read the emitted count back and redo the emit when the pairs did not fit (``grow``)."""
-    n = s.n_lists
-    with stage("emit"):
-        _emit(s)
-        if sync_sizing:
-            need = emitted(s)
-            if need > s.capacity and s.capacity < s.max_capacity:
-                s._allocate(need)
-                _emit(s)
-            elif need < s.capacity // 2:
-                s._shrink_to = max(need, 1)  # the pairs are in use: shrink before the next build
-    with stage("scan"):
-        s.scan.run(s.offsets, n + 1)
-    with stage("fill"):
-        cs = s.gpu.compute(GLSL_DIR / "pairs_scatter.glsl", s.defines())
-        s.bind()
-        cs.run(max(1, min(-(-s.capacity // 256), 65535)))
-        s.gpu.ctx.memory_barrier()
-    with stage("sort"):
-        s._sort()
-
-
-def list_counts(s) -> np.ndarray:
-    """Fragments per list (layer-major, OpenGL rows) of a linear structure, from its offsets (a read-back):
-    comparing two builds' counts gives the fragments one misses and adds (the one-pass raster's loss)."""
-    if s.layout != "linear":
-        raise LdbenchError("list_counts needs the linear layout")
-    off = np.frombuffer(s.gpu.read(s.offsets, 4 * s.n_lists), np.uint32).astype(np.int64)
-    return np.diff(np.concatenate([[0], np.minimum(off, s.capacity)]))

@@ -1,4 +1,4 @@
-// After the two raster passes of one peel (peel.glsl): every texel with a candidate makes it its layer m
+// After the two raster passes of one peel (layered_peel.glsl): every texel with a candidate makes it its layer m
 // (pl_prev), counts it (pl_count = layers so far) and appends (texel, m, depth bits, triangle) to the
 // scratch list; pl_counters[0] = fragments of this layer (0: peeling is complete), [1] = all so far.
 #include "ldi_common.glsl"

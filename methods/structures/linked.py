@@ -1,4 +1,4 @@
-"""Layered per-pixel linked lists on the GPU (yang2010 §3): the ``linked`` layout of :mod:`methods.layered`.
+"""Layered per-pixel linked lists on the GPU (yang2010 §3): the ``linked`` layout of :mod:`methods.structures`.
 
 :class:`LayeredLinkedLists` holds ``layers`` maps of ``width × height`` per-pixel linked lists, e.g. the
 N orthographic layered depth maps (LDMs) of aalund2015, in one head buffer and one node pool:
@@ -17,7 +17,7 @@ Node allocation is one ``atomicAdd`` per fragment, or with ``aggregate=True`` on
 (``ARB_shader_ballot``: the subgroup's leader adds the number of active invocations, each invocation
 takes base + its rank), which removes most of the contention on the single counter address.
 
-The geometry pass, layer transforms and payload words are those of :mod:`methods.layered`.
+The fragment pass, layer transforms and payload words are those of :mod:`methods.structures.core`.
 
 Insert algorithm (``sorted_insert``):
 
@@ -68,11 +68,10 @@ import numpy as np
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
-from .layered import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
+from .core import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
 
 EOL = 0xFFFFFFFF
 MAX_PAGES = 4
-POLICIES = ("grow", "count", "fixed", "lazy")
 NODE_BYTES = 8
 NODE_DTYPE = np.dtype([("depth", "<f4"), ("next", "<u4")])
 # counter indices (methods/glsl/linked_list.glsl)
@@ -86,32 +85,22 @@ def _floor_pow2(x: int) -> int:
 class LayeredLinkedLists(LayeredStructure):
     """``layers`` maps of ``width × height`` per-pixel linked lists (see the module docstring).
 
-    Parameters (besides those of :class:`~methods.layered.LayeredStructure`)
-    ------------------------------------------------------------------------
-    sorted_insert : lock-free sorted insert (True) or yang2010 insert + sort pass (False).
-    pool : ``"grow"``, ``"count"``, ``"fixed"`` or ``"lazy"``; ``pool_capacity`` is the fixed size, or
-        the initial size for ``"grow"`` and ``"lazy"`` (0 = 1 node per list).
-    max_list : local-array size of the sort pass (unsorted variant).
-    page_nodes : nodes per SSBO page (a power of two; default from the driver's SSBO size limit).
-    aggregate : warp-aggregated node allocation (``ARB_shader_ballot``): one ``atomicAdd`` on the
-        counter per subgroup instead of one per fragment.
+    The spec's fields used (:class:`~methods.structures.spec.StructureSpec`): ``sorted_insert`` (lock-free
+    sorted insert, or yang2010 insert + sort pass), ``pool`` and ``pool_capacity`` (the fixed size, or the
+    first size for ``grow`` and ``lazy``; 0 = 1 node per list), ``max_list`` (local array of the sort pass),
+    ``page_nodes`` (nodes per SSBO page; 0 = from the driver's SSBO size limit), ``aggregate``
+    (warp-aggregated node allocation, ``ARB_shader_ballot``: one ``atomicAdd`` per subgroup).
     """
 
     layout = "linked"
 
-    def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
-                 sorted_insert: bool = True, pool: str = "grow", pool_capacity: int = 0,
-                 max_list: int = 64, instanced: bool = True, page_nodes: int | None = None,
-                 aggregate: bool = False, indexed: bool = True, payload: tuple = (), prefix: str = "ll."):
-        if pool not in POLICIES:
-            raise LdbenchError(f"linked-list pool policy {pool!r} not one of {list(POLICIES)}")
-        if pool == "fixed" and pool_capacity < 1:
-            raise LdbenchError("linked-list pool 'fixed' needs pool_capacity >= 1")
-        super().__init__(gpu, geometry, res, layers=layers, width=width, height=height, payload=payload,
-                         instanced=instanced, indexed=indexed, prefix=prefix)
-        self.sorted_insert, self.pool, self.max_list = bool(sorted_insert), pool, int(max_list)
-        self.overflow_allowed = pool == "fixed"
-        self.aggregate = bool(aggregate)
+    def __init__(self, gpu, geometry, res, spec, *, layers: int, width: int, height: int | None = None,
+                 prefix: str = "ll."):
+        super().__init__(gpu, geometry, res, spec, layers=layers, width=width, height=height, prefix=prefix)
+        if spec.assembly != "direct":
+            raise LdbenchError(f"structure.assembly={spec.assembly!r} needs the linear layout")
+        self.sorted_insert, self.pool, self.max_list = spec.sorted_insert, spec.pool, spec.max_list
+        self.aggregate = spec.aggregate
         if self.aggregate:
             missing = [e for e in ("GL_ARB_shader_ballot", "GL_ARB_gpu_shader_int64")
                        if e not in gpu.ctx.extensions]
@@ -119,9 +108,7 @@ class LayeredLinkedLists(LayeredStructure):
                 raise LdbenchError(f"warp-aggregated atomics need {' and '.join(missing)}, "
                                    "which this OpenGL driver lacks")
         limit = self.ssbo_limit
-        pn = min(_floor_pow2(max(limit // NODE_BYTES, 1)), 1 << 30) if page_nodes is None else int(page_nodes)
-        if pn < 1 or pn & (pn - 1) or pn > 1 << 30:
-            raise LdbenchError(f"page_nodes must be a power of two, got {page_nodes}")
+        pn = min(_floor_pow2(max(limit // NODE_BYTES, 1)), 1 << 30) if not spec.page_nodes else spec.page_nodes
         self.page_nodes, self.page_shift = pn, pn.bit_length() - 1
         self.max_capacity = min(MAX_PAGES * pn, EOL - 1)
         if self.payload:
@@ -130,14 +117,14 @@ class LayeredLinkedLists(LayeredStructure):
         self.node_pages: list = []
         self.payload_buf = None
         self.capacity = 0
-        first = pool_capacity if pool_capacity > 0 else self.n_lists
-        self._allocate(first if pool != "count" else 1)
+        first = spec.pool_capacity if spec.pool_capacity > 0 else self.n_lists
+        self.allocate(first if self.pool != "count" else 1)
         self._shrink_to = 0
         self.build_passes = 0
         self._built = False
 
     # ---- allocation ------------------------------------------------------------------------
-    def _allocate(self, capacity: int):
+    def allocate(self, capacity: int):
         """Pool of ``capacity`` nodes (clamped to the page limit; the clamp shows as overflow)."""
         cap = max(1, min(int(capacity), self.max_capacity))
         pages = -(-cap // self.page_nodes)
@@ -185,13 +172,13 @@ class LayeredLinkedLists(LayeredStructure):
 
     def read_counter(self) -> int:
         """Fragments of the last pass: nodes handed out plus allocations refused (needs a read-back)."""
-        c = self._counters()
+        c = self.read_counters()
         return int(c[C_NODES]) + int(c[C_OVERFLOW])
 
     def count(self) -> int:
         """Counting pass: the number of fragments a build will insert (needs a read-back)."""
-        self._reset_counters(self.capacity)
-        self._raster(self._pass_defines(count_only=True), 0)
+        self.reset_counters(self.capacity)
+        self.fragment_pass(self._pass_defines(count_only=True), 0)
         return self.read_counter()
 
     def build(self, stage=None, sort: bool = True):
@@ -205,14 +192,14 @@ class LayeredLinkedLists(LayeredStructure):
             with stage("count"):
                 n = self.count()
                 if (n > self.capacity and self.capacity < self.max_capacity) or n < self.capacity // 2:
-                    self._allocate(max(n, 1))
+                    self.allocate(max(n, 1))
         elif self.pool == "grow" and self._shrink_to:
-            self._allocate(self._shrink_to)
+            self.allocate(self._shrink_to)
             self._shrink_to = 0
         elif self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
             n = self.read_counter()
             if (n > self.capacity and self.capacity < self.max_capacity) or n < self.capacity // 2:
-                self._allocate(max(n, 1))
+                self.allocate(max(n, 1))
         sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
         self._built = True
         with stage("build"):
@@ -220,7 +207,7 @@ class LayeredLinkedLists(LayeredStructure):
             if sync:
                 n = self.read_counter()
                 if n > self.capacity and self.capacity < self.max_capacity:
-                    self._allocate(n)
+                    self.allocate(n)
                     self._build_once()
                 elif n < self.capacity // 2:
                     self._shrink_to = max(n, 1)  # the lists are in use this frame: shrink at the next build
@@ -230,8 +217,8 @@ class LayeredLinkedLists(LayeredStructure):
 
     def _build_once(self):
         self._clear_heads()
-        self._reset_counters(self.capacity)
-        self._raster(self._pass_defines(count_only=False), self.capacity)
+        self.reset_counters(self.capacity)
+        self.fragment_pass(self._pass_defines(count_only=False), self.capacity)
         self.build_passes += 1
 
     def sort(self):
@@ -254,7 +241,7 @@ class LayeredLinkedLists(LayeredStructure):
         by the sort pass); insert_failures (sorted inserts abandoned: lost LL_MAX_RETRIES races or a walk
         past the capacity bound; expected 0); build_passes; pages.
         """
-        c = self._stats_pass("linked_list_stats.glsl", C_NONEMPTY, C_LINKED)
+        c = self.stats_pass("linked_list_stats.glsl", C_NONEMPTY, C_LINKED)
         failures, overflow = int(c[C_FAILED]), int(c[C_OVERFLOW])
         nodes = int(c[C_NODES])
         stored = nodes - failures

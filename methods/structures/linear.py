@@ -1,4 +1,4 @@
-"""Linearised per-texel arrays (archer2019 §3): the ``linear`` layout of :mod:`methods.layered`.
+"""Linearised per-texel arrays (archer2019 §3): the ``linear`` layout of :mod:`methods.structures`.
 
 A texel's fragments are contiguous in one depth array (and a parallel payload array), so a list is
 read with unit stride and its length is known without a walk. Build, per frame (stages):
@@ -17,9 +17,18 @@ read with unit stride and its length is known without a walk. Build, per frame (
 ``sort``   one thread per list: insertion sort in registers up to ``max_list`` fragments, an exact
            in-place insertion sort in global memory for longer lists (counted).
 
-``assembly = "sort"`` (:func:`methods.layered_builds.build_sorted`): one fragment pass appends (list,
-depth, payload) pairs and counts the lists, then ``scan``, a scatter of the pairs (``fill``) and ``sort``;
-the pairs hold ``capacity`` fragments, sized from the emitted count as above.
+``assembly = "sort"`` (:meth:`LinearisedArrays.build_sorted`): one fragment pass (any source) appends
+every fragment as a pair (list id, depth, payload words) and counts it in its list; an exclusive scan of
+the counts, a scatter of the pairs into their lists (a counting sort by list id,
+``methods/glsl/pairs_scatter.glsl``, stage ``fill``) and the per-list depth sort give the same contiguous
+sorted lists as the count → scan → fill → sort build with one fragment pass instead of two, and no
+compare-and-swap anywhere. Stages ``emit``, ``scan``, ``fill``, ``sort``; the pairs hold ``capacity``
+fragments, sized from the emitted count as above.
+
+``spec.canonical``: a last stage ``canon`` orders the fragments at equal depth by their payload words
+(``methods/glsl/layered_canon.glsl``), so that every source gives the same structure bit for bit (the
+LDIs of niessner2010). A source that assembles the arrays itself (``peel``,
+:mod:`methods.structures.peel`) replaces count → scan → fill → sort.
 
 Invariants: fragments filled = fragments counted (the end of the last list equals the total), no
 overflow unless the pool is ``fixed``, every list sorted.
@@ -32,37 +41,31 @@ from harness.bindings import B
 from harness.errors import LdbenchError
 from harness.gpu import GLSL_DIR
 
-from .layered import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
-from .scan import Scan
+from methods.scan import Scan
 
-POLICIES = ("grow", "fixed", "lazy")
+from .core import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
+
 C_COUNTED, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_FILLED, C_EMITTED, C_OVERFLOW = range(8)
 
 
 class LinearisedArrays(LayeredStructure):
     """``layers`` images of ``width × height`` contiguous depth lists (see the module docstring).
 
-    Parameters (besides those of :class:`~methods.layered.LayeredStructure`)
-    ------------------------------------------------------------------------
-    pool : ``"grow"`` (sized from the scanned total every frame), ``"fixed"`` (``pool_capacity``) or
-        ``"lazy"`` (sized from the previous build's total: no read-back inside a build).
-    pool_capacity : fragments for ``fixed``; first size for ``grow`` (0 = 1 per texel).
-    max_list : register-array length of the sort pass (longer lists: exact global-memory sort).
+    The spec's fields used (:class:`~methods.structures.spec.StructureSpec`): ``pool`` (``grow``: sized
+    from the scanned total every frame; ``fixed``: ``pool_capacity``; ``lazy``: sized from the previous
+    build's total, no read-back inside a build), ``pool_capacity`` (first size for ``grow``; 0 = 1 per
+    texel), ``max_list`` (register-array length of the sort pass; longer lists: exact global-memory sort),
+    ``assembly``, ``canonical``.
     """
 
     layout = "linear"
 
-    def __init__(self, gpu, geometry, res, *, layers: int, width: int, height: int | None = None,
-                 pool: str = "grow", pool_capacity: int = 0, max_list: int = 32, instanced: bool = True,
-                 indexed: bool = True, payload: tuple = (), prefix: str = "la."):
-        if pool not in POLICIES:
-            raise LdbenchError(f"linearised-array pool policy {pool!r} not one of {list(POLICIES)}")
-        if pool == "fixed" and pool_capacity < 1:
-            raise LdbenchError("linearised-array pool 'fixed' needs pool_capacity >= 1")
-        super().__init__(gpu, geometry, res, layers=layers, width=width, height=height, payload=payload,
-                         instanced=instanced, indexed=indexed, prefix=prefix)
-        self.pool, self.max_list = pool, int(max_list)
-        self.overflow_allowed = pool == "fixed"
+    def __init__(self, gpu, geometry, res, spec, *, layers: int, width: int, height: int | None = None,
+                 prefix: str = "la."):
+        super().__init__(gpu, geometry, res, spec, layers=layers, width=width, height=height, prefix=prefix)
+        if spec.pool not in ("grow", "fixed", "lazy"):
+            raise LdbenchError(f"structure.pool={spec.pool!r} needs the linked layout")
+        self.pool, self.max_list = spec.pool, spec.max_list
         self.max_capacity = self.ssbo_limit // 4 // max(1, len(self.payload))
         self.offsets = res.buffer(prefix + "offsets", reserve=4 * (self.n_lists + 1))
         self.scan = Scan(gpu, res, prefix + "scan.")
@@ -70,10 +73,10 @@ class LinearisedArrays(LayeredStructure):
         self.capacity = 0
         self.total = 0
         self._built, self._shrink_to = False, 0
-        self._allocate(pool_capacity if pool_capacity > 0 else self.n_lists)
+        self.allocate(spec.pool_capacity if spec.pool_capacity > 0 else self.n_lists)
 
-    def _allocate(self, capacity: int):
-        sort = getattr(self, "assembly", "direct") == "sort"
+    def allocate(self, capacity: int):
+        sort = self.assembly == "sort"
         if sort:  # (list, depth, payload) pairs within one SSBO
             self.max_capacity = min(self.max_capacity, self.ssbo_limit // (4 * (2 + len(self.payload))))
         cap = max(1, min(int(capacity), self.max_capacity))
@@ -104,35 +107,91 @@ class LinearisedArrays(LayeredStructure):
         n = self.n_lists
         sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
         if self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
-            need = (int(self._counters()[C_EMITTED]) if self.assembly == "sort"
+            need = (int(self.read_counters()[C_EMITTED]) if self.assembly == "sort"
                     else int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0]))
             if (need > self.capacity and self.capacity < self.max_capacity) or need < self.capacity // 2:
-                self._allocate(max(need, 1))
+                self.allocate(max(need, 1))
         elif self._shrink_to:
-            self._allocate(self._shrink_to)
+            self.allocate(self._shrink_to)
         self._shrink_to = 0
         self._built = True
-        if self.assembly == "sort":
-            from .layered_builds import build_sorted
+        if self.source.assembles:
+            self.source.assemble(stage)
+        elif self.assembly == "sort":
+            self.build_sorted(stage, sync)
+        else:
+            self.build_direct(stage, sync)
+        if self.spec.canonical:
+            with stage("canon"):
+                self.canonicalize()
 
-            return build_sorted(self, stage, sync)
+    def build_direct(self, stage, sync: bool):
+        """count → scan → fill → sort; ``sync``: read the total back and size the arrays from it."""
+        n = self.n_lists
         with stage("count"):
             fill_uint(self.gpu, self.offsets, n + 1, 0)
-            self._reset_counters(self.capacity)
-            self._raster({"LS_PASS_COUNT": 1}, self.capacity)
+            self.reset_counters(self.capacity)
+            self.fragment_pass({"LS_PASS_COUNT": 1}, self.capacity)
         with stage("scan"):
             self.scan.run(self.offsets, n + 1)
             if sync:
                 self.total = int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0])
                 if self.total > self.capacity or self.total < self.capacity // 2:
-                    self._allocate(max(self.total, 1))
+                    self.allocate(max(self.total, 1))
         with stage("fill"):
-            self._reset_counters(self.capacity)
-            self._raster({}, self.capacity)
+            self.reset_counters(self.capacity)
+            self.fragment_pass({}, self.capacity)
         with stage("sort"):
-            self._sort()
+            self.sort_lists()
 
-    def _sort(self):
+    def canonicalize(self):
+        """Order fragments at equal depth by payload (``layered_canon.glsl``)."""
+        cs = self.gpu.compute(GLSL_DIR / "layered_canon.glsl", self.defines())
+        cs["n_lists"].value = self.n_lists
+        self.bind()
+        cs.run(min(-(-self.n_lists // 64), 8192))
+        self.gpu.ctx.memory_barrier()
+
+    # ---- the sort assembly ------------------------------------------------------------------------
+    def _emit(self):
+        fill_uint(self.gpu, self.offsets, self.n_lists + 1, 0)
+        self.reset_counters(self.capacity)
+        self.fragment_pass({"LS_EMIT": 1, **aggregate_defines(self.gpu)}, self.capacity)
+
+    def emitted(self) -> int:
+        """Fragments the last emit pass appended (stored or not; a read-back)."""
+        return int(self.read_counters()[C_EMITTED])
+
+    def build_sorted(self, stage, sync: bool):
+        """The sort assembly (module docstring). ``sync``: read the emitted count back and redo the emit
+        when the pairs did not fit (``grow``)."""
+        n = self.n_lists
+        with stage("emit"):
+            self._emit()
+            if sync:
+                need = self.emitted()
+                if need > self.capacity and self.capacity < self.max_capacity:
+                    self.allocate(need)
+                    self._emit()
+                elif need < self.capacity // 2:
+                    self._shrink_to = max(need, 1)  # the pairs are in use: shrink before the next build
+        with stage("scan"):
+            self.scan.run(self.offsets, n + 1)
+        with stage("fill"):
+            cs = self.gpu.compute(GLSL_DIR / "pairs_scatter.glsl", self.defines())
+            self.bind()
+            cs.run(max(1, min(-(-self.capacity // 256), 65535)))
+            self.gpu.ctx.memory_barrier()
+        with stage("sort"):
+            self.sort_lists()
+
+    def list_counts(self) -> np.ndarray:
+        """Fragments per list (layer-major, OpenGL rows), from the offsets (a read-back): comparing two
+        builds' counts gives the fragments one misses and adds (the one-pass raster's loss)."""
+        off = np.frombuffer(self.gpu.read(self.offsets, 4 * self.n_lists), np.uint32).astype(np.int64)
+        return np.diff(np.concatenate([[0], np.minimum(off, self.capacity)]))
+
+    def sort_lists(self):
         """Per-list depth sort (``linear_sort.glsl``)."""
         cs = self.gpu.compute(GLSL_DIR / "linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
         cs["n_lists"].value = self.n_lists
@@ -146,9 +205,9 @@ class LinearisedArrays(LayeredStructure):
         fragments (counted; the sort assembly: emitted), fragments_stored, pool_capacity, overflow, lists,
         lists_nonempty, mean_list_length, max_list_length, unsorted_lists, linked_nodes (fragments
         reachable through the offsets: the end of the last list, must equal fragments_stored),
-        sort_overflow_lists, and :meth:`~methods.layered.LayeredStructure.build_stats`.
+        sort_overflow_lists, and :meth:`~methods.structures.core.LayeredStructure.build_stats`.
         """
-        c = self._stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
+        c = self.stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
         ends = np.frombuffer(self.gpu.read(self.offsets, 8, offset=4 * (self.n_lists - 1)), np.uint32)
         filled, total = int(ends[0]), int(ends[1])
         overflow = int(c[C_OVERFLOW])
@@ -191,3 +250,9 @@ class LinearisedArrays(LayeredStructure):
                 rows.append(row)
             out.append(rows)
         return out
+
+
+def aggregate_defines(gpu) -> dict:
+    """``LL_AGGREGATE`` where the driver has subgroup ballots (the emit pass's aggregated append)."""
+    ext = gpu.ctx.extensions
+    return {"LL_AGGREGATE": 1} if "GL_ARB_shader_ballot" in ext and "GL_ARB_gpu_shader_int64" in ext else {}
