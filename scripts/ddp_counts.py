@@ -55,7 +55,7 @@ def main():
           f"{dp['peel_passes']} query read-backs; per pass every fragment reads 4 B (depth texture) and is "
           f"depth-tested, the passing ones write 16 B (RGBA32F) + depth, no blending")
     print(f"dual depth peeling: 1 + {P} geometry passes, {P} blend passes, {P} query read-backs, "
-          f"{3 * P + 3} clears")
+          f"3 + 3 × {P} clears (pass-through) or 3 + 2 × {P} + 1 clears and {P - 1} front copies (default)")
     print(f"  pass-through (original): {P * F} fragment shadings, each 24 B texel reads + 3 blended targets "
           f"({2 * blend_old} B read+write): {P * F * (24 + 2 * blend_old) / 2**20:.1f} MiB over the frame")
     kept = sum(left)
