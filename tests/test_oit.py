@@ -169,6 +169,16 @@ def test_methods_equal_the_exact_reference(gpu, scenes, refs, method, name):
         assert c["peel_passes"] in (-(-c["depth_complexity_max"] // 2), -(-c["depth_complexity_max"] // 2) + 1)
 
 
+@pytest.mark.parametrize("name", ["intersecting", "teapot", "stack"])
+def test_dual_peeling_pass_through_equals_the_default(gpu, scenes, refs, name):
+    """The original's pass-through (every fragment writes every target) and the default (front copied,
+    fragments peeled earlier discarded) give the exact reference both, with the same passes."""
+    a, b = run(gpu, scenes[name], "dual-depth-peeling", pass_through=True), run(gpu, scenes[name], "dual-depth-peeling")
+    assert_matches(a, refs[name], f"pass-through on {name}")
+    assert np.array_equal(np.asarray(a.image), np.asarray(b.image))
+    assert a.counters["peel_passes"] == b.counters["peel_passes"]
+
+
 def test_ll_oit_follows_the_tie_rule(gpu, scenes, refs):
     r = run(gpu, scenes["ties"], "ll-oit")
     assert_matches(r, refs["ties"], "ll-oit on coincident surfaces")

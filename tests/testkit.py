@@ -183,3 +183,12 @@ def read_only_parent(tmp_path):
     parent.mkdir()
     parent.chmod(0o555)
     return parent
+
+
+def wall_floor_scene() -> Scene:
+    """A 4 m grey floor and a red 4 × 2.5 m wall along its left edge, a spot light aimed at the wall."""
+    floor = quad((-2, 0, -2), (-2, 0, 2), (2, 0, 2), (2, 0, -2), "floor", (0.8, 0.8, 0.8))
+    wall = quad((-2, 0, -2), (-2, 2.5, -2), (-2, 2.5, 2), (-2, 0, 2), "wall", (0.8, 0.25, 0.1))
+    light = SpotLight(position=(0.5, 1.6, 0.0), target=(-2.0, 1.0, 0.0), intensity=(20, 20, 20), cutoff_angle=40)
+    cam = Camera(origin=(2.6, 2.2, 3.2), target=(-0.8, 0.5, 0.0), up=(0, 1, 0), fov_y=55.0)
+    return Scene("wall_floor", [floor, wall], cam, [light])

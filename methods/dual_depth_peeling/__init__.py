@@ -6,7 +6,7 @@ Per frame (stages repeat and add up):
 ``minmax``  one geometry pass, MAX blending of (−z, z) into an RG32F target: each pixel's depth interval.
 ``peel``    ``peel.glsl``: one geometry pass peels the nearest *and* the farthest layer left at every pixel
             (the interval read from the previous pass; two RG32F, two front RGBA32F targets ping-pong; all
-            targets blend with MAX): the nearest is composited front to back into the front accumulation
+            targets blend with MAX; fragments outside the interval are discarded): the nearest is composited front to back into the front accumulation
             (C, 1 − T), the farthest written to a back-layer target, and the fragments strictly inside the
             interval write the next interval.
 ``blend``   ``blend.glsl``: a full-screen pass blends the back layer over the back accumulation (which
@@ -24,7 +24,14 @@ Counters: ``peel_passes`` (geometry passes after the min-max pass), ``geometry_p
 ``fragments`` / ``pixels_covered`` from an untimed fragment-counting raster of the same view (additive
 blending). Invariant: peeling ended because the query read zero, not at the safety cap.
 
-No parameters.
+=================  ========  ==========================================================================
+Parameter          Default   Meaning
+=================  ========  ==========================================================================
+``pass_through``   false     the original's pass-through: the front target cleared each pass and every
+                             fragment of the scene writes all three targets; default: the front target
+                             starts as a copy of the previous one and fragments peeled earlier are
+                             discarded (same output: MAX over the same values; docs/oit.md)
+=================  ========  ==========================================================================
 """
 from __future__ import annotations
 
@@ -34,7 +41,7 @@ import numpy as np
 
 from harness.effects.oit import BACKGROUND
 from harness.gpu import read_texture
-from methods.base import ParamsBase
+from methods.base import ParamsBase, param
 from methods.oit import PeelingMethod, complexity_counters
 
 MAX_PASSES = 4096
@@ -43,7 +50,8 @@ FAR = 3.0e38
 
 @dataclass(frozen=True)
 class DualDepthPeelingParams(ParamsBase):
-    pass
+    pass_through: bool = param(False, "every fragment writes all targets in every pass, the front target cleared "
+                                      "(the original's pass-through) instead of copied, peeled fragments discarded")
 
 
 class DualDepthPeeling(PeelingMethod):
@@ -81,7 +89,8 @@ class DualDepthPeeling(PeelingMethod):
         gpu, ctx = self.gpu, self.gpu.ctx
         w, h = view.width, view.height
         self.output(w, h)
-        peel, clip, _, _ = self.peel_program(view)
+        through = self.params.pass_through
+        peel, clip, _, _ = self.peel_program(view, {"DDP_PASS_THROUGH": 1} if through else None)
         blend = gpu.program(self.shader("blend.glsl"))
         final = gpu.program(self.shader("blend.glsl"), {"DDP_FINAL": 1})
         peel["depth_prev"].value, peel["front_prev"].value = 0, 1
@@ -105,7 +114,10 @@ class DualDepthPeeling(PeelingMethod):
             cur = passes % 2
             with gpu.stage("peel"):
                 self._clear(self.clear_fbos[f"depth{cur}"], -FAR, -FAR, 0.0, 0.0)
-                self._clear(self.clear_fbos[f"front{cur}"], 0.0, 0.0, 0.0, 0.0)
+                if through or passes == 0:  # front[1] is cleared by the min-max stage
+                    self._clear(self.clear_fbos[f"front{cur}"], 0.0, 0.0, 0.0, 0.0)
+                else:  # start from the previous accumulation: fragments peeled earlier need not write
+                    ctx.copy_framebuffer(self.clear_fbos[f"front{cur}"], self.clear_fbos[f"front{1 - cur}"])
                 self._clear(self.clear_fbos["back_layer"], 0.0, 0.0, 0.0, 0.0)
                 fbo = self.peel_fbo[cur]
                 fbo.use()

@@ -7,6 +7,10 @@
 // Depth is the linear view depth in float32 (no depth buffer). Fragments at exactly the same depth are
 // peeled in the same pass and merge (MAX), as in the original algorithm: coincident surfaces are lost.
 // Uniform init = 1: the first pass, min-max depth only (target 0).
+// DDP_PASS_THROUGH (pass_through = true): Bavoil & Myers' original, every fragment of the scene writes all
+// three targets in every pass (the front target is cleared, the fragments peeled earlier pass the front
+// accumulation through). Default: the front target starts as a copy of front_prev, so the fragments peeled
+// earlier are discarded (no texture read of the front, no blending); MAX over the same values: same output.
 #include "oit.glsl"
 
 #if defined(VERTEX_SHADER)
@@ -32,8 +36,12 @@ void main() {
     }
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec2 nf = texelFetch(depth_prev, px, 0).xy;
-    vec4 front = texelFetch(front_prev, px, 0);
     float nearest = -nf.x, farthest = nf.y;
+#if !defined(DDP_PASS_THROUGH)
+    // the front target already holds front_prev (copied before the pass): nothing to write
+    if (z < nearest || z > farthest) discard;                                // peeled by an earlier pass
+#endif
+    vec4 front = texelFetch(front_prev, px, 0);
     out_depth = vec2(-OIT_FAR);
     out_front = front;
     out_back = vec4(0.0);

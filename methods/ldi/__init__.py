@@ -54,6 +54,7 @@ Parameter                       Default      Paper       Meaning
 ``image.rays_per_pixel``        0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
 ``image.samples_per_dispatch``  1                        rays per pixel per dispatch of image effects (0: all)
 ``indirect.filter_size``        11           11          Gaussian taps of the indirect filter (0 = off; odd)
+``indirect.filter_kind``        gaussian     gaussian    gaussian | bilateral (plane-distance and normal weights)
 ``shadow.shadow_size``          1024                     cube shadow-map texels per face (indirect, glossy)
 ``shadow.normal_offset``        1.5                      shadow lookup offset along n2, shadow texels
 ``shadow.depth_bias``           1e-3                     shadow depth bias, fraction of the scene diagonal
@@ -81,6 +82,7 @@ PAYLOAD = ("normal", "albedo")
 
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
+FILTER_SHARPNESS = 40.0  # bilateral filter: inverse relative tolerance of the plane distance (hbao's default)
 
 
 @contextmanager
@@ -117,6 +119,8 @@ class LdiIndirect(ParamsBase):
     prefix = "indirect."
     filter_size: int = param(11, "taps of the separable Gaussian on indirect light (0 = off, odd)", lo=0, hi=63,
                              paper=11)
+    filter_kind: str = param("gaussian", "the paper's Gaussian, or cross-bilateral (plane-distance and normal "
+                             "weights: no mixing across edges)", choices=("gaussian", "bilateral"), paper="gaussian")
 
     def __post_init__(self):
         super().__post_init__()
@@ -356,7 +360,7 @@ class Ldi(Method):
             self._set_gather_uniforms(cs, view, effect)
             self._dispatch(cs, target, effect, w, h)
         if effect.name == "indirect":
-            self._filter(w, h)
+            self._filter(w, h, view)
         self._last = ("image", view, effect)
         out = self.out
         return Result(image=lambda: read_texture(out, 3), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
@@ -372,20 +376,27 @@ class Ldi(Method):
             cs.run((w + 7) // 8, (h + 7) // 8)
             self.gpu.ctx.memory_barrier()
 
-    def _filter(self, w, h):
+    def _filter(self, w, h, view):
         """Stage ``filter``: E → separable Gaussian (if on) → × albedo (``blur.glsl``)."""
         gpu, r = self.gpu, self.params.indirect.filter_size // 2
         with gpu.stage("filter"):
             passes = [((1, 0), self.tmp2, self.tmp, False), ((0, 1), self.tmp, self.out, True)] if r else \
                 [((1, 0), self.tmp2, self.out, True)]
+            bilateral = self.params.indirect.filter_kind == "bilateral" and r > 0
             for axis, src, dst, final in passes:
-                cs = gpu.compute(self.shader("blur.glsl"), {"FINAL": 1} if final else {})
+                defines = {**({"FINAL": 1} if final else {}), **({"BILATERAL": 1} if bilateral else {})}
+                cs = gpu.compute(self.shader("blur.glsl"), defines)
                 self.gbuf.position.use(0)
                 self.gbuf.albedo.use(1)
                 src.use(2)
-                for name, unit in (("g_position", 0), ("g_albedo", 1), ("in_image", 2)):
+                self.gbuf.normal.use(3)
+                for name, unit in (("g_position", 0), ("g_albedo", 1), ("in_image", 2), ("g_normal", 3)):
                     if name in cs:
                         cs[name].value = unit
+                for name, v in (("eye", tuple(float(x) for x in view.camera.origin)),
+                                 ("sharpness", FILTER_SHARPNESS)):
+                    if bilateral and name in cs:
+                        cs[name].value = v
                 cs["axis"].value = axis
                 cs["radius"].value = r
                 dst.bind_to_image(B.OUT_IMAGE, read=False, write=True)
