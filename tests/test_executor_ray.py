@@ -187,7 +187,7 @@ def test_without_ray_one_line_exit_2(tmp_path, monkeypatch, capsys):
 
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     out = tmp_path / "run"
-    rc = main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "16x16",
+    rc = main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--d-max", "0.1", "--size", "16x16",
                "--out", str(out), "--executor", "ray"])
     err = capsys.readouterr().err
     assert rc == 2 and err.strip() == "ldbench: error: the Ray executor needs Ray: pip install 'ldbench[ray]'"
@@ -214,7 +214,7 @@ def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(harness.runner, "run_jobs", interrupted)
-    assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--executor", "ray",
+    assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--d-max", "0.1", "--executor", "ray",
                  "--out", str(tmp_path / "r")]) == 130
     assert capsys.readouterr().err == "ldbench: interrupted\n"
 
