@@ -275,9 +275,20 @@ def _matches(r, m: dict) -> bool:
     for col, key in (("params", "params"), ("scene_params", "scene_params")):
         want = m.get(key) or {}
         have = r.get(col) if isinstance(r.get(col), dict) else {}
+        if col == "params" and any(k not in have for k in want):  # a run older than the parameter: its default
+            have = {**_defaults(r.get("method")), **have}
         if any(k not in have or not _same(have[k], v) for k, v in want.items()):
             return False
     return True
+
+
+def _defaults(method) -> dict:
+    try:
+        from methods.base import get_method
+
+        return get_method(str(method)).Params().to_dict()
+    except Exception:  # noqa: BLE001 - unknown method (an old run)
+        return {}
 
 
 def find_row(rows: list, match: dict):
