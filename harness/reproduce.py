@@ -717,6 +717,26 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
     return res, run_dir
 
 
+CLAIMS_BEGIN, CLAIMS_END = "<!-- claims:begin (scripts/claims_md.py writes this part) -->", "<!-- claims:end -->"
+
+
+def claims_markdown() -> str:
+    """The generated part of docs/claims.md: for every entry (grouped by paper), its source, the command that
+    tests it, and each claim with where the paper says it, its kind and its verdict rule and window."""
+    out, paper = [f"Timing rule {_md(TIMING_RULE)}.", ""], None
+    for e in registry().values():
+        if e.paper != paper:
+            paper = e.paper
+            out += [f"### {paper}", ""]
+        out += [f"#### `{e.key}`: {_md(e.title)}", "",
+                f"{_md(e.source)}; the paper's {_md(e.hardware)}, {e.resolution.replace('x', '×')}. "
+                f"`ldbench reproduce {e.key}` (GPU, paper scale; `--scale ci` on llvmpipe).", "",
+                "| # | claim | where | verdict rule and window |", "|---|---|---|---|"]
+        out += [f"| {i + 1} | {_md(c.text)} | {_md(c.where)} | {_md(rule_text(c))} |" for i, c in enumerate(e.claims)]
+        out.append("")
+    return "\n".join(out)
+
+
 def list_text() -> str:
     lines = []
     for e in registry().values():
