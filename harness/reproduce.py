@@ -321,8 +321,13 @@ def _float(v):
     return None if math.isnan(f) else f
 
 
-def _noise(r):
-    """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown."""
+def _noise(r, q: str = "time_ms"):
+    """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown; for
+    ``stage:NAME`` (``stage:a+b``) the stages' IQRs (summed), the frame's when the row has none."""
+    if q.startswith("stage:") and isinstance(r.get("stage_iqr"), dict):
+        vals = [_float(r["stage_iqr"].get(n)) for n in q[6:].split("+")]
+        if all(v is not None for v in vals):
+            return float(sum(vals))
     return _float(r.get("total_ms_iqr")) or 0.0
 
 
@@ -464,8 +469,8 @@ KIND_RULES = {
     "gap": "holds if a / b exceeds c / d",
 }
 TIMING_RULE = ("T: times are not measurable here on cpu-software (wall clock on shared cores, between-job spread up to "
-               "2.1×); on a GPU the noise is each row's IQR of frame times, an order claim within the larger "
-               "IQR is inconclusive")
+               "2.1×); on a GPU the noise is each row's IQR of frame times (a stage's own IQR for a stage time), "
+               "an order claim within the larger IQR is inconclusive")
 
 
 def rule_text(c: Claim) -> str:
@@ -495,7 +500,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     recs = []
     for _, r in df.iterrows():
         d = r.to_dict()
-        for c in ("params", "effect_params", "scene_params", "raw_ms", "memory"):
+        for c in ("params", "effect_params", "scene_params", "raw_ms", "memory", "stage_iqr"):
             d[c] = _as_dict(d.get(c))
         recs.append(d)
     found = {}
@@ -554,8 +559,8 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
             if va is None or vb is None:
                 verdicts.append(None)
             elif c.kind in ("ratio", "within"):
-                na = _noise(ra) if timed_q and ra is not None and ra.get("device") != CPU_SOFTWARE else 0.0
-                nb = _noise(rb) if timed_q and rb is not None and rb.get("device") != CPU_SOFTWARE else 0.0
+                na = _noise(ra, q) if _timed(q) and ra.get("device") != CPU_SOFTWARE else 0.0
+                nb = _noise(rb, qb) if _timed(qb) and rb.get("device") != CPU_SOFTWARE else 0.0
                 lo, hi = _interval(c.kind, va, vb, na, nb)
                 bv = _bound_verdict(window, lo, hi)
                 verdicts.append(bv is not False and (bv if bv is not None else True))

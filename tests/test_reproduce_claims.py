@@ -132,6 +132,15 @@ def test_fig10_splatting_is_a_majority_of_the_frame(tmp_path, splat, trace, verd
     assert _verdict(tmp_path, "aalund2015-fig10", MAJORITY, rows) == verdict
 
 
+def test_stage_bounds_use_the_stage_iqr(tmp_path):
+    """A stage's own IQR (stage_iqr) is its noise: 52 of 100 ms holds with a 0.5 ms splat IQR and is
+    inconclusive with 3 ms, whatever the frame's IQR."""
+    st = {"splat": 52.0, "trace": 5.0, "build": 43.0}
+    for splat_iqr, verdict in ((0.5, HOLDS), (3.0, INCONCLUSIVE)):
+        rows = [_row(FIG10, "a", t=100.0, iqr=0.05, stages=st, stage_iqr={"splat": splat_iqr, "trace": 0.1})]
+        assert _verdict(tmp_path / verdict[:4], "aalund2015-fig10", MAJORITY, rows) == verdict
+
+
 # ---------------------------------------------------------------- archer2019 and every entry
 
 def test_archer2019_has_no_confounded_random_range_claim():
