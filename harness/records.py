@@ -432,7 +432,8 @@ def _coerce(col: str, kind: str, v):
     return str(v)
 
 
-#: The buffers of a layered structure (methods/layered.py and its layouts), after the structure's prefix.
+#: The buffers of a layered structure (the layered-structure base class and its linked-list and linear
+#: layouts name every buffer ``prefix + part``), after the structure's prefix.
 STRUCTURE_PARTS = ("counters", "layers", "heads", "nodes", "payload", "offsets", "scan.", "depth", "pairs",
                    "splat.", "peel.")
 

@@ -275,11 +275,18 @@ def _matches(r, m: dict) -> bool:
     for col, key in (("params", "params"), ("scene_params", "scene_params")):
         want = m.get(key) or {}
         have = r.get(col) if isinstance(r.get(col), dict) else {}
-        if col == "params" and any(k not in have for k in want):  # a run older than the parameter: its default
-            have = {**_defaults(r.get("method")), **have}
         if any(k not in have or not _same(have[k], v) for k, v in want.items()):
             return False
     return True
+
+
+def _with_defaults(r: dict, match: dict) -> dict:
+    """``r`` with the method's defaults for the parameters ``match`` names that ``r`` lacks (a run older
+    than the parameter ran with its default, e.g. hbao's ``sampling``)."""
+    have = r.get("params") if isinstance(r.get("params"), dict) else {}
+    defaults = _defaults(r.get("method"))
+    missing = {k: defaults[k] for k in (match.get("params") or {}) if k not in have and k in defaults}
+    return {**r, "params": {**have, **missing}} if missing else r
 
 
 def _defaults(method) -> dict:
@@ -293,7 +300,7 @@ def _defaults(method) -> dict:
 
 def find_row(rows: list, match: dict):
     """Our row for a published row: the matching successful row (the largest image when several)."""
-    cands = [r for r in rows if _matches(r, match)]
+    cands = [r for r in rows if _matches(r, match) or _matches(_with_defaults(r, match), match)]
     if not cands:
         return None, 0
     cands.sort(key=lambda r: -(int(r.get("width") or 0) * int(r.get("height") or 0)))
