@@ -257,6 +257,24 @@ def scale_match(match: dict, scale: dict) -> dict:
 _MATCH_ROW_KEYS = ("scene", "method", "effect", "size", "params", "scene_params")
 
 
+def _with_defaults(r: dict, match: dict) -> dict:
+    """``r`` with the method's defaults for the parameters ``match`` names that ``r`` lacks (a run older
+    than the parameter ran with its default, e.g. hbao's ``sampling``)."""
+    have = r.get("params") if isinstance(r.get("params"), dict) else {}
+    defaults = _defaults(r.get("method"))
+    missing = {k: defaults[k] for k in (match.get("params") or {}) if k not in have and k in defaults}
+    return {**r, "params": {**have, **missing}} if missing else r
+
+
+def _defaults(method) -> dict:
+    try:
+        from methods.base import get_method
+
+        return get_method(str(method)).Params().to_dict()
+    except Exception:  # noqa: BLE001 - unknown method (an old run)
+        return {}
+
+
 def _matches(r, m: dict) -> bool:
     if r.get("status") != "ok":
         return False
@@ -278,24 +296,6 @@ def _matches(r, m: dict) -> bool:
         if any(k not in have or not _same(have[k], v) for k, v in want.items()):
             return False
     return True
-
-
-def _with_defaults(r: dict, match: dict) -> dict:
-    """``r`` with the method's defaults for the parameters ``match`` names that ``r`` lacks (a run older
-    than the parameter ran with its default, e.g. hbao's ``sampling``)."""
-    have = r.get("params") if isinstance(r.get("params"), dict) else {}
-    defaults = _defaults(r.get("method"))
-    missing = {k: defaults[k] for k in (match.get("params") or {}) if k not in have and k in defaults}
-    return {**r, "params": {**have, **missing}} if missing else r
-
-
-def _defaults(method) -> dict:
-    try:
-        from methods.base import get_method
-
-        return get_method(str(method)).Params().to_dict()
-    except Exception:  # noqa: BLE001 - unknown method (an old run)
-        return {}
 
 
 def find_row(rows: list, match: dict):
