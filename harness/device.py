@@ -37,8 +37,7 @@ def classify_device(renderer: str | None, vendor: str | None = None) -> str | No
     ``"cpu-software"`` when either names a software rasterizer (:data:`SOFTWARE_RENDERERS`; checked
     first: what rasterizes decides, whatever the vendor), else ``"nvidia"`` when either mentions NVIDIA,
     else ``"gpu"``; None when both are unknown. cpu-software runs are timed by wall clock (their timer
-    queries are meaningless) and their timing claims are "not measurable here" unless the difference
-    exceeds the run-to-run spread (:mod:`harness.reproduce`).
+    queries are meaningless) and their timing claims are "not measurable here" (:mod:`harness.reproduce`).
     """
     text = f"{renderer or ''} {vendor or ''}".lower()
     if not text.strip():

@@ -72,6 +72,7 @@ COLUMN_TYPES: dict[str, str] = {
     "total_ms": "float", "total_ms_iqr": "float", "wall_ms": "float",
     "stage_ms": "json", "stage_iqr": "json", "raw_ms": "json",
     "memory_bytes": "int", "memory": "json", "counters": "json",
+    "structure_bytes": "int",
     "psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "coverage": "float",
     "hit_agreement": "float", "false_hit_rate": "float", "false_miss_rate": "float",
     "dist_err_p50": "float", "dist_err_p95": "float", "dist_err_p99": "float", "self_hit_rate": "float",
@@ -443,6 +444,24 @@ def _coerce(col: str, kind: str, v):
     return str(v)
 
 
+#: The buffers of a layered structure (the layered-structure base class and its linked-list and linear
+#: layouts name every buffer ``prefix + part``), after the structure's prefix.
+STRUCTURE_PARTS = ("counters", "layers", "heads", "nodes", "payload", "offsets", "scan.", "depth", "pairs",
+                   "splat.", "peel.")
+
+
+def structure_bytes(memory: dict):
+    """Bytes of the layered structures alone (LDMs, LDIs, a CDI, OIT lists) in a row's ``memory`` dict, or
+    None when it holds none: the entries ``P + part`` (:data:`STRUCTURE_PARTS`) of every prefix P under
+    which a structure allocated its ``counters`` and ``layers`` (every structure does). What papers count
+    as "the LDMs take X MB", without the scene's geometry, G-buffers and outputs."""
+    prefixes = [k[:-len("counters")] for k in memory if k.endswith("counters") and k[:-8] + "layers" in memory]
+    if not prefixes:
+        return None
+    return int(sum(int(v) for k, v in memory.items()
+                   if any(k.startswith(p) and k[len(p):].startswith(STRUCTURE_PARTS) for p in prefixes)))
+
+
 def make_row(**fields) -> dict:
     """One result row with every column of :data:`COLUMNS`, values normalized to the column types.
 
@@ -465,6 +484,8 @@ def make_row(**fields) -> dict:
         f["schema_version"] = SCHEMA_VERSION
     if f.get("memory_bytes") is None and isinstance(f.get("memory"), dict):
         f["memory_bytes"] = int(sum(int(b) for b in f["memory"].values()))
+    if f.get("structure_bytes") is None and isinstance(f.get("memory"), dict):
+        f["structure_bytes"] = structure_bytes(f["memory"])
     row = {c: _coerce(c, t, f.get(c)) for c, t in COLUMN_TYPES.items()}
     for k, v in f.items():
         if k not in row:

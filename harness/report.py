@@ -492,12 +492,13 @@ def _reproduce_html(h: _Html, run_dir: Path) -> bool:
                 + "</tr>")
         h.raw("</tbody></table>")
         h.raw("<table style=\"margin-top:8px\"><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
-              ("claim", "published", "ours", "verdict")) + "</tr></thead><tbody>")
+              ("claim", "published", "ours", "verdict", "verdict rule and window")) + "</tr></thead><tbody>")
         for c in entry.get("claims", []):
             v = str(c.get("verdict"))
             cls = "holds" if v == "holds" else ("fails" if v.startswith("does not") else "muted")
             h.raw(f"<tr><td>{esc(c.get('text'))}</td><td>{esc(c.get('published'))}</td>"
-                  f'<td>{esc(c.get("ours"))}</td><td class="{cls}">{esc(v)}</td></tr>')
+                  f'<td>{esc(c.get("ours"))}</td><td class="{cls}">{esc(v)}</td>'
+                  f'<td class="cap">{esc(c.get("rule", ""))}</td></tr>')
         h.raw("</tbody></table>")
         for n in entry.get("notes", []):
             h.text("p", n, cls="cap")

@@ -12,7 +12,9 @@ module per paper, collected by :func:`registry`. An entry is data:
   keys of :data:`QUANTITIES`,
 * ``claims``: the paper's statements as comparisons between rows (:class:`Claim`), each with a verdict
   on our numbers: ``holds`` / ``does not hold on this machine`` / ``not measured`` (a row is missing or
-  failed) / for times, ``inconclusive`` or ``not measurable here`` (docs/reports.md, "Timing verdicts"),
+  failed) / ``inconclusive`` (the noise straddles the bound) / for times on a CPU, ``not measurable
+  here`` (docs/reports.md, "Timing verdicts"); each claim's verdict rule and the derivation of its
+  window from the paper's words (``Claim.why``) are printed with the table (docs/claims.md),
 * ``scales``: suite overrides for ``--scale ci`` (tiny, for CI on llvmpipe) and ``--scale paper`` (the
   suite as written). A scale's parameter overrides are applied to the rows' ``match`` too, so the same
   rows find their counterparts at every scale.
@@ -38,6 +40,7 @@ from .records import effect_d_max, effect_param
 QUANTITIES = {
     "time_ms": ("total_ms", "ms", False, "time"),
     "memory_mb": ("memory_bytes", "MB", False, "memory"),
+    "structure_mb": ("structure_bytes", "MB", False, "structure memory"),
     "psnr": ("psnr", "dB", True, "PSNR"),
     "ssim": ("ssim", "", True, "SSIM"),
     "flip": ("flip", "", False, "FLIP"),
@@ -71,10 +74,11 @@ HOLDS = "holds"
 FAILS = "does not hold on this machine"
 NOT_MEASURED = "not measured"
 INCONCLUSIVE = "inconclusive (difference within the timing noise)"
-NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software within the run-to-run spread
+NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software (wall clock on shared cores)
+NOT_AT_SCALE = "not comparable at scale {scale}"  # a claim whose rows only mean something at other scales
 
 CPU_SOFTWARE = "cpu-software"
-MIN_SPREAD_FRAMES = 3  # fewer frames than this give no spread: time claims on a CPU are not measurable
+TIME_QUANTITIES = ("time_ms",)  # with every stage:NAME: the quantities that get the timing rules
 
 
 @dataclass(frozen=True)
@@ -85,11 +89,17 @@ class Claim:
 
     * ``"less"`` / ``"greater"``: row ``a``'s value is below / above row ``b``'s for every quantity;
     * ``"better"``: ``a`` beats ``b`` on every quantity (lower time/memory/FLIP/relMSE, higher PSNR/SSIM);
-    * ``"ratio"``: a / b of the first quantity lies within ``ratio`` = (lo, hi);
+    * ``"ratio"``: a / b of every quantity lies within ``ratio`` = (lo, hi);
+    * ``"within"``: a's value of every quantity lies within ``ratio`` = (lo, hi) (b is not used; give a);
     * ``"gap"``: a / b exceeds c / d for every quantity (rows ``c`` and ``d``): "the gap grows".
 
     ``b_quantity``: compare a's quantity with this quantity of b (e.g. two stages of one row, a = b);
     default: the same quantity on both sides.
+
+    ``why``: how the window (``ratio``) follows from the paper's words and numbers, or why a direction
+    alone is the claim; printed with the verdict rule beside the table. ``scales``: the scales at which
+    the claim's rows are comparable (empty: all); at another scale the verdict is
+    :data:`NOT_AT_SCALE`, e.g. when the ci scale's scene sizes invert the paper's ratio.
     """
 
     text: str
@@ -103,6 +113,8 @@ class Claim:
     c: str = ""  # kind "gap": the second pair
     d: str = ""
     b_quantity: str = ""
+    why: str = ""
+    scales: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -245,6 +257,24 @@ def scale_match(match: dict, scale: dict) -> dict:
 _MATCH_ROW_KEYS = ("scene", "method", "effect", "size", "params", "scene_params")
 
 
+def _with_defaults(r: dict, match: dict) -> dict:
+    """``r`` with the method's defaults for the parameters ``match`` names that ``r`` lacks (a run older
+    than the parameter ran with its default, e.g. hbao's ``sampling``)."""
+    have = r.get("params") if isinstance(r.get("params"), dict) else {}
+    defaults = _defaults(r.get("method"))
+    missing = {k: defaults[k] for k in (match.get("params") or {}) if k not in have and k in defaults}
+    return {**r, "params": {**have, **missing}} if missing else r
+
+
+def _defaults(method) -> dict:
+    try:
+        from methods.base import get_method
+
+        return get_method(str(method)).Params().to_dict()
+    except Exception:  # noqa: BLE001 - unknown method (an old run)
+        return {}
+
+
 def _matches(r, m: dict) -> bool:
     if r.get("status") != "ok":
         return False
@@ -282,7 +312,7 @@ def _current_names(method, params: dict) -> dict:
 
 def find_row(rows: list, match: dict):
     """Our row for a published row: the matching successful row (the largest image when several)."""
-    cands = [r for r in rows if _matches(r, match)]
+    cands = [r for r in rows if _matches(r, match) or _matches(_with_defaults(r, match), match)]
     if not cands:
         return None, 0
     cands.sort(key=lambda r: -(int(r.get("width") or 0) * int(r.get("height") or 0)))
@@ -310,35 +340,57 @@ def _float(v):
     return None if math.isnan(f) else f
 
 
-def _noise(r):
-    """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown."""
+def _noise(r, q: str = "time_ms"):
+    """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown; for
+    ``stage:NAME`` (``stage:a+b``) the stages' IQRs (summed), the frame's when the row has none."""
+    if q.startswith("stage:") and isinstance(r.get("stage_iqr"), dict):
+        vals = [_float(r["stage_iqr"].get(n)) for n in q[6:].split("+")]
+        if all(v is not None for v in vals):
+            return float(sum(vals))
     return _float(r.get("total_ms_iqr")) or 0.0
 
 
-def _spread(r):
-    """A row's timing spread on a software rasterizer (ms; see "Timing verdicts"): the range of its raw
-    per-frame totals (wall clock when it has no totals), twice its IQR when it keeps no raw samples,
-    None when unknown (fewer than three frames)."""
-    raw = r.get("raw_ms") if isinstance(r.get("raw_ms"), dict) else {}
-    samples = [x for x in map(_float, raw.get("total") or raw.get("wall") or []) if x is not None]
-    if samples:
-        return max(samples) - min(samples) if len(samples) >= MIN_SPREAD_FRAMES else None
-    frames, iqr = _float(r.get("frames")), _float(r.get("total_ms_iqr"))
-    return 2.0 * iqr if iqr is not None and frames is not None and frames >= MIN_SPREAD_FRAMES else None
+def _timed(q: str) -> bool:
+    return q in TIME_QUANTITIES or q.startswith("stage:")
 
 
 def time_verdict(ra, rb, va: float, vb: float, kind: str = "less"):
     """The verdict two rows' times force on a claim, or None when the comparison stands.
 
-    cpu-software (either row): :data:`NOT_MEASURABLE` unless ``|va − vb|`` exceeds the sum of the rows'
-    :func:`_spread`; otherwise (GPU timer queries): :data:`INCONCLUSIVE` when ``|va − vb|`` is within the
-    larger interquartile range (not for ratio claims).
+    cpu-software (either row): always :data:`NOT_MEASURABLE`. Frames there are wall clock on shared
+    cores: the spread within one job (its frames) misses the spread between jobs, which was up to 2.1×
+    between back-to-back runs (6× with two runs at once; docs/reports.md, "Timing verdicts"), so no
+    within-run test can tell a difference from the load. GPU (timer queries): :data:`INCONCLUSIVE` when
+    ``|va − vb|`` is within the larger interquartile range (order claims; ratio and window claims test
+    their bounds with the IQRs instead, :func:`_interval`).
     """
     if CPU_SOFTWARE in (ra.get("device"), rb.get("device")):
-        sa, sb = _spread(ra), _spread(rb)
-        return NOT_MEASURABLE if sa is None or sb is None or abs(va - vb) <= sa + sb else None
-    if kind != "ratio" and abs(va - vb) <= max(_noise(ra), _noise(rb)):
+        return NOT_MEASURABLE
+    if kind in ("less", "greater", "better") and abs(va - vb) <= max(_noise(ra), _noise(rb)):
         return INCONCLUSIVE
+    return None
+
+
+def _interval(kind, va, vb, na, nb):
+    """(lowest, highest) of a claim's measured value (a / b for ``ratio``, a for ``within``) when a and b
+    each move by up to their noise na, nb (GPU: the rows' IQRs of the frame time; 0 for deterministic
+    quantities such as memory or PSNR)."""
+    if kind == "within":
+        return va - na, va + na
+    lo_b, hi_b = vb - nb, vb + nb
+    if lo_b <= 0:
+        return -math.inf, math.inf
+    return (va - na) / hi_b, (va + na) / lo_b
+
+
+def _bound_verdict(window, lo, hi):
+    """True when [lo, hi] lies inside the window, False when wholly outside, None when it straddles a
+    bound (the noise decides: inconclusive)."""
+    w0, w1 = window
+    if w0 <= lo and hi <= w1:
+        return True
+    if hi < w0 or lo > w1:
+        return False
     return None
 
 
@@ -347,6 +399,10 @@ def our_value(r, q: str):
         return None
     col = quantity(q)[0]
     v = r.get(col)
+    if q == "structure_mb" and _float(v) is None and isinstance(r.get("memory"), dict):
+        from .records import structure_bytes
+
+        v = structure_bytes(r["memory"])
     if q.startswith(FAMILIES):
         from .figures import _as_dict
 
@@ -360,14 +416,14 @@ def our_value(r, q: str):
         return None
     if math.isnan(v):
         return None
-    return v / 2**20 if q == "memory_mb" else v
+    return v / 2**20 if q in ("memory_mb", "structure_mb") else v
 
 
 def _fmt(v, q=None) -> str:
     if v is None:
         return "–"
     unit = quantity(q)[1] if q else ""
-    if q in ("ssim", "flip"):
+    if q in ("ssim", "flip") or (q == "structure_mb" and abs(v) < 1):
         s = f"{v:.3f}"
     elif q == "relmse":
         s = f"{v:.4f}"
@@ -413,6 +469,44 @@ def _side(kind, q, va, vb, ratio=None) -> str:
     return f"{_fmt(va, q)} vs {_fmt(vb, q)}"
 
 
+def _bounds(c: Claim) -> str:
+    lo, hi = c.ratio
+    unit = "×" if c.kind == "ratio" else f" {quantity(c.quantities[0])[1]}".rstrip()
+    hi_s = "∞" if math.isinf(hi) else f"{hi:.3g}"
+    return f"{lo:.3g}–{hi_s}{unit}"
+
+
+#: The verdict rule of each claim kind (printed with every claim; docs/claims.md, "Verdict rules").
+KIND_RULES = {
+    "less": "holds if a < b",
+    "greater": "holds if a > b",
+    "better": "holds if a beats b on every quantity",
+    "ratio": "holds if a / b lies in the window for every value within the rows' noise; fails if it lies "
+             "outside for every such value; inconclusive if the noise straddles a bound",
+    "within": "holds if a lies in the window for every value within the row's noise; fails if outside for "
+              "every such value; inconclusive if the noise straddles a bound",
+    "gap": "holds if a / b exceeds c / d",
+}
+TIMING_RULE = ("T: times are not measurable here on cpu-software (wall clock on shared cores, between-job spread up to "
+               "2.1×); on a GPU the noise is each row's IQR of frame times (a stage's own IQR for a stage time), "
+               "an order claim within the larger IQR is inconclusive")
+
+
+def rule_text(c: Claim) -> str:
+    """The verdict rule and the window's derivation of a claim, as printed beside the table."""
+    rule = KIND_RULES.get(c.kind, c.kind)
+    if c.kind in ("ratio", "within") and c.ratio:
+        rule = rule.replace("the window", f"[{_bounds(c)}]")
+    if any(_timed(q) for q in (*c.quantities, c.b_quantity)):
+        rule += "; timing rule T"
+    why = c.why or ("direction only: the paper states the order, not its size" if c.kind in
+                    ("less", "greater", "better", "gap") else "no derivation given")
+    out = f"{rule}. Window: {why}" if c.kind in ("ratio", "within") else f"{rule}. {why[0].upper()}{why[1:]}"
+    if c.scales:
+        out += f". Verdict only at scale {', '.join(c.scales)}"
+    return out
+
+
 def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     """Published vs ours for every row and claim of ``entry`` on a results table ``df``.
 
@@ -425,7 +519,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     recs = []
     for _, r in df.iterrows():
         d = r.to_dict()
-        for c in ("params", "effect_params", "scene_params", "raw_ms"):
+        for c in ("params", "effect_params", "scene_params", "raw_ms", "memory", "stage_iqr"):
             d[c] = _as_dict(d.get(c))
         recs.append(d)
     found = {}
@@ -458,8 +552,9 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     claims_out = []
     pub_rows = {pr["id"]: pr for pr in entry.rows}
     for c in entry.claims:
-        ra, rb = found.get(c.a), found.get(c.b)
+        ra, rb = found.get(c.a), found.get(c.a if c.kind == "within" else c.b)
         parts, verdicts, pub_parts, timing = [], [], [], set()
+        window = c.ratio
         for q in c.quantities:
             qb = c.b_quantity or q
             va, vb = our_value(ra, q), our_value(rb, qb)
@@ -474,25 +569,48 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
                 pc, pd = pub_rows.get(c.c, {}).get(q), pub_rows.get(c.d, {}).get(q)
                 pa = pa / pb if None not in (pa, pb) and pb else None
                 pb = pc / pd if None not in (pc, pd) and pd else None
-            parts.append(_side(c.kind, q, va, vb, c.ratio))
-            verdicts.append(None if va is None or vb is None else _compare(c.kind, q, va, vb, c.ratio))
-            if q == "time_ms" or q.startswith("stage:"):
+            if c.kind == "within":
+                vb, pb = (va if va is not None else None), pa
+                parts.append(_fmt(va, q))
+            else:
+                parts.append(_side(c.kind, q, va, vb, c.ratio))
+            timed_q = _timed(q) or _timed(qb)
+            if va is None or vb is None:
+                verdicts.append(None)
+            elif c.kind in ("ratio", "within"):
+                na = _noise(ra, q) if _timed(q) and ra.get("device") != CPU_SOFTWARE else 0.0
+                nb = _noise(rb, qb) if _timed(qb) and rb.get("device") != CPU_SOFTWARE else 0.0
+                lo, hi = _interval(c.kind, va, vb, na, nb)
+                bv = _bound_verdict(window, lo, hi)
+                verdicts.append(bv is not False and (bv if bv is not None else True))
+                if bv is None:
+                    timing.add(INCONCLUSIVE)
+                if (na or nb) and bv is not None:
+                    parts[-1] += f" (within the noise {lo:.3g}–{hi:.3g}" + ("×)" if c.kind == "ratio" else ")")
+            else:
+                verdicts.append(_compare(c.kind, q, va, vb, c.ratio))
+            if timed_q:
                 for r1, r2, v1, v2 in timed:
                     if None not in (r1, r2, v1, v2):
                         timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind))
-            if pa is not None and pb is not None:
+            if c.kind == "within":
+                if pa is not None:
+                    pub_parts.append(_fmt(pa, q))
+            elif pa is not None and pb is not None:
                 pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
         if any(v is None for v in verdicts):
             verdict = NOT_MEASURED
+        elif c.scales and scale_name not in c.scales:
+            verdict = NOT_AT_SCALE.format(scale=scale_name)
         elif NOT_MEASURABLE in timing or INCONCLUSIVE in timing:
             verdict = NOT_MEASURABLE if NOT_MEASURABLE in timing else INCONCLUSIVE
         else:
             verdict = HOLDS if all(verdicts) else FAILS
         published = c.published or "; ".join(pub_parts) or "stated in the paper"
-        if c.kind == "ratio" and c.ratio:
-            published += f" (holds if within {c.ratio[0]:.2f}–{c.ratio[1]:.2f}×)"
+        if c.kind in ("ratio", "within") and c.ratio:
+            published += f" (holds if within {_bounds(c)})"
         claims_out.append({"text": c.text, "where": c.where, "published": published,
-                           "ours": "; ".join(parts), "verdict": verdict})
+                           "ours": "; ".join(parts), "verdict": verdict, "rule": rule_text(c)})
     ok = df[df["status"] == "ok"] if "status" in df else df
     r0 = ok.iloc[0] if len(ok) else (df.iloc[0] if len(df) else None)
     if r0 is not None:
@@ -525,15 +643,17 @@ def format_text(res: dict) -> str:
     out = [f"{res['key']}: {res['title']}", f"  source:    {res['paper']}, {res['source']}",
            f"  published: {res['published_setup']}", f"  ours:      {res['our_setup']}"]
     if res.get("device") == "cpu-software":
-        out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer; a time "
-                   "claim is 'not measurable here' unless the difference exceeds the run-to-run spread")
+        out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer shared with "
+                   "other work: every time claim is 'not measurable here'")
     out.append("")
     out += _table(["row", "quantity", "published", "ours", "ours/published", "our configuration"],
                   [[r["label"], r["quantity"], r["published"], r["ours"], r["ratio"], r["ours_config"]]
                    for r in res["rows"]])
     out.append("")
-    out += _table(["claim", "published", "ours", "verdict"],
-                  [[c["text"], c["published"], c["ours"], c["verdict"]] for c in res["claims"]])
+    out += _table(["#", "claim", "published", "ours", "verdict"],
+                  [[i + 1, c["text"], c["published"], c["ours"], c["verdict"]] for i, c in enumerate(res["claims"])])
+    out += ["", "verdict rules and windows:"] + [f"  [{i + 1}] {c.get('rule', '')}" for i, c in enumerate(res["claims"])]
+    out.append(f"  {TIMING_RULE}")
     if res.get("errors"):
         out += ["", "failed rows:"] + [f"  {e}" for e in res["errors"]]
     out += [""] + [f"note: {n}" for n in res["notes"]]
@@ -549,17 +669,18 @@ def format_markdown(res: dict) -> str:
            f"- source: {_md(res['paper'])}, {_md(res['source'])}",
            f"- published: {_md(res['published_setup'])}", f"- ours: {_md(res['our_setup'])}"]
     if res.get("device") == "cpu-software":
-        out.append("- **device = cpu-software: our times are wall clock on a software rasterizer**; a time "
-                   "claim is *not measurable here* unless the difference exceeds the run-to-run spread")
+        out.append("- **device = cpu-software: our times are wall clock on a software rasterizer** shared with "
+                   "other work: every time claim is *not measurable here*")
     out += ["", "| row | paper setup | our configuration | quantity | published | ours | ours / published |",
             "|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         out.append("| " + " | ".join(_md(x) for x in (r["label"], r["paper_setup"], r["ours_config"], r["quantity"],
                                                      r["published"], r["ours"], r["ratio"])) + " |")
-    out += ["", "| claim | where | published | ours | verdict |", "|---|---|---|---|---|"]
+    out += ["", "| claim | where | published | ours | verdict | rule and window |", "|---|---|---|---|---|---|"]
     for c in res["claims"]:
         out.append("| " + " | ".join(_md(x) for x in (c["text"], c["where"], c["published"], c["ours"],
-                                                     f"**{c['verdict']}**")) + " |")
+                                                     f"**{c['verdict']}**", c.get("rule", ""))) + " |")
+    out += ["", _md(TIMING_RULE)]
     if res.get("errors"):
         out += ["", "Failed rows:", ""] + [f"- {_md(e)}" for e in res["errors"]]
     out += ["", "Notes:", ""] + [f"- {_md(n)}" for n in res["notes"]]
@@ -618,6 +739,26 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
 
         write_report(run_dir)
     return res, run_dir
+
+
+CLAIMS_BEGIN, CLAIMS_END = "<!-- claims:begin (scripts/claims_md.py writes this part) -->", "<!-- claims:end -->"
+
+
+def claims_markdown() -> str:
+    """The generated part of docs/claims.md: for every entry (grouped by paper), its source, the command that
+    tests it, and each claim with where the paper says it, its kind and its verdict rule and window."""
+    out, paper = [f"Timing rule {_md(TIMING_RULE)}.", ""], None
+    for e in registry().values():
+        if e.paper != paper:
+            paper = e.paper
+            out += [f"### {paper}", ""]
+        out += [f"#### `{e.key}`: {_md(e.title)}", "",
+                f"{_md(e.source)}; the paper's {_md(e.hardware)}, {e.resolution.replace('x', '×')}. "
+                f"`ldbench reproduce {e.key}` (GPU, paper scale; `--scale ci` on llvmpipe).", "",
+                "| # | claim | where | verdict rule and window |", "|---|---|---|---|"]
+        out += [f"| {i + 1} | {_md(c.text)} | {_md(c.where)} | {_md(rule_text(c))} |" for i, c in enumerate(e.claims)]
+        out.append("")
+    return "\n".join(out)
 
 
 def list_text() -> str:

@@ -19,6 +19,18 @@ from __future__ import annotations
 
 from harness.reproduce import Claim, Reproduction
 
+_ONE_PERCENT = ("'approximately 1% of the total frametime' read as 0.5–2 % (a factor 2 either side of 1 %), i.e. "
+                "the frame is 50–200× the raycast; the paper's own 0.73 % (137×) and 0.92 % (109×) lie inside")
+_TWENTY_TO_HUNDRED = ("the words' 20–100×, widened to the paper's own largest measurement that they summarise, "
+                      "2295.8 / 22.1 = 104× (Rungholt)")
+
+
+def _little(published: str, r: float) -> str:
+    """The window of a 'little overhead / difference' claim with a published growth r."""
+    return (f"'little overhead/difference' with the paper's own {published}: no faster than without the extra "
+            f"directions (1×) and at most twice the published growth, 1 + 2 × {r - 1:.2f} = {1 + 2 * (r - 1):.2f}× "
+            "(the paper's 'scales linearly' is affine: a fixed raster cost plus a small per-direction cost)")
+
 ATRIUM = {"triangles": 260000}
 CITY = {"triangles": 7000000}
 DIRECTIONS = (8, 16, 32, 64, 128)
@@ -38,6 +50,10 @@ _SETUP_NOTES = (
     "CDI: 169 deep images of 64², 13 × 13 stacks × slices of the upper hemisphere, linearised arrays; "
     "one-pass build (geometry-shader swizzle to the dominant axis, all directions in the fragment shader), "
     "or brute force (one raster per direction in its own view).",
+    "Settings that differ from the paper: a procedural town for Rungholt; VPLs are every second RSM texel "
+    "(Table 1) or every texel (Table 3), none chosen by mip level or discarded by size; diffuse, unshadowed "
+    "lighting without the per-pixel VPL normalisation (theirs: Cook–Torrance); the light grid and the "
+    "random-range hash are ours; stage times are GPU timer queries of our passes.",
 )
 
 # What every table of the paper shares: where it was measured, and on what.
@@ -88,20 +104,19 @@ TABLE1 = Reproduction(
          "psnr": None},
     ),
     claims=(
-        Claim("Raycasting is about 1 % of the frame: the frame takes 33–300× the raycast (Atrium)", "atrium",
-              "atrium-vpl", ("time_ms",), "ratio", ratio=(33.0, 300.0),
+        Claim("Raycasting is about 1 % of the frame: the frame takes 50–200× the raycast (Atrium)", "atrium",
+              "atrium-vpl", ("time_ms",), "ratio", ratio=(50.0, 200.0),
               where="Abstract; §4 'approximately 1% of the total frametime'",
-              published="20.6 / 0.15 ms = 137× (0.7 %)"),
-        Claim("Raycasting is about 1 % of the frame: the frame takes 33–300× the raycast (Rungholt)", "rungholt",
-              "rungholt-vpl", ("time_ms",), "ratio", ratio=(33.0, 300.0), where="§4",
-              published="43.5 / 0.4 ms = 109× (0.9 %)"),
+              published="20.6 / 0.15 ms = 137× (0.7 %)", why=_ONE_PERCENT),
+        Claim("Raycasting is about 1 % of the frame: the frame takes 50–200× the raycast (Rungholt)", "rungholt",
+              "rungholt-vpl", ("time_ms",), "ratio", ratio=(50.0, 200.0), where="§4",
+              published="43.5 / 0.4 ms = 109× (0.9 %)", why=_ONE_PERCENT),
         Claim("The one-pass CDI lights the scene as the brute-force CDI does (PSNR within 2 %)", "atrium",
               "atrium-brute", ("psnr",), "ratio", ratio=(0.98, 1.02),
               where="§4 'with no difference in the final indirect lighting result'",
-              published="stated in the text (no numbers)"),
-        Claim("Ranges from the CDI light the scene better than random ranges (PSNR and SSIM)", "atrium",
-              "atrium-random", ("psnr", "ssim"), "better", where="§1, §4 (the paper's motivation)",
-              published="not measured in the paper"),
+              published="stated in the text (no numbers)",
+              why="'no difference in the final indirect lighting result': equal up to the one-pass and brute-force "
+                  "rasters' sampling differences, read as PSNR within 2 %"),
     ),
     scales={"paper": {}, "ci": _CI},
     notes=_SETUP_NOTES + (
@@ -112,6 +127,10 @@ TABLE1 = Reproduction(
         "reference is Mitsuba's one-bounce indirect light with visibility.",
         "Table 1's steps are the Total rows' stage times: capture = count + scan + fill of the CDI, light grid = "
         "grid_mask + grid_count + grid_scan + grid_fill, lighting = shade.",
+        "No verdict on CDI against random ranges: the paper makes no such claim ('omits detailed visual "
+        "comparisons'), and ours would be confounded: random ranges are drawn from [0.01, 0.25] × the scene "
+        "diagonal while CDI ranges reach 0.5 ×, and with unshadowed VPLs a longer range alone raises PSNR. The "
+        "random and exact rows stay in the table as information; their cost is Table 3's random rows.",
     ),
 )
 
@@ -144,7 +163,7 @@ for scene, sp, name, pub in (("atrium", ATRIUM, "Atrium", (1.5, 1.8, 2.0, 3.2, 4
          "paper_setup": f"{name}, 169 × 64² CDI",
          "match": {"scene": scene, "scene_params": sp, "method": "cdi-vpl", "effect": "vpl_range",
                    "params": {"directions": 169, "cdi": "static"}},
-         "memory_mb": 18.0},
+         "memory_mb": None, "structure_mb": 18.0},
     ]
 
 TABLE2 = Reproduction(
@@ -156,23 +175,28 @@ TABLE2 = Reproduction(
     rows=tuple(_T2_ROWS),
     claims=(
         Claim("The one-pass build is 20–100× faster than brute force (Atrium)", "atrium-brute", "atrium-169",
-              ("time_ms",), "ratio", ratio=(20.0, 150.0), where="§4",
-              published="121.3 / 5.5 ms = 22×"),
+              ("time_ms",), "ratio", ratio=(20.0, 104.0), where="§4 '20× to 100× faster than a brute force approach'",
+              published="121.3 / 5.5 ms = 22×", why=_TWENTY_TO_HUNDRED),
         Claim("The one-pass build is 20–100× faster than brute force (Rungholt)", "rungholt-brute", "rungholt-169",
-              ("time_ms",), "ratio", ratio=(20.0, 150.0), where="§4",
-              published="2295.8 / 22.1 ms = 104×"),
-        Claim("Build time grows at most linearly in directions: 16× the directions, ≤ 16× the time (Atrium)",
-              "atrium-128", "atrium-8", ("time_ms",), "ratio", ratio=(1.0, 16.0), where="Table 2; §4",
-              published="4.7 / 1.5 ms = 3.1×"),
-        Claim("…and doubling the directions at most doubles it (Atrium, 64 → 128)", "atrium-128", "atrium-64",
-              ("time_ms",), "ratio", ratio=(1.0, 2.0), where="Table 2",
-              published="4.7 / 3.2 ms = 1.47×"),
-        Claim("Build time grows at most linearly in directions (Rungholt, 8 → 128)", "rungholt-128", "rungholt-8",
-              ("time_ms",), "ratio", ratio=(1.0, 16.0), where="Table 2; §4",
-              published="21.3 / 18.0 ms = 1.18×"),
+              ("time_ms",), "ratio", ratio=(20.0, 104.0), where="§4 '20× to 100× faster than a brute force approach'",
+              published="2295.8 / 22.1 ms = 104×", why=_TWENTY_TO_HUNDRED),
+        Claim("Little overhead for many directions: 16× the directions, 1–5.3× the time (Atrium, 8 → 128)",
+              "atrium-128", "atrium-8", ("time_ms",), "ratio", ratio=(1.0, 1.0 + 2 * (4.7 / 1.5 - 1)),
+              where="Table 2; §4 'There is little overhead for computing many directions'",
+              published="4.7 / 1.5 ms = 3.1×", why=_little("4.7 / 1.5 = 3.13×", 4.7 / 1.5)),
+        Claim("…and 64 → 128 directions, 1–1.94× the time (Atrium)", "atrium-128", "atrium-64",
+              ("time_ms",), "ratio", ratio=(1.0, 1.0 + 2 * (4.7 / 3.2 - 1)), where="Table 2",
+              published="4.7 / 3.2 ms = 1.47×", why=_little("4.7 / 3.2 = 1.47×", 4.7 / 3.2)),
+        Claim("Little difference in build time with directions (Rungholt, 8 → 128: 1–1.37×)", "rungholt-128",
+              "rungholt-8", ("time_ms",), "ratio", ratio=(1.0, 1.0 + 2 * (21.3 / 18.0 - 1)),
+              where="Table 2; §4 'There is little difference in performance for the Rungholt scene'",
+              published="21.3 / 18.0 ms = 1.18×", why=_little("21.3 / 18.0 = 1.18×", 21.3 / 18.0)),
         Claim("CDIs of the two scenes are about the same size (18 MB)", "rungholt-memory", "atrium-memory",
-              ("memory_mb",), "ratio", ratio=(0.5, 2.0), where="§4 'approximately the same size, at 18 MB'",
-              published="18 MB each"),
+              ("structure_mb",), "ratio", ratio=(1 / 1.2, 1.2), where="§4 'approximately the same size, at 18 MB'",
+              published="18 MB each",
+              why="'approximately the same size' with both printed as 18 MB: within ±20 %, the tolerance the "
+                  "paper's own 'no more than 10 % slower' needed for its Table 3 (1.15–1.20×); structure memory "
+                  "(the CDI's own buffers, the paper's 18 MB), not every allocation"),
     ),
     scales={"paper": {}, "ci": _CI},
     notes=_SETUP_NOTES + (
@@ -181,7 +205,10 @@ TABLE2 = Reproduction(
         "The memory rows build the CDI once and release the scene's triangles (cdi = 'static'): memory_bytes is "
         "then the CDI (offsets, depths, scan sums, axes) plus the outputs of ≤ 256 VPLs. MB read as 2^20 bytes.",
         "The paper's 'linear in directions' is an affine growth (a fixed raster cost plus a per-direction cost); "
-        "the claims check it cannot be worse than linear. scripts/gpu/cdi-vpl-tables.sh also fits a line to the rows.",
+        "the claims test its size (little overhead: at most twice the published growth), not only that it is "
+        "no worse than linear. scripts/gpu/cdi-vpl-tables.sh also fits a line to the rows.",
+        "Memory claims use structure memory (structure_bytes: the CDI's offsets, depths, scan sums, counters and "
+        "layer transforms), the paper's 18 MB; memory (every allocation) adds the VPL outputs and axes.",
     ),
 )
 
@@ -209,13 +236,19 @@ TABLE3 = Reproduction(
     claims=(
         Claim("Raycast time is near-linear in the rays: 16× the rays, 8–32× the time (Atrium, 512² → 2048²)",
               "atrium-2048", "atrium-512", ("time_ms",), "ratio", ratio=(8.0, 32.0), where="§4",
-              published="20.2 / 1.8 ms = 11.2×"),
+              published="20.2 / 1.8 ms = 11.2×",
+              why="'increases nearly linearly with the number of rays': 16× the rays, within a factor 2 of 16× "
+                  "the time (8–32×); the paper's own 11.2× lies inside"),
         Claim("Raycasting is about 10× slower than random ranges (2048²)", "atrium-2048", "random-2048",
               ("time_ms",), "ratio", ratio=(5.0, 20.0), where="§4 'approximately 10× slower'",
-              published="20.2 / 2.1 ms = 9.6×"),
+              published="20.2 / 2.1 ms = 9.6×",
+              why="'approximately 10× slower': 10× within a factor 2 (5–20×); the paper's 9.6× lies inside"),
         Claim("Geometric complexity has little impact on raycasting (Rungholt vs Atrium, 2048²)", "rungholt-2048",
-              "atrium-2048", ("time_ms",), "ratio", ratio=(1 / 1.5, 1.5),
-              where="§4 'no more than 10% slower'", published="23.5 / 20.2 ms = 1.16×"),
+              "atrium-2048", ("time_ms",), "ratio", ratio=(1 / 1.2, 1.2),
+              where="§4 'the Rungholt scene being no more than 10% slower to raycast than the Atrium'",
+              published="23.5 / 20.2 ms = 1.16×",
+              why="the words say ≤ 1.10×, but the Table 3 rows they summarise are 1.15–1.20× (0.6/0.5, 2.1/1.8, "
+                  "6.9/6.0, 23.5/20.2): up to 1.20×, and symmetrically Rungholt no faster than 1/1.20"),
     ),
     scales={"paper": {}, "ci": {**_CI, "frames": 1}},
     notes=_SETUP_NOTES + (

@@ -62,7 +62,11 @@ at P's depth; occluders much closer to the camera than P may be within d_max yet
 Parameter           Default  Meaning
 ==================  =======  ==========================================================================
 ``directions``      8        screen-space directions per pixel (N_d)
-``steps``           8        samples per direction (N_s)
+``steps``           8        samples per direction (N_s; with ``pixel_step`` their cap)
+``sampling``        fixed    ``fixed``: min(steps, radius) samples per direction whatever d_max;
+                             ``pixel_step``: one every ``step_px`` pixels out to the projected radius
+                             (NVIDIA's HBAO sample), so the cost grows with d_max
+``step_px``         4        pixels between samples with ``pixel_step``
 ``angle_bias``      -1       degrees; < 0 = 10 for ``hbao``, 0 for ``cosine``
 ``max_radius_px``   256      clamp of the projected radius in pixels (the radius when d_max = ∞)
 ``integral``        hbao     ``hbao`` (2008 formula) or ``cosine`` (the ``ao`` effect's definition)
@@ -87,6 +91,7 @@ from methods.base import Method, ParamsBase, Result, param
 from methods.gbuffer import mat_bytes
 
 INTEGRALS = ("hbao", "cosine")
+SAMPLINGS = ("fixed", "pixel_step")
 DEFAULT_BIAS_DEG = {"hbao": 10.0, "cosine": 0.0}
 FALLOFF_MODE = {"step": 0, "quadratic": 1}
 NOISE_TILE = 4
@@ -95,7 +100,10 @@ NOISE_TILE = 4
 @dataclass(frozen=True)
 class HBAOParams(ParamsBase):
     directions: int = param(8, "screen-space directions per pixel", lo=1, hi=64, paper=8)
-    steps: int = param(8, "samples per direction", lo=1, hi=128, paper=8)
+    steps: int = param(8, "samples per direction (fixed) or their cap (pixel_step)", lo=1, hi=4096, paper=8)
+    sampling: str = param("fixed", "fixed = `steps` samples per direction; pixel_step = one every step_px pixels "
+                          "out to the projected radius (cost grows with d_max)", choices=SAMPLINGS)
+    step_px: float = param(4.0, "pixels between samples with sampling = pixel_step", lo=0.5, hi=256.0)
     angle_bias: float = param(-1.0, "angle bias in degrees (< 0: 10 for hbao, 0 for cosine)", lo=-1.0, hi=60.0)
     max_radius_px: float = param(256.0, "clamp of the projected radius in pixels (radius when d_max = inf)",
                                  lo=1.0, hi=4096.0)
@@ -138,15 +146,21 @@ class HBAO(Method):
     def setup(self, gpu, scene):
         p = self.params
         self.setup_scene(gpu, scene)
-        self.prog = gpu.compute(self.shader("hbao.glsl"), {"INTEGRAL": INTEGRALS.index(p.integral),
-                                                                "PLANE_FIT": p.plane_fit})
+        defines = {"INTEGRAL": INTEGRALS.index(p.integral), "PLANE_FIT": p.plane_fit}
+        self.prog = gpu.compute(self.shader("hbao.glsl"), defines)
+        self.count_prog = None  # compiled by sample_counts()
+        self._defines = defines
         self.blur_prog = gpu.compute(self.shader("blur.glsl"))
         self.noise = self.res.texture("noise", (NOISE_TILE, NOISE_TILE), 2, "f4", noise_tile(p.seed).tobytes())
         self.noise.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
         self.noise.repeat_x = self.noise.repeat_y = True
-        _set(self.prog, directions=p.directions, steps=p.steps, angle_bias=math.radians(p.bias_degrees()),
-             max_radius_px=p.max_radius_px)
+        self._set_constants(self.prog)
         self._size = None
+
+    def _set_constants(self, prog):
+        p = self.params
+        _set(prog, directions=p.directions, steps=p.steps, angle_bias=math.radians(p.bias_degrees()),
+             max_radius_px=p.max_radius_px, sampling=SAMPLINGS.index(p.sampling), step_px=p.step_px)
 
     def _allocate(self, w, h):
         self.ao = self.res.texture("ao", (w, h), 1, "f4")
@@ -168,16 +182,7 @@ class HBAO(Method):
         with self.gpu.stage("gbuffer"):
             self.gbuf.render(view)
         with self.gpu.stage("hbao"):
-            pr = self.prog
-            pr["view"].write(mat_bytes(view.camera.view_matrix()))
-            unbounded = math.isinf(effect.d_max)
-            _set(pr, focal_px=0.5 * h / math.tan(math.radians(view.camera.fov_y) / 2), half_size=(0.5 * w, 0.5 * h),
-                 falloff_mode=2 if unbounded else FALLOFF_MODE[effect.falloff],
-                 d_max=1.0 if unbounded else float(effect.d_max), g_position=0, g_normal=1, noise=3)
-            self.gbuf.bind(0)
-            self.noise.use(3)
-            self.ao.bind_to_image(B.OUT_IMAGE, read=False, write=True)
-            pr.run(*groups)
+            self._dispatch(self.prog, view, effect, groups)
         if p.blur:
             with self.gpu.stage("blur"):
                 b = self.blur_prog
@@ -191,7 +196,35 @@ class HBAO(Method):
                     b.run(*groups)
         self.gpu.ctx.memory_barrier()
         out = self.ao
+        counters = {"directions": p.directions, "steps": p.steps, "samples_per_pixel": p.directions * p.steps}
+        if p.sampling == "pixel_step":  # steps is a cap; the count follows the projected radius
+            counters = {"directions": p.directions, "max_steps": p.steps, "step_px": p.step_px}
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer(),
-                      counters={"directions": p.directions, "steps": p.steps,
-                                "samples_per_pixel": p.directions * p.steps})
+                      counters=counters)
+
+    def _dispatch(self, pr, view, effect, groups):
+        w, h = view.width, view.height
+        pr["view"].write(mat_bytes(view.camera.view_matrix()))
+        unbounded = math.isinf(effect.d_max)
+        _set(pr, focal_px=0.5 * h / math.tan(math.radians(view.camera.fov_y) / 2), half_size=(0.5 * w, 0.5 * h),
+             falloff_mode=2 if unbounded else FALLOFF_MODE[effect.falloff],
+             d_max=1.0 if unbounded else float(effect.d_max), g_position=0, g_normal=1, noise=3)
+        self.gbuf.bind(0)
+        self.noise.use(3)
+        self.ao.bind_to_image(B.OUT_IMAGE, read=False, write=True)
+        pr.run(*groups)
+
+    def sample_counts(self, view, effect) -> np.ndarray:
+        """(H, W) float32: the samples the AO pass marches per pixel (summed over directions), from the
+        kernel compiled with COUNT_STEPS; what ``sampling`` changes, for tests and analysis."""
+        w, h = view.width, view.height
+        if self._size != (w, h):
+            self._allocate(w, h)
+        if self.count_prog is None:
+            self.count_prog = self.gpu.compute(self.shader("hbao.glsl"), {**self._defines, "COUNT_STEPS": 1})
+            self._set_constants(self.count_prog)
+        self.gbuf.render(view)
+        self._dispatch(self.count_prog, view, effect, ((w + 7) // 8, (h + 7) // 8))
+        self.gpu.ctx.memory_barrier()
+        return read_texture(self.ao, 1)[..., 0]
 

@@ -26,7 +26,12 @@
 //
 // Falloff (the `ao` effect): FALLOFF_MODE 0 = step (rho = 1 for r < d_max), 1 = quadratic
 // (rho = 1 - (r/d_max)^2), 2 = unbounded (d_max = inf; rho = 1). Samples with r >= d_max are ignored.
-// Output: r = AO (1 = unoccluded; 1 on background).
+// Sampling (`sampling`): 0 = fixed, min(steps, radius) samples per direction spread over the radius
+// (the sample count does not grow with d_max); 1 = pixel_step, one sample every ~step_px pixels out to
+// the radius, min(steps, radius / step_px) of them (NVIDIA's HBAO sample: the cost grows with the
+// projected radius of d_max).
+// Output: r = AO (1 = unoccluded; 1 on background); with COUNT_STEPS, r = the samples marched per pixel
+// (sum over directions), 0 where none.
 #include "common.glsl"
 
 #ifndef INTEGRAL
@@ -34,6 +39,9 @@
 #endif
 #ifndef PLANE_FIT
 #define PLANE_FIT 1
+#endif
+#ifndef COUNT_STEPS
+#define COUNT_STEPS 0
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -48,7 +56,9 @@ uniform float d_max;            // world units (ignored for FALLOFF_MODE 2)
 uniform int falloff_mode;       // 0 step, 1 quadratic, 2 unbounded
 uniform float max_radius_px;
 uniform int directions;
-uniform int steps;
+uniform int steps;              // samples per direction (fixed) or their cap (pixel_step)
+uniform int sampling;           // 0 fixed, 1 pixel_step
+uniform float step_px;          // pixel_step: pixels between samples
 uniform float angle_bias;       // radians
 
 float rho(float r) {            // obscurance weight of an occluder at distance r (< d_max)
@@ -65,27 +75,30 @@ void main() {
     ivec2 size = imageSize(out_ao);
     if (any(greaterThanEqual(p, size))) return;
     vec4 pos = texelFetch(g_position, p, 0);
-    if (pos.w < 0.5) { imageStore(out_ao, p, vec4(1.0)); return; }
+    if (pos.w < 0.5) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
 
     vec3 P = (view * vec4(pos.xyz, 1.0)).xyz;
     vec3 n = normalize(mat3(view) * texelFetch(g_normal, p, 0).xyz);
     float depth = -P.z;
     float radius = (falloff_mode == 2) ? max_radius_px : min(d_max * focal_px / depth, max_radius_px);
-    if (radius < 1.0) { imageStore(out_ao, p, vec4(1.0)); return; }
+    if (radius < 1.0) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
     float d2max = (falloff_mode == 2) ? 3.0e38 : d_max * d_max;
 
     vec2 rnd = texelFetch(noise, p & 3, 0).rg;
     vec2 pc = vec2(p) + 0.5;
     vec3 v = normalize(-P);
     float sum = 0.0, sum_full = 0.0;
+    int n_samples = 0;
     for (int i = 0; i < directions; ++i) {
         float phi = 2.0 * PI * (float(i) + rnd.x) / float(directions);
         vec2 dir = vec2(cos(phi), sin(phi));
         // march no farther than the image border: every sample lands on screen
         vec2 room = mix(pc, vec2(size) - pc, step(0.0, dir)) / max(abs(dir), vec2(1e-6));
         float radius_i = min(radius, min(room.x, room.y));
-        int ns = min(steps, int(radius_i));           // no more steps than pixels
-        float step_px = radius_i / float(ns + 1);
+        int ns = sampling == 1 ? min(steps, int(radius_i / step_px))   // one sample per step_px pixels
+                               : min(steps, int(radius_i));             // no more steps than pixels
+        float dq = radius_i / float(ns + 1);
+        n_samples += ns;
         // The slice: the plane through the eye, P and the screen direction (every pixel on the screen
         // line from p along dir lies in it). v = towards the eye, o = in-slice direction orthogonal
         // to v on the marching side; the normal projected into the slice has length nlen, angle gamma.
@@ -108,7 +121,7 @@ void main() {
         float occ = 0.0;
 #endif
         for (int k = 0; k < ns; ++k) {
-            vec2 q = pc + dir * (step_px * (float(k) + rnd.y) + step_px);
+            vec2 q = pc + dir * (dq * (float(k) + rnd.y) + dq);
             ivec2 qi = ivec2(floor(q));
             if (any(lessThan(qi, ivec2(0))) || any(greaterThanEqual(qi, size))) break;
             vec4 s = texelFetch(g_position, qi, 0);
@@ -159,5 +172,9 @@ void main() {
 #else
     float ao = sum / max(sum_full, 1e-20);
 #endif
+#if COUNT_STEPS
+    imageStore(out_ao, p, vec4(float(n_samples)));
+#else
     imageStore(out_ao, p, vec4(clamp(ao, 0.0, 1.0)));
+#endif
 }
