@@ -359,8 +359,28 @@ COMMANDS = {
 }
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: asks git only when given (every other command starts without it)."""
+
+    def __init__(self, option_strings, dest, **kw):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version_text())
+        parser.exit(0)
+
+
+def _version_text() -> str:
+    from .plugins import ldbench_info
+
+    info = ldbench_info()
+    commit = (info["commit"] or "unknown commit")[:12] + ("-dirty" if info["dirty"] else "")
+    return f"ldbench {info['version'] or 'unknown'} ({commit})"
+
+
 def build_parser():
     parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth")
+    parser.add_argument("--version", action=_VersionAction, help="ldbench's version and commit, then exit")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, (add, _, helptext) in COMMANDS.items():
         add(sub.add_parser(name, help=helptext))

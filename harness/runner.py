@@ -138,7 +138,15 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
         gpu.check_image_size(w, h)  # GL limits and memory, before anything is rendered
     return RunPlan(suite_name=suite.name, jobs=jobs, scenes=scenes,
                    run_id=time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + uuid.uuid4().hex[:6],
-                   git=records.git_info(REPO), machine=machine_of(gpu), reference_cache=reference_cache)
+                   git=_ldbench_git(), machine=machine_of(gpu), reference_cache=reference_cache)
+
+
+def _ldbench_git() -> dict:
+    """ldbench's commit: git in a checkout, else the one an installed wheel's build recorded."""
+    from .plugins import ldbench_info
+
+    info = ldbench_info()
+    return {"commit": info["commit"], "dirty": info["dirty"], "branch": None}
 
 
 def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
@@ -212,8 +220,9 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     cls = get_method(job.method)
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
+    method.run_seed = int(job.seed)  # before setup: a method may draw its random tables there
     scene, spec, ref = prep.scene, job.effect.spec, prep.reference
-    view = View(scene.camera, job.width, job.height)
+    view = View(scene.camera, job.width, job.height, seed=int(job.seed))
     samples: dict = {}
     totals, walls = [], []
     status, result = "ok", None
@@ -268,6 +277,8 @@ def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, sta
     return dict(run_id=run_id, suite=suite_name, **records.git_columns(git), scene=scene.name,
                 scene_hash=scene.content_hash(), triangles=scene.triangle_count,
                 scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
+                **records.method_columns(cls, git),
+                timing_source="measured",
                 effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
                 width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
                 warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),

@@ -106,7 +106,7 @@ class VplLighting:
                         ("range_max", int(p.range_mode == "max")),
                         ("cos_a", math.cos(math.radians(p.cone_angle))),
                         ("sin_a", math.sin(math.radians(p.cone_angle))),
-                        ("primary_reflected", int(p.primary == "reflected")), ("seed", 0),
+                        ("primary_reflected", int(p.primary == "reflected")), ("seed", self.m.seed_for(0)),
                         ("r_min", p.r_min * self.diag), ("r_max", p.r_max * self.diag),
                         ("rsm_position", 0), ("rsm_normal", 1), ("rsm_flux", 2)):
             if name in cs:
@@ -229,7 +229,7 @@ class VplLighting:
             w /= np.linalg.norm(w, axis=1, keepdims=True)
             n = N[valid]
             dirs = vpl_directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
-                                  seed=0)
+                                  seed=self.m.seed_for(0))
             o = np.repeat(ray_origins(y, n, w, RAY_EPSILON), RAYS_PER_VPL, axis=0)
             f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
             k = len(o)

@@ -85,6 +85,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.gbuffer import mat_bytes
+from methods.uniforms import set_uniforms
 
 INTEGRALS = ("hbao", "cosine")
 DEFAULT_BIAS_DEG = {"hbao": 10.0, "cosine": 0.0}
@@ -122,11 +123,7 @@ def noise_tile(seed: int, tile: int = NOISE_TILE) -> np.ndarray:
     return np.stack([rot, jit], -1).reshape(tile, tile, 2).astype(np.float32)
 
 
-def _set(prog, **values):
-    """Set uniforms, skipping those the GLSL compiler optimised away."""
-    for k, v in values.items():
-        if k in prog:
-            prog[k].value = v
+_set = set_uniforms  # the shared helper (methods/uniforms.py)
 
 
 class HBAO(Method):
@@ -141,7 +138,8 @@ class HBAO(Method):
         self.prog = gpu.compute(self.shader("hbao.glsl"), {"INTEGRAL": INTEGRALS.index(p.integral),
                                                                 "PLANE_FIT": p.plane_fit})
         self.blur_prog = gpu.compute(self.shader("blur.glsl"))
-        self.noise = self.res.texture("noise", (NOISE_TILE, NOISE_TILE), 2, "f4", noise_tile(p.seed).tobytes())
+        self.noise = self.res.texture("noise", (NOISE_TILE, NOISE_TILE), 2, "f4",
+                                      noise_tile(self.seed_for(p.seed)).tobytes())
         self.noise.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
         self.noise.repeat_x = self.noise.repeat_y = True
         _set(self.prog, directions=p.directions, steps=p.steps, angle_bias=math.radians(p.bias_degrees()),
