@@ -98,6 +98,10 @@ def references(group: str = METHOD_GROUP) -> list:
         raise LdbenchError(f"{ENV[group]} is not a JSON list of [reference, folder] pairs") from None
 
 
+#: {class: (distribution name, version)} of every class loaded through an entry point
+_EP_DIST: dict = {}
+
+
 def _dist_of_entry_point(ep) -> str | None:
     d = getattr(ep, "dist", None)
     return f"{d.metadata['Name']} {d.version}" if d is not None else None
@@ -116,6 +120,8 @@ def entry_point_classes(group: str, base: type) -> list:
             raise LdbenchError(f"entry point {ep.name!r} ({ep.value}, group {group}) is not a named "
                                f"{base.__name__} subclass")
         dist = _dist_of_entry_point(ep)
+        if getattr(ep, "dist", None) is not None:
+            _EP_DIST.setdefault(obj, (ep.dist.metadata["Name"], ep.dist.version))
         out.append((obj, f"{obj.__module__}.{obj.__qualname__} (distribution {dist}, entry point {ep.name})"
                     if dist else f"{obj.__module__}.{obj.__qualname__} (entry point {ep.name})"))
     return out
@@ -173,9 +179,8 @@ def provenance(cls, ldbench: dict | None = None) -> dict:
         info = ldbench if ldbench is not None else ldbench_info()
         return {"module": module, "dist": "ldbench", "dist_version": ldbench_version(),
                 "commit": info.get("commit"), "dirty": info.get("dirty")}
-    dist = _module_dist(module.split(".")[0])
-    version = None
-    if dist:
+    dist, version = _EP_DIST.get(cls) or (_module_dist(module.split(".")[0]), None)
+    if dist and version is None:
         try:
             version = importlib.metadata.version(dist)
         except importlib.metadata.PackageNotFoundError:

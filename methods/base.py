@@ -217,7 +217,17 @@ class Method:
         self.gbuf = GBuffer(gpu, self.geo, self.res)
 
     def shader(self, name: str) -> Path:
-        return Path(importlib.import_module(type(self).__module__).__file__).parent / name
+        """``name`` beside the module of this class, else beside a base class's (a subclass elsewhere,
+        e.g. a plugin deriving from an adapter, finds its parent's shaders)."""
+        first = None
+        for cls in type(self).__mro__:
+            f = getattr(importlib.import_module(cls.__module__), "__file__", None) if cls.__module__ else None
+            if f:
+                p = Path(f).parent / name
+                first = first or p
+                if p.is_file():
+                    return p
+        return first
 
 
 def registry() -> dict:

@@ -1,0 +1,213 @@
+"""Methods and effects from outside ldbench (harness/plugins.py): entry points, ``package.module:Class``
+names, one error for two classes with one name, provenance columns, and the example plugin of
+examples/example-ao installed into a fresh virtual environment and run from outside the source tree,
+under the local and the Ray executor.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from harness import plugins
+from harness.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "example-ao"
+TINY = ["--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0", "--no-report", "--no-progress"]
+
+
+@pytest.fixture
+def clean_plugins(monkeypatch):
+    """No development plugin registered before or after (register_reference writes os.environ)."""
+    monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
+    from harness.effects import base as effects_base
+
+    monkeypatch.setattr(effects_base, "_REGISTRY", None)
+    yield
+
+
+def _module(folder: Path, name: str, text: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{name}.py").write_text(textwrap.dedent(text))
+    return folder
+
+
+def _fake_dist(folder: Path, dist: str, version: str, entry_points: str) -> None:
+    """A distribution's metadata on ``folder`` (what pip would install), entry points included."""
+    info = folder / f"{dist.replace('-', '_')}-{version}.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: {version}\n")
+    (info / "entry_points.txt").write_text(textwrap.dedent(entry_points))
+
+
+DUP_METHOD = """
+    from methods.hbao import HBAO
+
+    class Dup(HBAO):
+        name = "hbao"
+"""
+
+
+def test_module_class_name_with_a_taken_name_is_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "dupmod", DUP_METHOD)))
+    rc = main(["run", "--scene", "cornell", "--method", "dupmod:Dup", "--effect", "ao", "--out",
+               str(tmp_path / "r"), *TINY])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "two methods are named 'hbao'" in err and "methods.hbao.HBAO (ldbench)" in err and "dupmod:Dup" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_entry_point_duplicates_name_both_sources(tmp_path, monkeypatch, clean_plugins):
+    from harness.effects.base import registry as effects
+    from harness.errors import LdbenchError
+    from methods.base import registry
+
+    src = _module(tmp_path / "site", "dupmod_ep", DUP_METHOD + """
+    from harness.effects.ao import AO
+
+    class DupAO(AO):
+        pass
+""")
+    _fake_dist(src, "dup-plugin", "2.5", """
+        [ldbench.methods]
+        twin = dupmod_ep:Dup
+        [ldbench.effects]
+        twin-ao = dupmod_ep:DupAO
+    """)
+    monkeypatch.syspath_prepend(str(src))
+    with pytest.raises(LdbenchError) as e:
+        registry()
+    msg = str(e.value)
+    assert "\n" not in msg and "methods.hbao.HBAO (ldbench)" in msg
+    assert "dupmod_ep.Dup (distribution dup-plugin 2.5, entry point twin)" in msg, msg
+    with pytest.raises(LdbenchError) as e:
+        effects()
+    assert "two effects are named 'ao'" in str(e.value) and "dup-plugin 2.5" in str(e.value)
+
+
+def test_entry_point_method_and_effect_are_registered(tmp_path, monkeypatch, clean_plugins):
+    from harness.effects.base import registry as effects
+    from methods.base import registry
+
+    src = _module(tmp_path / "site", "newmod", """
+    from harness.effects.ao import AO
+    from methods.hbao import HBAO
+
+    class New(HBAO):
+        name = "new-hbao"
+
+    class NewAO(AO):
+        name = "ao2"
+""")
+    _fake_dist(src, "new-plugin", "1.0", "[ldbench.methods]\nn = newmod:New\n[ldbench.effects]\ne = newmod:NewAO\n")
+    monkeypatch.syspath_prepend(str(src))
+    assert registry()["new-hbao"].__module__ == "newmod"
+    assert type(effects()["ao2"]).__name__ == "NewAO"
+    prov = plugins.provenance(registry()["new-hbao"])
+    assert (prov["module"], prov["dist"], prov["dist_version"]) == ("newmod", "new-plugin", "1.0")
+
+
+def test_broken_references_are_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "okmod", "X = 1\n")))
+    for ref, why in (("nosuchmod:Thing", "cannot import"), ("okmod:Missing", "has no 'Missing'"),
+                     ("okmod:X", "not a named Method subclass")):
+        rc = main(["run", "--scene", "cornell", "--method", ref, "--effect", "ao", "--out", str(tmp_path / "r"),
+                   *TINY])
+        err = capsys.readouterr().err.strip()
+        assert rc == 2 and len(err.splitlines()) == 1 and why in err, (ref, err)
+
+
+def test_version_flag(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"ldbench {plugins.ldbench_version()} (") and plugins.ldbench_version() == "0.1.0"
+
+
+# --------------------------------------------------------------------------------------------------
+# the example plugin, installed into a fresh virtual environment
+
+
+def _git(cwd, *args):
+    return subprocess.run(["git", "-C", str(cwd), "-c", "user.email=t@example.com", "-c", "user.name=t", *args],
+                          check=True, capture_output=True, text=True).stdout
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory):
+    """A venv that sees this environment's dependencies (a .pth line: no network), ldbench from this tree
+    (PYTHONPATH), and the example plugin installed from its own git repository (``pip install
+    git+file://``, as one would from GitHub): the plugin's commit is that repository's."""
+    if shutil.which("git") is None:
+        pytest.skip("git not installed")
+    tmp = tmp_path_factory.mktemp("plugin")
+    repo = tmp / "example-ao"
+    shutil.copytree(EXAMPLE, repo, ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "build"))
+    _git(repo, "init", "-q")
+    _git(repo, "add", ".")
+    _git(repo, "commit", "-q", "-m", "example")
+    commit = _git(repo, "rev-parse", "HEAD").strip()
+    env_dir = tmp / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
+    py = env_dir / "bin" / "python"
+    purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                                  check=True, capture_output=True, text=True).stdout.strip())
+    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps",
+                        "--no-build-isolation", "--no-index", f"git+file://{repo}"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    work = tmp / "work"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
+    env.update(PYTHONPATH=str(ROOT), PYTHONNOUSERSITE="1", LDBENCH_CACHE=str(tmp / "ref-cache"))
+    return {"py": py, "work": work, "env": env, "commit": commit, "purelib": purelib}
+
+
+def _ldbench(v, *args, timeout=300):
+    p = subprocess.run([str(v["py"]), "-m", "harness.cli", *map(str, args)], cwd=v["work"], env=v["env"],
+                       capture_output=True, text=True, timeout=timeout)
+    assert p.returncode == 0, f"{args} -> {p.returncode}\n{p.stdout[-2000:]}\n{p.stderr[-3000:]}"
+    return p.stdout
+
+
+def _rows(v, run):
+    import pandas as pd
+
+    return pd.read_parquet(v["work"] / run / "results.parquet").set_index("method")
+
+
+def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
+    import pandas as pd
+
+    listed = _ldbench(venv, "methods")
+    assert "example-ao  [example]  effects: ao" in listed and "samples" in listed, listed
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "example-ao", "--method", "hbao", "--effect", "ao",
+             "--d-max", "0.5", "--out", "local", *TINY)
+    local = _rows(venv, "local")
+    ours = local.loc["example-ao"]
+    assert ours["status"] == "ok" and 5 < ours["psnr"] < 60, ours["psnr"]
+    assert (ours["method_module"], ours["method_dist"], ours["method_version"], ours["method_commit"]) == \
+        ("example_ao", "ldbench-example-ao", "0.3.1", venv["commit"])
+    assert local.loc["hbao", "method_dist"] == "ldbench" and local.loc["hbao", "method_commit"] == ours["commit"]
+
+    # under Ray, with a package.module:Class method from the working folder beside it
+    (venv["work"] / "devao.py").write_text("from example_ao import ExampleAO\n\n\nclass DevAO(ExampleAO):\n"
+                                           "    name = 'dev-ao'\n")
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "example-ao", "--method", "devao:DevAO", "--effect",
+             "ao", "--d-max", "0.5", "--executor", "ray", "--out", "ray", *TINY)
+    ray_rows = _rows(venv, "ray")
+    assert (ray_rows["status"] == "ok").all(), ray_rows["status"]
+    assert ray_rows.loc["example-ao", "psnr"] == pytest.approx(ours["psnr"], abs=1e-9)
+    assert ray_rows.loc["dev-ao", "psnr"] == pytest.approx(ours["psnr"], abs=1e-9)  # the same kernel
+    assert ray_rows.loc["dev-ao", "method_module"] == "devao" and pd.isna(ray_rows.loc["dev-ao", "method_dist"])
+    assert ray_rows.loc["example-ao", "method_commit"] == venv["commit"]
