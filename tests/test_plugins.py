@@ -211,3 +211,33 @@ def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
     assert ray_rows.loc["dev-ao", "psnr"] == pytest.approx(ours["psnr"], abs=1e-9)  # the same kernel
     assert ray_rows.loc["dev-ao", "method_module"] == "devao" and pd.isna(ray_rows.loc["dev-ao", "method_dist"])
     assert ray_rows.loc["example-ao", "method_commit"] == venv["commit"]
+
+
+def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
+    """setup.py writes harness/build_info.json into the wheel; an installed ldbench reports that commit
+    (rows' ``commit`` column and ``--version``), not None."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("needs git and a checkout")
+    src = tmp_path / "src"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(src)], check=True, timeout=120)
+    commit = _git(src, "rev-parse", "HEAD").strip()
+    p = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "--no-index",
+                        "-w", str(tmp_path / "dist"), str(src)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    (wheel,) = (tmp_path / "dist").glob("ldbench-*.whl")
+    env_dir = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
+    py = env_dir / "bin" / "python"
+    purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                                  check=True, capture_output=True, text=True).stdout.strip())
+    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", "--no-index",
+                        str(wheel)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LDBENCH_COMMIT", "LDBENCH_DIRTY")}
+    out = subprocess.run([str(py), "-c", "import json, harness.plugins as p; print(p.__file__); "
+                          "print(json.dumps(p.ldbench_info()))"], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    assert Path(out[0]).is_relative_to(purelib), out
+    assert json.loads(out[1]) == {"version": "0.1.0", "commit": commit, "dirty": False}
