@@ -193,6 +193,9 @@ def _run_args(p):
     p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
     p.add_argument("--no-report", action="store_true")
     p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--save-arrays", action="store_true",
+                   help="rays, vpl_range: write each job's per-ray/per-VPL inputs and answers (method and oracle) "
+                        "as .npz beside its images (about 60 bytes per ray)")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
                    help="local: this process (default); ray: one task per job group on a Ray cluster "
                         "(pip install 'ldbench[ray]'; docs/ray.md)")
@@ -283,7 +286,8 @@ def _run(args):
     executor = _executor_from(args)
     from .naming import slug  # a suite named "../../x" stays inside reports/
     out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
-    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
+    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor,
+                  save_arrays=args.save_arrays)
     cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
                         "ssim", "status") if c in df.columns]
     import pandas as pd

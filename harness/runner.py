@@ -79,6 +79,7 @@ class RunContext:
     run_id: str
     suite_name: str
     out: Path  # the (temporary) run directory being written, or a task's staging folder
+    save_arrays: bool = False  # --save-arrays: per-ray / per-VPL inputs and answers (harness/arrays.py)
 
 
 @dataclass
@@ -102,6 +103,7 @@ class RunPlan:
     git: dict
     machine: dict  # the driver's (rows of jobs that never ran get it)
     reference_cache: bool = True
+    save_arrays: bool = False
 
     def keys(self) -> list:
         """The distinct :func:`prepare_key` of the jobs (one inputs + reference each), in a fixed order."""
@@ -161,7 +163,7 @@ def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) ->
 
 
 def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
-             reference_cache: bool = True, executor=None) -> "pd.DataFrame":
+             reference_cache: bool = True, executor=None, save_arrays: bool = False) -> "pd.DataFrame":
     """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
 
     ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
@@ -179,6 +181,7 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
     try:
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
+        plan.save_arrays = bool(save_arrays)
         suite.jobs = plan.jobs
         if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
             gpu.release()
@@ -258,6 +261,14 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
     rel = f"images/{scene_dir(scene)}/"
     images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v) for k, v in images.items()}
+    if ctx.save_arrays:
+        from .arrays import answer_arrays, save_arrays
+
+        arrays = answer_arrays(spec, result, ref, prep.inputs)
+        if arrays is not None:
+            name = f"{job_label(job, scene)}-arrays.npz"
+            save_arrays(folder / name, arrays)
+            images["arrays"] = rel + name
     mem = {k: int(v) for k, v in result.memory_bytes.items()}
     row.update(**timing, memory_bytes=int(sum(mem.values())), memory=mem,
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},

@@ -195,3 +195,34 @@ def test_score_bad_input_is_one_line(tmp_path, capsys):
         err = capsys.readouterr().err.strip()
         assert rc == 2 and len(err.splitlines()) == 1 and err.startswith("ldbench: error:"), (args, err)
     assert not (tmp_path / "out").exists()
+
+
+def test_save_arrays_writes_inputs_and_both_answers(tmp_path):
+    from harness.effects.rays import ray_metrics
+    from harness.effects.vpl_range import range_metrics
+    from harness.scenes import load_scene
+
+    suite = suite_from_dict({"suite": {"name": "arrays", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "rays", "methods": ["ldm"],
+                                      "effect_params": {"rays_per_pixel": 1},
+                                      "params": {"ldm": {"directions": 8, "resolution": 32}}},
+                                     {"scene": "cornell", "effect": "vpl_range", "methods": ["cdi-vpl"],
+                                      "effect_params": {"rsm": 16}}]}, name="arrays")
+    out = tmp_path / "run"
+    df = run_jobs(suite, out, progress=False, report=False, save_arrays=True)
+    diag = load_scene("cornell").diagonal()
+    for _, row in df.iterrows():
+        path = out / row["images"]["arrays"]
+        z = np.load(path)  # one line, no pickle
+        if row["effect"] == "rays":
+            assert z["origin"].shape == (row["rays"], 3) and z["t"].shape == z["t_ref"].shape == (row["rays"],)
+            m = ray_metrics(z["t"], z["t_ref"], tmax=z["tmax"], occlusion=False, diagonal=diag)
+            assert m["hit_agreement"] == pytest.approx(row["hit_agreement"], abs=1e-12)
+            assert m["dist_err_p95"] == pytest.approx(row["dist_err_p95"], abs=1e-12)
+        else:
+            assert z["range"].shape == z["range_ref"].shape == (row["vpls"],)
+            assert z["ray_origin"].shape == (6 * row["vpls"], 3)
+            m = range_metrics(z["range"], z["range_ref"])
+            assert m["range_err_p95"] == pytest.approx(row["range_err_p95"], abs=1e-12)
+    plain = run_jobs(suite, tmp_path / "plain", progress=False, report=False)
+    assert "arrays" not in plain.iloc[0]["images"] and not list((tmp_path / "plain").rglob("*.npz"))

@@ -10,7 +10,7 @@ class LocalExecutor:
 
     def run(self, plan, out, *, gpu, progress: bool = True) -> list[dict]:
         ctx = RunContext(gpu=gpu, machine=plan.machine, git=plan.git, run_id=plan.run_id,
-                         suite_name=plan.suite_name, out=out)
+                         suite_name=plan.suite_name, out=out, save_arrays=plan.save_arrays)
         prepared: dict = {}
         try:
             keys = plan.keys()
