@@ -241,3 +241,51 @@ def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
                          text=True, check=True).stdout.splitlines()
     assert Path(out[0]).is_relative_to(purelib), out
     assert json.loads(out[1]) == {"version": "0.1.0", "commit": commit, "dirty": False}
+
+
+def test_the_run_seed_reaches_methods(tmp_path, monkeypatch, clean_plugins):
+    """--seed reaches a method as ``run_seed`` (before setup) and ``View.seed``; a method's own seed
+    parameter is mixed with it (Method.seed_for), unchanged at run seed 0."""
+    import numpy as np
+
+    from harness.runner import run_jobs
+    from harness.suite import suite_from_dict
+    from methods.base import Method
+    from references.exr import read_exr
+
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "seedprobe", """
+        from methods.hbao import HBAO
+
+        class Probe(HBAO):
+            name = "seed-probe"
+
+            def setup(self, gpu, scene):
+                self.setup_seed = self.run_seed
+                super().setup(gpu, scene)
+
+            def frame(self, view, effect, inputs=None):
+                r = super().frame(view, effect, inputs)
+                r.counters = {**r.counters, "setup_seed": self.setup_seed, "view_seed": view.seed,
+                              "mixed": self.seed_for(self.params.seed)}
+                return r
+    """)))
+
+    def run(seed):
+        out = tmp_path / f"s{seed}"
+        suite = suite_from_dict({"suite": {"name": "seed", "size": "16x16", "spp": 2, "warmup": 0, "frames": 1},
+                                 "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "seed": seed,
+                                          "methods": ["seedprobe:Probe"], "params": {"seed-probe": {"blur": False}}}]},
+                                name="seed")
+        row = run_jobs(suite, out, progress=False, report=False).iloc[0]
+        return row, read_exr(out / row["images"]["exr"])["Y"]
+
+    r0, img0 = run(0)
+    r7, img7 = run(7)
+    assert r0["counters"] == {**r0["counters"], "setup_seed": 0, "view_seed": 0, "mixed": 0}
+    assert r7["counters"]["setup_seed"] == 7 and r7["counters"]["view_seed"] == 7
+    assert r7["counters"]["mixed"] == (7 * 0x9E3779B9) % 2**32
+    assert not np.array_equal(img0, img7)  # another rotation texture
+    m = Method()
+    assert m.seed_for(5) == 5  # run seed 0: the parameter itself
+    m.run_seed = 1
+    assert m.seed_for(5) != 5 and 0 <= m.seed_for(5, bits=31) < 2**31
