@@ -450,6 +450,22 @@ def _export(args):
     return 0
 
 
+def _new_method_args(p):
+    p.add_argument("name", help="the method's name, e.g. my-ao")
+    p.add_argument("--out", default=None, help="folder of the new plugin package (default ./NAME)")
+    p.add_argument("--in-tree", action="store_true", help="write methods/<name>/ of this ldbench checkout instead")
+
+
+def _new_method(args):
+    from .newmethod import write_template
+
+    if args.in_tree and args.out:
+        raise LdbenchError("give --out or --in-tree, not both")
+    for f in write_template(args.name, out=args.out, in_tree=args.in_tree):
+        print(f"wrote {f}")
+    return 0
+
+
 COMMANDS = {
     "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
     "methods": (_methods_args, _methods, "list method adapters and their parameters"),
@@ -461,6 +477,7 @@ COMMANDS = {
     "reproduce": (_reproduce_args, _reproduce, "one paper table/figure: ours beside the published numbers"),
     "export": (_export_args, _export, "write a question (scene, camera, light, Mitsuba XML, ray batch) for an "
                                       "external renderer"),
+    "new-method": (_new_method_args, _new_method, "write a working template adapter (Python + GLSL) to start from"),
     "score": (_score_args, _score, "score images or per-ray answers rendered elsewhere; rows join a run directory"),
 }
 

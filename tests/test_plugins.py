@@ -289,3 +289,20 @@ def test_the_run_seed_reaches_methods(tmp_path, monkeypatch, clean_plugins):
     assert m.seed_for(5) == 5  # run seed 0: the parameter itself
     m.run_seed = 1
     assert m.seed_for(5) != 5 and 0 <= m.seed_for(5, bits=31) < 2**31
+
+
+def test_new_method_template_installs_lists_and_runs(venv, tmp_path, capsys):
+    assert main(["new-method", "tmpl-ao", "--out", str(tmp_path / "tmpl")]) == 0
+    assert main(["new-method", "tmpl-ao", "--out", str(tmp_path / "tmpl")]) == 2  # never overwrites
+    assert main(["new-method", "Bad Name", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "exists" in err[0] and "method name" in err[1]
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(venv["py"]), "install", "-q", "--no-deps",
+                        "--no-build-isolation", "--no-index", str(tmp_path / "tmpl")],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert "tmpl-ao  []  effects: ao" in _ldbench(venv, "methods")
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "tmpl-ao", "--effect", "ao", "--d-max", "0.5",
+             "--out", "tmpl", *TINY)
+    row = _rows(venv, "tmpl").loc["tmpl-ao"]
+    assert row["status"] == "ok" and row["psnr"] > 5 and row["method_dist"] == "ldbench-tmpl-ao"
