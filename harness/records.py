@@ -296,20 +296,18 @@ def git_info(repo_dir=LDBENCH_ROOT) -> dict:
 
 
 def git_columns(info: dict) -> dict:
-    """Row fields ``commit`` and ``dirty`` from :func:`git_info` (ldbench's own), and ``ldbench_version``."""
-    from .plugins import ldbench_version
-
-    return {"commit": info.get("commit"), "dirty": info.get("dirty"), "ldbench_version": ldbench_version()}
+    """Row fields ``commit`` and ``dirty`` from :func:`git_info`."""
+    return {"commit": info.get("commit"), "dirty": info.get("dirty")}
 
 
 def method_columns(cls, git: dict | None = None) -> dict:
     """Row fields of where a method's class comes from (:func:`harness.plugins.provenance`):
-    ``method_module``, ``method_dist``, ``method_version``, ``method_commit``, ``method_dirty``
+    ``ldbench_version`` (the running ldbench's), ``method_module``, ``method_dist``, ``method_version``, ``method_commit``, ``method_dirty``
     (``git``: ldbench's own :func:`git_info`, for ldbench's built-in methods)."""
-    from .plugins import provenance
+    from .plugins import ldbench_version, provenance
 
     p = provenance(cls, git)
-    return {"method_module": p["module"], "method_dist": p["dist"], "method_version": p["dist_version"],
+    return {"ldbench_version": ldbench_version(), "method_module": p["module"], "method_dist": p["dist"], "method_version": p["dist_version"],
             "method_commit": p["commit"], "method_dirty": p["dirty"]}
 
 
