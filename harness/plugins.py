@@ -228,9 +228,9 @@ def ldbench_version() -> str | None:
         import tomllib
 
         try:
-            v = tomllib.loads(pp.read_text()).get("project", {}).get("version")
-            if v:
-                return str(v)
+            project = tomllib.loads(pp.read_text()).get("project", {})
+            if project.get("name") == "ldbench" and project.get("version"):
+                return str(project["version"])
         except (OSError, ValueError):
             pass
     try:

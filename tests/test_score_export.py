@@ -119,7 +119,7 @@ def _brute_force_t(o, d, tmax, tri):
         q = np.cross(s, e1[None])
         v = np.einsum("rk,rtk->rt", d, q) * inv
         t = np.einsum("tk,rtk->rt", e2, q) * inv
-    ok = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0) & (t <= tmax[:, None])
+        ok = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0) & (t <= tmax[:, None])
     return np.where(ok, t, np.inf).min(1)
 
 
@@ -226,3 +226,20 @@ def test_save_arrays_writes_inputs_and_both_answers(tmp_path):
             assert m["range_err_p95"] == pytest.approx(row["range_err_p95"], abs=1e-12)
     plain = run_jobs(suite, tmp_path / "plain", progress=False, report=False)
     assert "arrays" not in plain.iloc[0]["images"] and not list((tmp_path / "plain").rglob("*.npz"))
+
+
+def test_vpl_ranges_exported_answered_by_numpy_and_scored(tmp_path):
+    import trimesh
+
+    folder = _export(tmp_path, Effect("vpl_range", rsm=16), "vpl", size=16)
+    z = np.load(folder / "batch.npz")
+    mesh = trimesh.load(folder / "scene.ply", process=False)
+    t = _brute_force_t(z["ray_origin"], z["ray_direction"], z["ray_tmax"], np.asarray(mesh.triangles))
+    ranges = np.minimum(t, float(z["cap"])).reshape(-1, 6)
+    assert str(z["mode"]) == "mean"
+    np.savez(folder / "answer.npz", range=ranges.mean(1).astype(np.float32), t=t.astype(np.float32))
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert row["range_within_5pct"] == 1.0 and row["range_err_p95"] < 1e-5 and row["hit_agreement"] == 1.0
+    np.savez(folder / "answer.npz", range=ranges.max(1).astype(np.float32))  # the wrong reduction
+    (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert bad["range_within_5pct"] < 0.9
