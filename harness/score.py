@@ -383,6 +383,9 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
         if not vals or not all(math.isfinite(x) and x >= 0 for x in vals):
             raise LdbenchError(f"stage time {k!r} must be finite and >= 0, got {v!r}")
         stages[str(k)] = vals
+    if len({len(v) for v in stages.values()}) > 1:
+        raise LdbenchError("stage times: give every stage the same number of frames "
+                           f"({', '.join(f'{k}: {len(v)}' for k, v in stages.items())})")
     mem = {}
     for k, v in (memory or {}).items():
         if isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0 or v != int(v):

@@ -189,7 +189,9 @@ def test_score_bad_input_is_one_line(tmp_path, capsys):
              ["--answer", str(folder / "answer.exr"), "--from", str(folder)],
              ["--answer", str(folder / "nothing.exr"), "--scene", "cornell", "--effect", "ao", "--size", "16x16"],
              ["--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao", "--size", "8x8",
-              "--stage-ms", "ao=fast"]]
+              "--stage-ms", "ao=fast"],
+             ["--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao", "--size", "8x8",
+              "--stage-ms", "ao=1,2", "--stage-ms", "blur=1"]]
     for args in cases:
         rc = main(["score", str(tmp_path / "out"), *args, "--no-report", "--no-progress"])
         err = capsys.readouterr().err.strip()
@@ -243,3 +245,21 @@ def test_vpl_ranges_exported_answered_by_numpy_and_scored(tmp_path):
     np.savez(folder / "answer.npz", range=ranges.max(1).astype(np.float32))  # the wrong reduction
     (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
     assert bad["range_within_5pct"] < 0.9
+
+
+def test_score_one_answer_from_the_command_line(tmp_path, gpu, hbao_run, capsys):
+    run_dir, _ = hbao_run
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "cli")
+    _render_outside(gpu, folder)
+    out = tmp_path / "cli-run"
+    rc = main(["score", str(out), "--answer", str(folder / "answer.exr"), "--mask", str(folder / "mask.npy"),
+               "--scene", "cornell", "--effect", "ao", "--d-max", "0.5", "--size", f"{SIZE}x{SIZE}", "--spp", "8",
+               "--method", "mine", "--set", "taps=8", "--stage-ms", "ao=1,3", "--stage-ms", "blur=0.5,0.5",
+               "--memory", "ao=4096", "--method-commit", "abc123", "--no-report", "--no-progress"])
+    assert rc == 0, capsys.readouterr().err
+    row = records.read_results(out).iloc[0]
+    inside = records.read_results(run_dir).query("method == 'hbao'").iloc[0]
+    assert row["method"] == "mine" and row["params"] == {"taps": 8} and row["method_commit"] == "abc123"
+    assert row["psnr"] == pytest.approx(inside["psnr"], abs=1e-6)
+    assert row["stage_ms"] == {"ao": 2.0, "blur": 0.5} and row["memory_bytes"] == 4096
+    assert row["device"] == "external" and row["timing_source"] == "user"
