@@ -161,7 +161,7 @@ def _git_state(folder: str) -> tuple:
     commit = git("rev-parse", "--verify", "-q", "HEAD")
     if not commit:
         return None, None
-    status = git("status", "--porcelain", "--", ".")
+    status = git("status", "--porcelain")
     return commit, None if status is None else bool(status)
 
 

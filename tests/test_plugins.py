@@ -306,3 +306,22 @@ def test_new_method_template_installs_lists_and_runs(venv, tmp_path, capsys):
              "--out", "tmpl", *TINY)
     row = _rows(venv, "tmpl").loc["tmpl-ao"]
     assert row["status"] == "ok" and row["psnr"] > 5 and row["method_dist"] == "ldbench-tmpl-ao"
+
+
+def test_module_class_names_are_forwarded_to_workers(tmp_path, monkeypatch, clean_plugins):
+    """A worker of a remote cluster does not inherit the driver's environment: the executor forwards the
+    registered references (and their import folders) explicitly, and a worker resolves them by name."""
+    from harness.executors.ray import forwarded_env
+    from methods.base import canonical_name, get_method
+
+    src = _module(tmp_path / "src", "fwdmod", "from methods.hbao import HBAO\n\n\nclass Fwd(HBAO):\n    name = 'fwd'\n")
+    monkeypatch.syspath_prepend(str(src))
+    assert canonical_name("fwdmod:Fwd") == "fwd"
+    env = dict(forwarded_env())
+    assert json.loads(env[plugins.ENV[plugins.METHOD_GROUP]]) == [["fwdmod:Fwd", str(src)]]
+    code = ("import os, sys; from methods.base import get_method; print(get_method('fwd').__module__)")
+    child = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
+    child.update(env, PYTHONPATH=str(ROOT))  # what Worker.__init__ sets, in a fresh process elsewhere
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child, capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == "fwdmod", out.stderr[-2000:]
+    assert get_method("fwd").__module__ == "fwdmod"
