@@ -81,6 +81,8 @@ class {cls}(Method):
     def frame(self, view, effect, inputs=None):
         if effect.name != "ao":
             raise LdbenchError(f"method {{self.name!r}} does not support effect {{effect.name!r}}")
+        if effect.falloff != "step" and not math.isinf(effect.d_max):
+            raise LdbenchError(f"method {{self.name!r}}: falloff {{effect.falloff!r}} not implemented yet")
         w, h = view.width, view.height
         if self._size != (w, h):
             self.out = self.res.texture("{module}.ao", (w, h), 1, "f4")  # memory-accounted
