@@ -250,7 +250,7 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
             rel = f"images/{scene_dir(scene)}/"
             images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
                       for k, v in images.items()}
-            images["answer"] = str(a.path)
+            images["answer_source"] = str(Path(a.path).resolve())  # the user's file, where it was scored from
             meta = getattr(prep.reference, "meta", {}) or {}
             mem = {str(k): int(v) for k, v in a.memory.items()}
             row = dict(run_id=run_id, suite=suite_name, **git, ldbench_version=info["version"], scene=scene.name,
@@ -263,8 +263,7 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
                        method_commit=a.method_commit, method_dirty=None,
                        timing_source="user" if samples else None, ref_spp=meta.get("spp"),
                        ref_variant=meta.get("variant"), ref_key=meta.get("key"), ref_noise=spec.noise(prep.reference),
-                       images=images, counters={}, **({k: v for k, v in timing.items()} if samples else {}),
-                       **scores)
+                       images=images, counters={}, **(timing if samples else {}), **scores)
             if mem:
                 row.update(memory=mem, memory_bytes=sum(mem.values()))
             rows.append(records.make_row(**row))

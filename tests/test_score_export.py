@@ -78,6 +78,12 @@ def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao
     cols = [c for c in before.columns if c not in ("stage_ms", "raw_ms")]
     assert before[cols].astype(str).equals(after[after["method"] == "hbao"][cols].reset_index(drop=True).astype(str))
     assert (run_dir / "index.html").is_file() or any(run_dir.glob("*.html"))
+    # compare, history and reproduce read the joined run like any other
+    assert main(["compare", str(run_dir), str(run_dir), "--out", str(tmp_path / "cmp.md")]) == 0
+    assert main(["history", "add", str(run_dir), "--history-dir", str(tmp_path / "hist")]) == 0
+    assert any("external" in p.name for p in (tmp_path / "hist").iterdir())  # its own machine file
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run_dir), "--out", str(tmp_path / "rep"),
+                 "--no-report", "--no-progress"]) in (0, 1)
     # the answer's mask counts: half the pixels without a value
     mask = np.load(folder / "mask.npy")
     mask[: SIZE // 2] = False
