@@ -288,12 +288,11 @@ def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, sta
     return dict(run_id=run_id, suite=suite_name, **records.git_columns(git), scene=scene.name,
                 scene_hash=scene.content_hash(), triangles=scene.triangle_count,
                 scene_params=dict(job.scene_params), method=job.method, paper=cls.paper,
-                **records.method_columns(cls, git),
-                timing_source="measured",
                 effect=job.effect.name, effect_params=job.effect.key(), params=params.to_dict(),
                 width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
                 warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
-                ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+                ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status,
+                **records.method_columns(cls, git), timing_source="measured")
 
 
 def failed_row(plan: RunPlan, job: Job, status: str, ref_meta: dict | None = None) -> dict:
