@@ -183,6 +183,9 @@ def _run_args(p):
     p.add_argument("--scene")
     p.add_argument("--method", action="append")
     _effect_args(p, required=False)
+    p.add_argument("--save-arrays", action="store_true",
+                   help="rays, vpl_range: write each job's per-ray/per-VPL inputs and answers (method and oracle) "
+                        "as .npz beside its images (about 60 bytes per ray)")
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
     p.add_argument("--size", default=None, help="WxH")
     p.add_argument("--spp", type=int, default=None, help="reference samples per pixel")
@@ -193,9 +196,6 @@ def _run_args(p):
     p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
     p.add_argument("--no-report", action="store_true")
     p.add_argument("--no-progress", action="store_true")
-    p.add_argument("--save-arrays", action="store_true",
-                   help="rays, vpl_range: write each job's per-ray/per-VPL inputs and answers (method and oracle) "
-                        "as .npz beside its images (about 60 bytes per ray)")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
                    help="local: this process (default); ray: one task per job group on a Ray cluster "
                         "(pip install 'ldbench[ray]'; docs/ray.md)")
@@ -206,17 +206,20 @@ def _run_args(p):
 
 
 def _executor_from(args):
-    """The executor of ``ldbench run``: local, or Ray with --address/--retries."""
+    """The executor of ``ldbench run``: local, or Ray with --address/--retries; either with --save-arrays."""
+    from .executors import get_executor
+
     if args.executor == "local":
         if args.address is not None or args.retries is not None:
             raise LdbenchError("--address and --retries go with --executor ray")
-        return "local"
-    from .executors import get_executor
-
-    opts = {"address": args.address}
-    if args.retries is not None:
-        opts["retries"] = args.retries
-    return get_executor("ray", **opts)
+        ex = get_executor("local")
+    else:
+        opts = {"address": args.address}
+        if args.retries is not None:
+            opts["retries"] = args.retries
+        ex = get_executor("ray", **opts)
+    ex.save_arrays = bool(getattr(args, "save_arrays", False))  # run_jobs hands it to every job
+    return ex
 
 
 def _method_sets(pairs) -> dict:
@@ -286,8 +289,7 @@ def _run(args):
     executor = _executor_from(args)
     from .naming import slug  # a suite named "../../x" stays inside reports/
     out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
-    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor,
-                  save_arrays=args.save_arrays)
+    df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
     cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
                         "ssim", "status") if c in df.columns]
     import pandas as pd
@@ -466,22 +468,6 @@ def _new_method(args):
     return 0
 
 
-COMMANDS = {
-    "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
-    "methods": (_methods_args, _methods, "list method adapters and their parameters"),
-    "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
-    "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),
-    "report": (_report_args, _report, "rebuild the report of a run directory"),
-    "compare": (_compare_args, _compare, "regression gate: compare a run against a baseline (exit 1 = regression)"),
-    "history": (_history_args, _history, "per-machine benchmark history: add a run, plot with change points"),
-    "reproduce": (_reproduce_args, _reproduce, "one paper table/figure: ours beside the published numbers"),
-    "export": (_export_args, _export, "write a question (scene, camera, light, Mitsuba XML, ray batch) for an "
-                                      "external renderer"),
-    "new-method": (_new_method_args, _new_method, "write a working template adapter (Python + GLSL) to start from"),
-    "score": (_score_args, _score, "score images or per-ray answers rendered elsewhere; rows join a run directory"),
-}
-
-
 class _VersionAction(argparse.Action):
     """``--version``: asks git only when given (every other command starts without it)."""
 
@@ -501,10 +487,26 @@ def _version_text() -> str:
     return f"ldbench {info['version'] or 'unknown'} ({commit})"
 
 
+COMMANDS = {
+    "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
+    "methods": (_methods_args, _methods, "list method adapters and their parameters"),
+    "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
+    "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),
+    "report": (_report_args, _report, "rebuild the report of a run directory"),
+    "compare": (_compare_args, _compare, "regression gate: compare a run against a baseline (exit 1 = regression)"),
+    "history": (_history_args, _history, "per-machine benchmark history: add a run, plot with change points"),
+    "reproduce": (_reproduce_args, _reproduce, "one paper table/figure: ours beside the published numbers"),
+    "export": (_export_args, _export, "write a question (scene, camera, light, Mitsuba XML, ray batch) for an "
+                                      "external renderer"),
+    "new-method": (_new_method_args, _new_method, "write a working template adapter (Python + GLSL) to start from"),
+    "score": (_score_args, _score, "score images or per-ray answers rendered elsewhere; rows join a run directory"),
+}
+
+
 def build_parser():
     parser = _Parser(prog="ldbench", description="benchmark and validation of GI through layered depth")
-    parser.add_argument("--version", action=_VersionAction, help="ldbench's version and commit, then exit")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser.add_argument("--version", action=_VersionAction, help="ldbench's version and commit, then exit")
     for name, (add, _, helptext) in COMMANDS.items():
         add(sub.add_parser(name, help=helptext))
     return parser

@@ -50,11 +50,10 @@ RESULTS_CSV = "results.csv"
 #: Column name -> type, in the order the files list them.
 COLUMN_TYPES: dict[str, str] = {
     "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
-    "ldbench_version": "str",
     "scene": "str", "scene_hash": "str", "scene_params": "json", "triangles": "int",
     "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
-    "method_module": "str", "method_dist": "str", "method_version": "str", "method_commit": "str",
-    "method_dirty": "bool", "timing_source": "str",
+    "ldbench_version": "str", "method_module": "str", "method_dist": "str", "method_version": "str",
+    "method_commit": "str", "method_dirty": "bool", "timing_source": "str",
     "width": "int", "height": "int", "seed": "int",
     "device": "str", "gl_renderer": "str", "gl_version": "str", "driver": "str", "cpu": "str",
     "gpu_name": "str", "egl_device": "int", "cuda_device": "str", "pci_bus_id": "str",

@@ -181,7 +181,7 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
     try:
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
-        plan.save_arrays = bool(save_arrays)
+        plan.save_arrays = bool(save_arrays or getattr(ex, "save_arrays", False))
         suite.jobs = plan.jobs
         if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
             gpu.release()
