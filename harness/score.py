@@ -303,14 +303,14 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
         if not joining:
             (tmp / "suite.json").write_text(json.dumps({"name": suite_name, "source": "ldbench score",
                                                         "jobs": len(rows)}, indent=1))
-        if report:
-            from .report import write_report
-
-            write_report(tmp)
         rd.commit()
     except BaseException:
         rd.abort()
         raise
+    if report:  # as `ldbench report RUN` would, over the old rows and the new
+        from .report import write_report
+
+        write_report(run_dir)
     return rows
 
 
