@@ -406,8 +406,8 @@ def _score_args(p):
     p.add_argument("--stage-ms", action="append", metavar="STAGE=MS[,MS...]",
                    help="a stage's time per frame as measured by the user (recorded as timing_source=user)")
     p.add_argument("--memory", action="append", metavar="BUFFER=BYTES", help="memory the method used, per buffer")
-    p.add_argument("--no-report", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-report", action="store_true", help="add the rows only; do not rebuild the run's report")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar while a reference renders")
 
 
 def _score(args):
