@@ -144,6 +144,11 @@ def test_rays_exported_answered_by_numpy_and_scored(tmp_path, kind):
     assert row["hit_agreement"] == 1.0 and row["rays"] == len(t)
     if kind == "diffuse":
         assert row["dist_err_p99"] < 1e-5
+        (folder / "answer.npy").unlink()  # the same answer as CSV text (a column t; inf = miss)
+        (folder / "answer.csv").write_text("t\n" + "".join(f"{x!r}\n" for x in t.astype(np.float32).tolist()))
+        (csv,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+        assert csv["hit_agreement"] == 1.0 and csv["dist_err_p99"] == row["dist_err_p99"]
+        (folder / "answer.csv").unlink()
     np.save(folder / "answer.npy", np.full(len(t), np.inf, np.float32))  # a tracer that misses everything
     (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
     assert bad["hit_agreement"] < 0.9
