@@ -217,6 +217,9 @@ def _run_args(p):
     p.add_argument("--method", action="append",
                    help="instead of a suite: method adapter (ldbench methods); repeat for several")
     _effect_args(p, required=False)
+    p.add_argument("--save-arrays", action="store_true",
+                   help="rays, vpl_range: write each job's per-ray/per-VPL inputs and answers (method and oracle) "
+                        "as .npz beside its images (about 60 bytes per ray)")
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
     p.add_argument("--size", default=None, metavar="WxH",
                    help="image size (overrides the suite's; default: the suite's, else an XML scene's film, "
@@ -243,17 +246,20 @@ def _run_args(p):
 
 
 def _executor_from(args):
-    """The executor of ``ldbench run``: local, or Ray with --address/--retries."""
+    """The executor of ``ldbench run``: local, or Ray with --address/--retries; either with --save-arrays."""
+    from .executors import get_executor
+
     if args.executor == "local":
         if args.address is not None or args.retries is not None:
             raise LdbenchError("--address and --retries go with --executor ray")
-        return "local"
-    from .executors import get_executor
-
-    opts = {"address": args.address}
-    if args.retries is not None:
-        opts["retries"] = args.retries
-    return get_executor("ray", **opts)
+        ex = get_executor("local")
+    else:
+        opts = {"address": args.address}
+        if args.retries is not None:
+            opts["retries"] = args.retries
+        ex = get_executor("ray", **opts)
+    ex.save_arrays = bool(getattr(args, "save_arrays", False))  # run_jobs hands it to every job
+    return ex
 
 
 def _method_sets(pairs) -> dict:
@@ -400,6 +406,140 @@ def _reproduce(args):
     return main_cli(args)
 
 
+# ---- score / export (harness/score.py, harness/export.py) -------------------------------------------
+def _pairs(values, flag, convert=str) -> dict:
+    out = {}
+    for kv in values or []:
+        if "=" not in kv:
+            raise LdbenchError(f"{flag} expects NAME=VALUE, got {kv!r}")
+        k, v = kv.split("=", 1)
+        try:
+            out[k] = convert(v)
+        except ValueError:
+            raise LdbenchError(f"{flag} {kv!r}: {v!r} is not valid") from None
+    return out
+
+
+def _question_args(p, required=True):
+    p.add_argument("--scene", required=required, help="scene name, Mitsuba XML or mesh path")
+    p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
+    _effect_args(p, required=required)
+    p.add_argument("--size", default=None, help="WxH (default 256x256)")
+    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default 64)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference (default 0)")
+
+
+def _question_from(args):
+    from .score import Question
+    from .suite import MAX_SPP, _int, check_budget, parse_size
+
+    w, h = parse_size(args.size or "256x256")
+    spp = _int(64 if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
+    check_budget(w, h, spp)
+    seed = _int(0 if args.seed is None else args.seed, "--seed", 0)
+    return Question(scene=args.scene, effect=_effect_from(args), width=w, height=h, spp=spp, seed=seed,
+                    scene_params=_scene_params(args.scene_set))
+
+
+def _score_args(p):
+    p.add_argument("run_dir", help="run directory the rows join (created when missing)")
+    p.add_argument("--from", dest="folder", metavar="FOLDER",
+                   help="every folder under FOLDER with question.json + answer.* (docs/adapters.md, 'Scoring')")
+    p.add_argument("--answer", metavar="FILE", help="one answer: image (.exr, .png) or per-ray/per-VPL file "
+                   "(.npy, .npz, .csv)")
+    _question_args(p, required=False)
+    p.add_argument("--method", default="external", help="name of the method that answered (default external)")
+    p.add_argument("--set", action="append", metavar="PARAM=VALUE", help="a parameter of that method (recorded)")
+    p.add_argument("--paper", default="", help="the method's paper key (recorded)")
+    p.add_argument("--method-version", default=None, help="the method's version (recorded)")
+    p.add_argument("--method-commit", default=None, help="the method's commit (recorded)")
+    p.add_argument("--mask", default=None, help="pixels that have a value (PNG/EXR/.npy, nonzero = yes)")
+    p.add_argument("--transfer", default=None, choices=("srgb", "linear"), help="a PNG answer's transfer curve")
+    p.add_argument("--png-scale", default="1", help="the linear value of a PNG's white (default 1)")
+    p.add_argument("--stage-ms", action="append", metavar="STAGE=MS[,MS...]",
+                   help="a stage's time per frame as measured by the user (recorded as timing_source=user)")
+    p.add_argument("--memory", action="append", metavar="BUFFER=BYTES", help="memory the method used, per buffer")
+    p.add_argument("--no-report", action="store_true", help="add the rows only; do not rebuild the run's report")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar while a reference renders")
+
+
+def _score(args):
+    from .score import items_from_folder, make_answer, score_into_run
+
+    if bool(args.folder) == bool(args.answer):
+        raise LdbenchError("ldbench score needs --from FOLDER or --answer FILE (with --scene, --effect, --size)")
+    if args.folder:
+        if args.scene or args.effect:
+            raise LdbenchError("--from reads each question from its question.json; --scene/--effect go with --answer")
+        items = items_from_folder(args.folder)
+    else:
+        if not (args.scene and args.effect):
+            raise LdbenchError("--answer needs --scene and --effect (and --size)")
+        stages = _pairs(args.stage_ms, "--stage-ms", lambda v: [float(x) for x in v.split(",")])
+        memory = _pairs(args.memory, "--memory", int)
+        params = {k: _literal(v) for k, v in _pairs(args.set, "--set").items()}
+        items = [(_question_from(args), make_answer(
+            args.answer, method=args.method, params=params, paper=args.paper, mask=args.mask,
+            transfer=args.transfer, png_scale=args.png_scale, stage_ms=stages, memory=memory,
+            method_version=args.method_version, method_commit=args.method_commit))]
+    rows = score_into_run(items, args.run_dir, report=not args.no_report, progress=not args.no_progress)
+    for r in rows:
+        metrics = [c for c in ("psnr", "ssim", "flip", "hit_agreement", "range_within_5pct") if
+                   isinstance(r.get(c), float) and r[c] == r[c]]
+        print(f"{r['scene']} {r['method']} {r['effect']} {r['width']}x{r['height']}: "
+              + ", ".join(f"{c}={r[c]:.6g}" for c in metrics))
+    print(f"wrote {args.run_dir} ({len(rows)} rows added)")
+    return 0
+
+
+def _export_args(p):
+    _question_args(p)
+    p.add_argument("--out", required=True, help="folder to write the question into (created)")
+
+
+def _export(args):
+    from .export import export_question
+
+    out = export_question(_question_from(args), args.out)
+    print(f"wrote {out}")
+    return 0
+
+
+def _new_method_args(p):
+    p.add_argument("name", help="the method's name, e.g. my-ao")
+    p.add_argument("--out", default=None, help="folder of the new plugin package (default ./NAME)")
+    p.add_argument("--in-tree", action="store_true", help="write methods/<name>/ of this ldbench checkout instead")
+
+
+def _new_method(args):
+    from .newmethod import write_template
+
+    if args.in_tree and args.out:
+        raise LdbenchError("give --out or --in-tree, not both")
+    for f in write_template(args.name, out=args.out, in_tree=args.in_tree):
+        print(f"wrote {f}")
+    return 0
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: asks git only when given (every other command starts without it)."""
+
+    def __init__(self, option_strings, dest, **kw):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kw)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version_text())
+        parser.exit(0)
+
+
+def _version_text() -> str:
+    from .plugins import ldbench_info
+
+    info = ldbench_info()
+    commit = (info["commit"] or "unknown commit")[:12] + ("-dirty" if info["dirty"] else "")
+    return f"ldbench {info['version'] or 'unknown'} ({commit})"
+
+
 COMMANDS = {
     "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
     "methods": (_methods_args, _methods, "list method adapters and their parameters"),
@@ -409,6 +549,10 @@ COMMANDS = {
     "compare": (_compare_args, _compare, "regression gate: compare a run against a baseline (exit 1 = regression)"),
     "history": (_history_args, _history, "per-machine benchmark history: add a run, plot with change points"),
     "reproduce": (_reproduce_args, _reproduce, "one paper table/figure: ours beside the published numbers"),
+    "export": (_export_args, _export, "write a question (scene, camera, light, Mitsuba XML, ray batch) for an "
+                                      "external renderer"),
+    "new-method": (_new_method_args, _new_method, "write a working template adapter (Python + GLSL) to start from"),
+    "score": (_score_args, _score, "score images or per-ray answers rendered elsewhere; rows join a run directory"),
 }
 
 
@@ -428,6 +572,7 @@ def build_parser():
                      epilog=EPILOG)
     _verbosity_args(parser, 0)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser.add_argument("--version", action=_VersionAction, help="ldbench's version and commit, then exit")
     for name, (add, _, helptext) in COMMANDS.items():
         p = sub.add_parser(name, help=helptext, description=helptext, epilog=EPILOG)
         _verbosity_args(p, argparse.SUPPRESS)  # -v/-q also after the sub-command

@@ -64,6 +64,8 @@ COLUMN_TYPES: dict[str, str] = {
     "schema_version": "str", "run_id": "str", "suite": "str", "time": "str", "commit": "str", "dirty": "bool",
     "scene": "str", "scene_hash": "str", "scene_params": "json", "triangles": "int",
     "method": "str", "paper": "str", "effect": "str", "effect_params": "json", "params": "json",
+    "ldbench_version": "str", "method_module": "str", "method_dist": "str", "method_version": "str",
+    "method_commit": "str", "method_dirty": "bool", "timing_source": "str",
     "width": "int", "height": "int", "seed": "int",
     "device": "str", "gl_renderer": "str", "gl_version": "str", "driver": "str", "cpu": "str",
     "gpu_name": "str", "egl_device": "int", "cuda_device": "str", "pci_bus_id": "str",
@@ -312,6 +314,17 @@ def git_info(repo_dir=LDBENCH_ROOT) -> dict:
 def git_columns(info: dict) -> dict:
     """Row fields ``commit`` and ``dirty`` from :func:`git_info`."""
     return {"commit": info.get("commit"), "dirty": info.get("dirty")}
+
+
+def method_columns(cls, git: dict | None = None) -> dict:
+    """Row fields of where a method's class comes from (:func:`harness.plugins.provenance`):
+    ``ldbench_version`` (the running ldbench's), ``method_module``, ``method_dist``, ``method_version``, ``method_commit``, ``method_dirty``
+    (``git``: ldbench's own :func:`git_info`, for ldbench's built-in methods)."""
+    from .plugins import ldbench_version, provenance
+
+    p = provenance(cls, git)
+    return {"ldbench_version": ldbench_version(), "method_module": p["module"], "method_dist": p["dist"], "method_version": p["dist_version"],
+            "method_commit": p["commit"], "method_dirty": p["dirty"]}
 
 
 # --------------------------------------------------------------------------------------------------

@@ -81,6 +81,7 @@ class RunContext:
     run_id: str
     suite_name: str
     out: Path  # the (temporary) run directory being written, or a task's staging folder
+    save_arrays: bool = False  # --save-arrays: per-ray / per-VPL inputs and answers (harness/arrays.py)
 
 
 @dataclass
@@ -104,6 +105,7 @@ class RunPlan:
     git: dict
     machine: dict  # the driver's (rows of jobs that never ran get it)
     reference_cache: bool = True
+    save_arrays: bool = False
 
     def keys(self) -> list:
         """The distinct :func:`prepare_key` of the jobs (one inputs + reference each), in a fixed order."""
@@ -140,7 +142,15 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
         gpu.check_image_size(w, h)  # GL limits and memory, before anything is rendered
     return RunPlan(suite_name=suite.name, jobs=jobs, scenes=scenes,
                    run_id=time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-" + uuid.uuid4().hex[:6],
-                   git=records.git_info(REPO), machine=machine_of(gpu), reference_cache=reference_cache)
+                   git=_ldbench_git(), machine=machine_of(gpu), reference_cache=reference_cache)
+
+
+def _ldbench_git() -> dict:
+    """ldbench's commit: git in a checkout, else the one an installed wheel's build recorded."""
+    from .plugins import ldbench_info
+
+    info = ldbench_info()
+    return {"commit": info["commit"], "dirty": info["dirty"], "branch": None}
 
 
 def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
@@ -156,7 +166,7 @@ def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) ->
 
 
 def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
-             reference_cache: bool = True, executor=None) -> "pd.DataFrame":
+             reference_cache: bool = True, executor=None, save_arrays: bool = False) -> "pd.DataFrame":
     """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
 
     ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
@@ -176,6 +186,7 @@ def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = Tru
         interrupts.__enter__()
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
+        plan.save_arrays = bool(save_arrays or getattr(ex, "save_arrays", False))
         suite.jobs = plan.jobs
         if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
             gpu.release()
@@ -276,8 +287,9 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     cls = get_method(job.method)
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
+    method.run_seed = int(job.seed)  # before setup: a method may draw its random tables there
     scene, spec, ref = prep.scene, job.effect.spec, prep.reference
-    view = View(scene.camera, job.width, job.height)
+    view = View(scene.camera, job.width, job.height, seed=int(job.seed))
     samples: dict = {}
     totals, walls = [], []
     status, result = "ok", None
@@ -313,6 +325,14 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
     rel = f"images/{scene_dir(scene)}/"
     images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v) for k, v in images.items()}
+    if ctx.save_arrays:
+        from .arrays import answer_arrays, save_arrays
+
+        arrays = answer_arrays(spec, result, ref, prep.inputs)
+        if arrays is not None:
+            name = f"{job_label(job, scene)}-arrays.npz"
+            save_arrays(folder / name, arrays)
+            images["arrays"] = rel + name
     mem = {k: int(v) for k, v in result.memory_bytes.items()}
     row.update(**timing, memory_bytes=int(sum(mem.values())), memory=mem,
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},
@@ -336,7 +356,8 @@ def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, sta
                 params=params_used(cls, params, job.effect),
                 width=job.width, height=job.height, seed=job.seed, **records.machine_columns(machine),
                 warmup=job.warmup, frames=job.frames, ref_spp=meta.get("spp"),
-                ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status)
+                ref_variant=meta.get("variant"), ref_key=meta.get("key"), status=status,
+                **records.method_columns(cls, git), timing_source="measured")
 
 
 def params_used(cls, params, effect) -> dict:

@@ -292,6 +292,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     if methods != "all":
         methods = [canonical_name(m) for m in _listify(methods)]
     params = {canonical_name(m): v for m, v in params.items()}
+    reg = registry()  # again: a package.module:Class name has just been registered
     for m in params:
         if m not in reg:
             raise LdbenchError(f"unknown method {m!r} in params (known: {', '.join(reg)})")

@@ -249,11 +249,12 @@ def _coerce(kind, v, name):
 
 @dataclass(frozen=True)
 class View:
-    """What one frame renders: the camera and the image size."""
+    """What one frame renders: the camera, the image size and the run's seed (``--seed``; 0 by default)."""
 
     camera: Camera
     width: int
     height: int
+    seed: int = 0
 
     @property
     def aspect(self) -> float:
@@ -308,9 +309,15 @@ class Method:
     effects: frozenset = frozenset()
     Params: type = ParamsBase
     folder: Path = Path(__file__).parent
+    run_seed: int = 0  # the run's --seed, set by the runner before setup (View.seed carries it too)
 
     def __init__(self, params: ParamsBase | None = None):
         self.params = params if params is not None else self.Params()
+
+    def seed_for(self, own: int = 0, bits: int = 32) -> int:
+        """The seed a sampling method uses: its own ``seed`` parameter mixed with the run's seed,
+        ``(own + run_seed · 0x9E3779B9) mod 2^bits``; at run seed 0 exactly ``own`` (results unchanged)."""
+        return (int(own) + int(self.run_seed) * 0x9E3779B9) % (1 << bits)
 
     def setup(self, gpu, scene) -> None:
         """Upload the scene and compile shaders; not timed."""
@@ -338,21 +345,39 @@ class Method:
         self.gbuf = GBuffer(gpu, self.geo, self.res)
 
     def shader(self, name: str) -> Path:
-        return Path(importlib.import_module(type(self).__module__).__file__).parent / name
+        """``name`` beside the module of this class, else beside a base class's (a subclass elsewhere,
+        e.g. a plugin deriving from an adapter, finds its parent's shaders)."""
+        first = None
+        for cls in type(self).__mro__:
+            f = getattr(importlib.import_module(cls.__module__), "__file__", None) if cls.__module__ else None
+            if f:
+                p = Path(f).parent / name
+                first = first or p
+                if p.is_file():
+                    return p
+        return first
 
 
 def registry() -> dict:
-    """{name: Method subclass} for every adapter package under ``methods/`` (discovered)."""
+    """{name: Method subclass}: every adapter package under ``methods/`` (discovered), every entry point
+    of group ``ldbench.methods``, and the ``package.module:Class`` references registered in this process
+    or its driver (:mod:`harness.plugins`). Two classes with one name are one error naming both."""
     import methods
+    from harness import plugins
 
-    found = {}
+    found, sources = {}, {}
     for mod in pkgutil.iter_modules(methods.__path__):
         if not mod.ispkg:
             continue
         m = importlib.import_module(f"methods.{mod.name}")
         for obj in vars(m).values():
             if isinstance(obj, type) and issubclass(obj, Method) and obj is not Method and obj.name:
-                found[obj.name] = obj
+                plugins.add_unique(found, sources, obj, f"{obj.__module__}.{obj.__qualname__} (ldbench)", "method")
+    for obj, source in plugins.entry_point_classes(plugins.METHOD_GROUP, Method):
+        plugins.add_unique(found, sources, obj, source, "method")
+    for ref, path in plugins.references(plugins.METHOD_GROUP):
+        obj = plugins.load_reference(ref, Method, path)
+        plugins.add_unique(found, sources, obj, f"{ref} (--method)", "method")
     return dict(sorted(found.items()))
 
 
@@ -362,11 +387,20 @@ def aliases() -> dict:
 
 
 def canonical_name(name: str) -> str:
-    """The registered name of a method given by name or alias (unknown names are returned as given)."""
+    """The registered name of a method given by name or alias (unknown names are returned as given);
+    a ``package.module:Class`` reference is imported, registered (:mod:`harness.plugins`) and named."""
+    from harness import plugins
+
+    if plugins.is_reference(name):
+        return plugins.register_reference(name, Method).name
     return aliases().get(name, name)
 
 
 def get_method(name: str) -> type:
+    from harness import plugins
+
+    if plugins.is_reference(name):
+        name = canonical_name(name)
     reg = registry()
     name = canonical_name(name)
     if name not in reg:

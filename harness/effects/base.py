@@ -172,12 +172,14 @@ _REGISTRY: dict | None = None
 
 
 def registry() -> dict:
-    """{name: spec instance} for every effect module of this package (discovered)."""
+    """{name: spec instance} for every effect module of this package (discovered) and every entry point
+    of group ``ldbench.effects`` (:mod:`harness.plugins`); two specs with one name are one error."""
     global _REGISTRY
     if _REGISTRY is None:
         import harness.effects as pkg
+        from harness import plugins
 
-        found = {}
+        found, sources = {}, {}
         for mod in pkgutil.iter_modules(pkg.__path__):
             if mod.name.startswith("_") or mod.name == "base":
                 continue
@@ -185,8 +187,11 @@ def registry() -> dict:
             for obj in vars(m).values():
                 if (isinstance(obj, type) and issubclass(obj, EffectSpec) and obj.name
                         and obj.__module__ == m.__name__):
-                    found[obj.name] = obj()
-        _REGISTRY = dict(sorted(found.items()))
+                    plugins.add_unique(found, sources, obj, f"{obj.__module__}.{obj.__qualname__} (ldbench)",
+                                       "effect")
+        for obj, source in plugins.entry_point_classes(plugins.EFFECT_GROUP, EffectSpec):
+            plugins.add_unique(found, sources, obj, source, "effect")
+        _REGISTRY = {name: cls() for name, cls in sorted(found.items())}
     return _REGISTRY
 
 

@@ -15,7 +15,7 @@ class LocalExecutor:
 
     def run(self, plan, out, *, gpu, progress: bool = True) -> list[dict]:
         ctx = RunContext(gpu=gpu, machine=plan.machine, git=plan.git, run_id=plan.run_id,
-                         suite_name=plan.suite_name, out=out)
+                         suite_name=plan.suite_name, out=out, save_arrays=plan.save_arrays)
         prepared: dict = {}
         failed: dict = {}  # key -> why its reference could not be made
         try:

@@ -81,6 +81,7 @@ class TaskSpec:
     git: dict
     out: str  # the driver's partial run directory
     token: str  # content of <out>/.stage/token: seen by the worker = shared file system
+    save_arrays: bool = False  # --save-arrays
 
 
 def forwarded_env() -> tuple:
@@ -215,7 +216,7 @@ class Worker:
         stage, shared = _stage_dir(spec)
         try:
             ctx = RunContext(gpu=self.gpu, machine=self.machine, git=spec.git, run_id=spec.run_id,
-                             suite_name=spec.suite_name, out=stage)
+                             suite_name=spec.suite_name, out=stage, save_arrays=spec.save_arrays)
             rows = []
             try:
                 for job in jobs:
@@ -336,7 +337,8 @@ class RayExecutor:
             root.mkdir()
             token = uuid.uuid4().hex
             (root / TOKEN).write_text(token)
-            spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "")
+            spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "",
+                            save_arrays=plan.save_arrays)
             keys = plan.keys()
             groups = group_jobs(plan.jobs, slots, self.group_size)
             # references first (each unlocks its jobs), then the groups in suite order

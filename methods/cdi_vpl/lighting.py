@@ -96,6 +96,10 @@ class VplLighting:
         self.rsm_vao.render()
         ctx.disable(ctx.DEPTH_TEST)
 
+    def _directions(self, *args, seed: int, **kw):
+        """:func:`vpl_directions` with ``seed`` mixed with the run's seed, as the GPU build's hash seed."""
+        return vpl_directions(*args, seed=self.m.seed_for(seed), **kw)
+
     def build_vpls(self):
         p = self.p
         mode = {"cdi": "VPL_RANGE_CDI", "random": "VPL_RANGE_RANDOM", "exact": "VPL_RANGE_TABLE"}[self.m.params.vpl.range]
@@ -111,6 +115,8 @@ class VplLighting:
                         ("rsm_position", 0), ("rsm_normal", 1), ("rsm_flux", 2)):
             if name in cs:
                 cs[name].value = v
+        if "seed" in cs:  # the VPL hash seed, mixed with the run's seed (unchanged at seed 0)
+            cs["seed"].value = self.m.seed_for(0)
         for i, t in enumerate((self.rsm_pos, self.rsm_nrm, self.rsm_flux)):
             t.use(i)
         if self.m.params.vpl.range == "cdi":
@@ -228,7 +234,7 @@ class VplLighting:
             w = y - np.asarray(self.light.position)
             w /= np.linalg.norm(w, axis=1, keepdims=True)
             n = N[valid]
-            dirs = vpl_directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
+            dirs = self._directions(n, w, texel[valid], primary=self.p.primary, cone_angle=self.p.cone_angle,
                                   seed=0)
             o = np.repeat(ray_origins(y, n, RAY_EPSILON), RAYS_PER_VPL, axis=0)
             f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731

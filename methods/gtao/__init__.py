@@ -43,6 +43,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.gbuffer import mat_bytes
+from methods.uniforms import set_uniforms
 
 FALLOFF_MODE = {"step": 0, "quadratic": 1}
 DENOISE_SHARPNESS = 40.0  # inverse relative tolerance of the plane-distance term (as hbao's blur)
@@ -66,11 +67,7 @@ class GTAOParams(ParamsBase):
     seed: int = param(0, "offset of the R2 noise sequence", lo=0, hi=2**31 - 1)
 
 
-def _set(prog, **values):
-    """Set uniforms, skipping those the GLSL compiler optimised away."""
-    for k, v in values.items():
-        if k in prog:
-            prog[k].value = v
+_set = set_uniforms  # the shared helper (methods/uniforms.py)
 
 
 class GTAO(Method):
@@ -86,7 +83,7 @@ class GTAO(Method):
         self.denoise_prog = gpu.compute(self.shader("denoise.glsl"))
         _set(self.prog, slices=p.slices, steps=p.steps, distribution=p.distribution,
              falloff_range=p.falloff_range, thin_occluder=p.thin_occluder, final_power=p.final_power,
-             max_radius_px=p.max_radius_px, noise_offset=(p.seed * 288) % 2**32)
+             max_radius_px=p.max_radius_px, noise_offset=(self.seed_for(p.seed, bits=31) * 288) % 2**32)
         self._size = None
 
     def _allocate(self, w, h):

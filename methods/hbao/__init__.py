@@ -89,6 +89,7 @@ from harness.errors import LdbenchError
 from harness.gpu import read_texture
 from methods.base import Method, ParamsBase, Result, param
 from methods.gbuffer import mat_bytes
+from methods.uniforms import set_uniforms
 
 INTEGRALS = ("hbao", "cosine")
 SAMPLINGS = ("fixed", "pixel_step")
@@ -130,11 +131,7 @@ def noise_tile(seed: int, tile: int = NOISE_TILE) -> np.ndarray:
     return np.stack([rot, jit], -1).reshape(tile, tile, 2).astype(np.float32)
 
 
-def _set(prog, **values):
-    """Set uniforms, skipping those the GLSL compiler optimised away."""
-    for k, v in values.items():
-        if k in prog:
-            prog[k].value = v
+_set = set_uniforms  # the shared helper (methods/uniforms.py)
 
 
 class HBAO(Method):
@@ -151,7 +148,8 @@ class HBAO(Method):
         self.count_prog = None  # compiled by sample_counts()
         self._defines = defines
         self.blur_prog = gpu.compute(self.shader("blur.glsl"))
-        self.noise = self.res.texture("noise", (NOISE_TILE, NOISE_TILE), 2, "f4", noise_tile(p.seed).tobytes())
+        self.noise = self.res.texture("noise", (NOISE_TILE, NOISE_TILE), 2, "f4",
+                                      noise_tile(self.seed_for(p.seed)).tobytes())
         self.noise.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)
         self.noise.repeat_x = self.noise.repeat_y = True
         self._set_constants(self.prog)

@@ -320,6 +320,7 @@ class Ldi(Method):
         set_spot_uniforms(cs, light)
         values = {"spp": self.spp_for(effect), "seed": p.image.seed, "ray_eps": RAY_EPSILON,
                   "eye": tuple(float(x) for x in view.camera.origin), "g_position": 0, "g_normal": 1, "g_albedo": 2}
+        values["seed"] = self.seed_for(values["seed"])  # mixed with the run's seed (unchanged at seed 0)
         self.gbuf.bind(0)
         if effect.name == "soft_shadows":
             values.update(light_radius=float(effect.light_radius), shadow_eps=SHADOW_EPSILON)

@@ -1,0 +1,58 @@
+"""``ldbench run --save-arrays``: the per-ray / per-VPL inputs and answers of non-image effects, the
+method's and the oracle's, written beside the row's images as one ``.npz`` (``numpy.load(path)``).
+
+=============  ==============================================================================================
+``rays``       inputs ``origin`` (N,3), ``direction`` (N,3), ``tmax`` (N,), ``normal`` (N,3), ``pixel`` (N,)
+               (row-major, row 0 at the top); answers ``t`` (the method's; inf = miss, NaN = no answer) and
+               ``t_ref`` (the oracle's); ``width``, ``height``, ``kind``
+``vpl_range``  VPL inputs ``position``, ``normal``, ``incident``, ``flux``, ``area``, ``texel`` (N), the rays
+               ``ray_origin``, ``ray_direction``, ``ray_tmax`` (6N, VPL-major); answers ``range`` /
+               ``range_ref`` (N) and ``t`` / ``t_ref`` (6N; the method's ``t`` is NaN where it gave none);
+               ``cap``, ``mode``, ``rsm``
+=============  ==============================================================================================
+
+How the random numbers of these batches are drawn (seed → directions) is ldbench's ray convention
+(docs/rays.md and the ray-conventions module); the arrays make each ray checkable without re-deriving it.
+Cost: about 60 bytes per ray (rays) or 150 bytes per VPL (vpl_range), uncompressed: 25 MB for 256² pixels
+× 4 rays, 0.5 GB at 1080p × 4 rays. It is off by default for that reason (docs/adapters.md).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+
+def answer_arrays(spec, result, reference, inputs) -> dict | None:
+    """{name: array} of one non-image result (module docstring); None for image effects."""
+    if spec.output == "rays":
+        b = inputs
+        t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)
+        return {"origin": b.origin, "direction": b.direction, "tmax": b.tmax, "normal": b.normal, "pixel": b.pixel,
+                "t": t, "t_ref": np.asarray(reference.t, np.float32), "width": b.width, "height": b.height,
+                "kind": b.kind}
+    if spec.output == "vpls":
+        b, r = inputs, inputs.rays
+        t = result.arrays.get("t")
+        t = np.full(len(r), np.nan, np.float32) if t is None else np.asarray(t, np.float32).reshape(-1)
+        return {"position": b.position, "normal": b.normal, "incident": b.incident, "flux": b.flux, "area": b.area,
+                "texel": b.texel, "ray_origin": r.origin, "ray_direction": r.direction, "ray_tmax": r.tmax,
+                "range": np.asarray(result.arrays.get("range"), np.float32).reshape(-1),
+                "range_ref": np.asarray(reference.range, np.float32), "t": t,
+                "t_ref": np.asarray(reference.t, np.float32), "cap": b.cap, "mode": b.mode, "rsm": b.rsm}
+    return None
+
+
+def save_arrays(path: Path, arrays: dict) -> Path:
+    """``arrays`` as ``path`` (.npz), written under a temporary name and renamed."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}.npz")
+    try:
+        np.savez(tmp, **arrays)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path

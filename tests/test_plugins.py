@@ -1,0 +1,358 @@
+"""Methods and effects from outside ldbench (harness/plugins.py): entry points, ``package.module:Class``
+names, one error for two classes with one name, provenance columns, and the example plugin of
+examples/example-ao installed into a fresh virtual environment and run from outside the source tree,
+under the local and the Ray executor. Nothing here is marked slow: `make test` (CI) runs all of it
+(about 40 s on llvmpipe, the installed-plugin test about 25 s of that).
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from harness import plugins
+from harness.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "examples" / "example-ao"
+TINY = ["--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0", "--no-report", "--no-progress"]
+
+
+@pytest.fixture
+def clean_plugins(monkeypatch):
+    """No development plugin registered before or after (register_reference writes os.environ)."""
+    monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
+    from harness.effects import base as effects_base
+
+    monkeypatch.setattr(effects_base, "_REGISTRY", None)
+    yield
+
+
+def _module(folder: Path, name: str, text: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{name}.py").write_text(textwrap.dedent(text))
+    return folder
+
+
+def _fake_dist(folder: Path, dist: str, version: str, entry_points: str) -> None:
+    """A distribution's metadata on ``folder`` (what pip would install), entry points included."""
+    info = folder / f"{dist.replace('-', '_')}-{version}.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: {version}\n")
+    (info / "entry_points.txt").write_text(textwrap.dedent(entry_points))
+
+
+DUP_METHOD = """
+    from methods.hbao import HBAO
+
+    class Dup(HBAO):
+        name = "hbao"
+"""
+
+
+def test_module_class_name_with_a_taken_name_is_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "dupmod", DUP_METHOD)))
+    rc = main(["run", "--scene", "cornell", "--method", "dupmod:Dup", "--effect", "ao", "--out",
+               str(tmp_path / "r"), *TINY])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1, err
+    assert "two methods are named 'hbao'" in err and "methods.hbao.HBAO (ldbench)" in err and "dupmod:Dup" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_entry_point_duplicates_name_both_sources(tmp_path, monkeypatch, clean_plugins):
+    from harness.effects.base import registry as effects
+    from harness.errors import LdbenchError
+    from methods.base import registry
+
+    src = _module(tmp_path / "site", "dupmod_ep", DUP_METHOD + """
+    from harness.effects.ao import AO
+
+    class DupAO(AO):
+        pass
+""")
+    _fake_dist(src, "dup-plugin", "2.5", """
+        [ldbench.methods]
+        twin = dupmod_ep:Dup
+        [ldbench.effects]
+        twin-ao = dupmod_ep:DupAO
+    """)
+    monkeypatch.syspath_prepend(str(src))
+    with pytest.raises(LdbenchError) as e:
+        registry()
+    msg = str(e.value)
+    assert "\n" not in msg and "methods.hbao.HBAO (ldbench)" in msg
+    assert "dupmod_ep.Dup (distribution dup-plugin 2.5, entry point twin)" in msg, msg
+    with pytest.raises(LdbenchError) as e:
+        effects()
+    assert "two effects are named 'ao'" in str(e.value) and "dup-plugin 2.5" in str(e.value)
+
+
+def test_entry_point_method_and_effect_are_registered(tmp_path, monkeypatch, clean_plugins):
+    from harness.effects.base import registry as effects
+    from methods.base import registry
+
+    src = _module(tmp_path / "site", "newmod", """
+    from harness.effects.ao import AO
+    from methods.hbao import HBAO
+
+    class New(HBAO):
+        name = "new-hbao"
+
+    class NewAO(AO):
+        name = "ao2"
+""")
+    _fake_dist(src, "new-plugin", "1.0", "[ldbench.methods]\nn = newmod:New\n[ldbench.effects]\ne = newmod:NewAO\n")
+    monkeypatch.syspath_prepend(str(src))
+    assert registry()["new-hbao"].__module__ == "newmod"
+    assert type(effects()["ao2"]).__name__ == "NewAO"
+    prov = plugins.provenance(registry()["new-hbao"])
+    assert (prov["module"], prov["dist"], prov["dist_version"]) == ("newmod", "new-plugin", "1.0")
+
+
+def test_broken_references_are_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "okmod", "X = 1\n")))
+    for ref, why in (("nosuchmod:Thing", "cannot import"), ("okmod:Missing", "has no 'Missing'"),
+                     ("okmod:X", "not a named Method subclass")):
+        rc = main(["run", "--scene", "cornell", "--method", ref, "--effect", "ao", "--out", str(tmp_path / "r"),
+                   *TINY])
+        err = capsys.readouterr().err.strip()
+        assert rc == 2 and len(err.splitlines()) == 1 and why in err, (ref, err)
+
+
+def test_version_flag(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"ldbench {plugins.ldbench_version()} (") and plugins.ldbench_version() == "0.1.0"
+
+
+# --------------------------------------------------------------------------------------------------
+# the example plugin, installed into a fresh virtual environment
+
+
+def _git(cwd, *args):
+    return subprocess.run(["git", "-C", str(cwd), "-c", "user.email=t@example.com", "-c", "user.name=t", *args],
+                          check=True, capture_output=True, text=True).stdout
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory):
+    """A venv that sees this environment's dependencies (a .pth line: no network), ldbench from this tree
+    (PYTHONPATH), and the example plugin installed from its own git repository (``pip install
+    git+file://``, as one would from GitHub): the plugin's commit is that repository's."""
+    if shutil.which("git") is None:
+        pytest.skip("git not installed")
+    tmp = tmp_path_factory.mktemp("plugin")
+    repo = tmp / "example-ao"
+    shutil.copytree(EXAMPLE, repo, ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "build"))
+    _git(repo, "init", "-q")
+    _git(repo, "add", ".")
+    _git(repo, "commit", "-q", "-m", "example")
+    commit = _git(repo, "rev-parse", "HEAD").strip()
+    env_dir = tmp / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
+    py = env_dir / "bin" / "python"
+    purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                                  check=True, capture_output=True, text=True).stdout.strip())
+    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps",
+                        "--no-build-isolation", "--no-index", f"git+file://{repo}"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    work = tmp / "work"
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
+    env.update(PYTHONPATH=str(ROOT), PYTHONNOUSERSITE="1", LDBENCH_CACHE=str(tmp / "ref-cache"))
+    return {"py": py, "work": work, "env": env, "commit": commit, "purelib": purelib}
+
+
+def _ldbench(v, *args, timeout=300):
+    p = subprocess.run([str(v["py"]), "-m", "harness.cli", *map(str, args)], cwd=v["work"], env=v["env"],
+                       capture_output=True, text=True, timeout=timeout)
+    assert p.returncode == 0, f"{args} -> {p.returncode}\n{p.stdout[-2000:]}\n{p.stderr[-3000:]}"
+    return p.stdout
+
+
+def _rows(v, run):
+    import pandas as pd
+
+    return pd.read_parquet(v["work"] / run / "results.parquet").set_index("method")
+
+
+def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
+    import pandas as pd
+
+    listed = _ldbench(venv, "methods")
+    assert "example-ao  [example]  effects: ao" in listed and "samples" in listed, listed
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "example-ao", "--method", "hbao", "--effect", "ao",
+             "--d-max", "0.5", "--out", "local", *TINY)
+    local = _rows(venv, "local")
+    ours = local.loc["example-ao"]
+    assert ours["status"] == "ok" and 5 < ours["psnr"] < 60, ours["psnr"]
+    assert (ours["method_module"], ours["method_dist"], ours["method_version"], ours["method_commit"]) == \
+        ("example_ao", "ldbench-example-ao", "0.3.1", venv["commit"])
+    assert local.loc["hbao", "method_dist"] == "ldbench"
+    theirs, own = local.loc["hbao", "method_commit"], ours["commit"]  # ldbench's own (None outside git)
+    assert (pd.isna(theirs) and pd.isna(own)) or theirs == own
+
+    # under Ray, with a package.module:Class method from the working folder beside it
+    (venv["work"] / "devao.py").write_text("from example_ao import ExampleAO\n\n\nclass DevAO(ExampleAO):\n"
+                                           "    name = 'dev-ao'\n")
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "example-ao", "--method", "devao:DevAO", "--effect",
+             "ao", "--d-max", "0.5", "--executor", "ray", "--out", "ray", *TINY)
+    ray_rows = _rows(venv, "ray")
+    assert (ray_rows["status"] == "ok").all(), ray_rows["status"]
+    assert ray_rows.loc["example-ao", "psnr"] == pytest.approx(ours["psnr"], abs=1e-9)
+    assert ray_rows.loc["dev-ao", "psnr"] == pytest.approx(ours["psnr"], abs=1e-9)  # the same kernel
+    assert ray_rows.loc["dev-ao", "method_module"] == "devao" and pd.isna(ray_rows.loc["dev-ao", "method_dist"])
+    assert ray_rows.loc["example-ao", "method_commit"] == venv["commit"]
+
+
+def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
+    """setup.py writes harness/build_info.json into the wheel; an installed ldbench reports that commit
+    (rows' ``commit`` column and ``--version``), not None."""
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("needs git and a checkout")
+    src = tmp_path / "src"
+    subprocess.run(["git", "clone", "-q", str(ROOT), str(src)], check=True, timeout=120)
+    commit = _git(src, "rev-parse", "HEAD").strip()
+    p = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "--no-index",
+                        "-w", str(tmp_path / "dist"), str(src)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    (wheel,) = (tmp_path / "dist").glob("ldbench-*.whl")
+    env_dir = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True, timeout=120)
+    py = env_dir / "bin" / "python"
+    purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                                  check=True, capture_output=True, text=True).stdout.strip())
+    deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", "--no-index",
+                        str(wheel)], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LDBENCH_COMMIT", "LDBENCH_DIRTY")}
+    out = subprocess.run([str(py), "-c", "import json, harness.plugins as p; print(p.__file__); "
+                          "print(json.dumps(p.ldbench_info()))"], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    assert Path(out[0]).is_relative_to(purelib), out
+    assert json.loads(out[1]) == {"version": "0.1.0", "commit": commit, "dirty": False}
+
+
+def test_the_run_seed_reaches_methods(tmp_path, monkeypatch, clean_plugins):
+    """--seed reaches a method as ``run_seed`` (before setup) and ``View.seed``; a method's own seed
+    parameter is mixed with it (Method.seed_for), unchanged at run seed 0."""
+    import numpy as np
+
+    from harness.runner import run_jobs
+    from harness.suite import suite_from_dict
+    from methods.base import Method
+    from references.exr import read_exr
+
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "seedprobe", """
+        from methods.hbao import HBAO
+
+        class Probe(HBAO):
+            name = "seed-probe"
+
+            def setup(self, gpu, scene):
+                self.setup_seed = self.run_seed
+                super().setup(gpu, scene)
+
+            def frame(self, view, effect, inputs=None):
+                r = super().frame(view, effect, inputs)
+                r.counters = {**r.counters, "setup_seed": self.setup_seed, "view_seed": view.seed,
+                              "mixed": self.seed_for(self.params.seed)}
+                return r
+    """)))
+
+    def run(seed):
+        out = tmp_path / f"s{seed}"
+        suite = suite_from_dict({"suite": {"name": "seed", "size": "16x16", "spp": 2, "warmup": 0, "frames": 1},
+                                 "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "seed": seed,
+                                          "methods": ["seedprobe:Probe"], "params": {"seed-probe": {"blur": False}}}]},
+                                name="seed")
+        row = run_jobs(suite, out, progress=False, report=False).iloc[0]
+        return row, read_exr(out / row["images"]["exr"])["Y"]
+
+    r0, img0 = run(0)
+    r7, img7 = run(7)
+    assert r0["counters"] == {**r0["counters"], "setup_seed": 0, "view_seed": 0, "mixed": 0}
+    assert r7["counters"]["setup_seed"] == 7 and r7["counters"]["view_seed"] == 7
+    assert r7["counters"]["mixed"] == (7 * 0x9E3779B9) % 2**32
+    assert not np.array_equal(img0, img7)  # another rotation texture
+    m = Method()
+    assert m.seed_for(5) == 5  # run seed 0: the parameter itself
+    m.run_seed = 1
+    assert m.seed_for(5) != 5 and 0 <= m.seed_for(5, bits=31) < 2**31
+
+
+def test_new_method_template_installs_lists_and_runs(venv, tmp_path, capsys):
+    assert main(["new-method", "tmpl-ao", "--out", str(tmp_path / "tmpl")]) == 0
+    assert main(["new-method", "tmpl-ao", "--out", str(tmp_path / "tmpl")]) == 2  # never overwrites
+    assert main(["new-method", "Bad Name", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "exists" in err[0] and "method name" in err[1]
+    p = subprocess.run([sys.executable, "-m", "pip", "--python", str(venv["py"]), "install", "-q", "--no-deps",
+                        "--no-build-isolation", "--no-index", str(tmp_path / "tmpl")],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-3000:]
+    assert "tmpl-ao  []  effects: ao" in _ldbench(venv, "methods")
+    _ldbench(venv, "run", "--scene", "cornell", "--method", "tmpl-ao", "--effect", "ao", "--d-max", "0.5",
+             "--out", "tmpl", *TINY)
+    row = _rows(venv, "tmpl").loc["tmpl-ao"]
+    assert row["status"] == "ok" and row["psnr"] > 5 and row["method_dist"] == "ldbench-tmpl-ao"
+
+
+def test_module_class_names_are_forwarded_to_workers(tmp_path, monkeypatch, clean_plugins):
+    """A worker of a remote cluster does not inherit the driver's environment: the executor forwards the
+    registered references (and their import folders) explicitly, and a worker resolves them by name."""
+    from harness.executors.ray import forwarded_env
+    from methods.base import canonical_name, get_method
+
+    src = _module(tmp_path / "src", "fwdmod", "from methods.hbao import HBAO\n\n\nclass Fwd(HBAO):\n    name = 'fwd'\n")
+    monkeypatch.syspath_prepend(str(src))
+    assert canonical_name("fwdmod:Fwd") == "fwd"
+    env = dict(forwarded_env())
+    assert json.loads(env[plugins.ENV[plugins.METHOD_GROUP]]) == [["fwdmod:Fwd", str(src)]]
+    code = ("import os, sys; from methods.base import get_method; print(get_method('fwd').__module__)")
+    child = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
+    child.update(env, PYTHONPATH=str(ROOT))  # what Worker.__init__ sets, in a fresh process elsewhere
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child, capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == "fwdmod", out.stderr[-2000:]
+    assert get_method("fwd").__module__ == "fwdmod"
+
+
+def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
+    """The example's SSAO against the reference (thresholds just below the measured 13.2 dB step and
+    16.1 dB quadratic at 32², spp 16), and the quadratic mode weighting occluders below 1."""
+    from harness.runner import run_jobs
+    from harness.suite import suite_from_dict
+
+    from harness.newmethod import write_template
+
+    write_template("tmpl-in-tree", out=tmp_path / "tmpl")  # the new-method template, measured 13.1 dB
+    monkeypatch.syspath_prepend(str(tmp_path / "tmpl"))
+    monkeypatch.syspath_prepend(str(EXAMPLE))
+    suite = suite_from_dict({"suite": {"name": "ex", "size": "32x32", "spp": 16, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5,
+                                      "falloff": ["step", "quadratic"], "methods": ["example_ao:ExampleAO"]},
+                                     {"scene": "cornell", "effect": "ao", "d_max": 0.5,
+                                      "methods": ["tmpl_in_tree:TmplInTree"]}]},
+                            name="ex")
+    df = run_jobs(suite, tmp_path / "r", progress=False, report=False)
+    assert df.set_index("method").loc["tmpl-in-tree", "psnr"] > 12.5
+    df = df[df["method"] == "example-ao"]
+    step, quad = (df[df["effect_params"].map(lambda e: e["falloff"] == f)].iloc[0] for f in ("step", "quadratic"))
+    assert step["psnr"] > 12.5 and quad["psnr"] > 15.5, (step["psnr"], quad["psnr"])
+    from references.exr import read_exr
+
+    mean = {f: read_exr(tmp_path / "r" / r["images"]["exr"])["Y"].mean() for f, r in (("s", step), ("q", quad))}
+    assert mean["q"] > mean["s"] + 0.01, mean

@@ -1,0 +1,276 @@
+"""``ldbench export`` and ``ldbench score`` (harness/export.py, harness/score.py): a question exported,
+answered outside the harness (the method run by hand, an independent numpy tracer, Mitsuba on the
+exported XML) and scored gives the harness's own numbers.
+"""
+import json
+
+import numpy as np
+import pytest
+
+from harness import records
+from harness.cli import main
+from harness.effects import Effect
+from harness.runner import run_jobs
+from harness.score import Question, items_from_folder, score_into_run
+from harness.suite import suite_from_dict
+
+SIZE = 24
+IMAGE_METRICS = ("psnr", "ssim", "flip", "relmse", "coverage")
+
+
+def _export(tmp_path, effect, name, size=SIZE, spp=8, **kw):
+    from harness.export import export_question
+
+    return export_question(Question("cornell", effect, size, size, spp=spp, **kw), tmp_path / name)
+
+
+@pytest.fixture(scope="module")
+def hbao_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "run"
+    suite = suite_from_dict({"suite": {"name": "score-test", "size": f"{SIZE}x{SIZE}", "spp": 8, "warmup": 0,
+                                       "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "methods": ["hbao"]}]},
+                            name="score-test")
+    return out, run_jobs(suite, out, progress=False, report=False)
+
+
+def _render_outside(gpu, folder):
+    """hbao run by hand from the exported camera (no runner): its image and mask as answer files."""
+    from harness.scene import Camera
+    from harness.scenes import load_scene
+    from methods.base import View
+    from methods.hbao import HBAO
+    from references.exr import write_exr
+
+    q = json.loads((folder / "question.json").read_text())
+    cam = json.loads((folder / "camera.json").read_text())
+    view = View(Camera(cam["origin"], cam["target"], cam["up"], cam["fov_y"]), cam["width"], cam["height"])
+    m = HBAO()
+    m.setup(gpu, load_scene(q["scene"]))
+    try:
+        r = m.frame(view, Effect("ao", d_max=0.5)).resolve()
+    finally:
+        m.release()
+    write_exr(folder / "answer.exr", {"Y": r.image[..., 0]})
+    np.save(folder / "mask.npy", r.mask)
+    (folder / "answer.json").write_text(json.dumps({"method": "hbao-outside", "method_version": "9.9",
+                                                    "stage_ms": {"ao": [1.5, 2.5]}, "memory": {"buf": 1024}}))
+    return r
+
+
+def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao_run):
+    run_dir, df = hbao_run
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "q")
+    _render_outside(gpu, folder)
+    before = records.read_results(run_dir)
+    (new,) = score_into_run(items_from_folder(tmp_path), run_dir, report=True)
+    after = records.read_results(run_dir)
+    assert len(after) == len(before) + 1
+    inside = after[after["method"] == "hbao"].iloc[0]
+    outside = after[after["method"] == "hbao-outside"].iloc[0]
+    for c in IMAGE_METRICS:
+        assert outside[c] == pytest.approx(inside[c], abs=1e-6), c
+    assert outside["device"] == "external" and outside["timing_source"] == "user"
+    assert outside["total_ms"] == pytest.approx(2.0) and outside["memory_bytes"] == 1024
+    assert outside["method_version"] == "9.9" and outside["ldbench_version"] == inside["ldbench_version"]
+    assert outside["ref_key"] == inside["ref_key"]
+    # the run's earlier rows are kept as they were, and its report is rebuilt over both
+    cols = [c for c in before.columns if c not in ("stage_ms", "raw_ms")]
+    assert before[cols].astype(str).equals(after[after["method"] == "hbao"][cols].reset_index(drop=True).astype(str))
+    assert (run_dir / "index.html").is_file() or any(run_dir.glob("*.html"))
+    # compare, history and reproduce read the joined run like any other
+    assert main(["compare", str(run_dir), str(run_dir), "--out", str(tmp_path / "cmp.md")]) == 0
+    assert main(["history", "add", str(run_dir), "--history-dir", str(tmp_path / "hist")]) == 0
+    assert any("external" in p.name for p in (tmp_path / "hist").iterdir())  # its own machine file
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run_dir), "--out", str(tmp_path / "rep"),
+                 "--no-report", "--no-progress"]) in (0, 1)
+    # the answer's mask counts: half the pixels without a value
+    mask = np.load(folder / "mask.npy")
+    mask[: SIZE // 2] = False
+    np.save(folder / "mask.npy", mask)
+    (half,) = score_into_run(items_from_folder(folder), tmp_path / "half", report=False)
+    assert half["coverage"] < inside["coverage"] - 0.2 and half["psnr"] < inside["psnr"]
+
+
+def test_png_answer_with_its_transfer_curve(tmp_path, gpu, hbao_run):
+    import matplotlib.image as mpimg
+
+    from harness.metrics import to_srgb8
+
+    run_dir, _ = hbao_run
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "png")
+    r = _render_outside(gpu, folder)
+    (folder / "answer.exr").unlink()
+    mpimg.imsave(folder / "answer.png", to_srgb8(np.repeat(r.image, 3, -1)))
+    out = tmp_path / "pngrun"
+    assert main(["score", str(out), "--from", str(tmp_path / "png"), "--no-report", "--no-progress"]) == 2  # no curve
+    meta = json.loads((folder / "answer.json").read_text())
+    (folder / "answer.json").write_text(json.dumps({**meta, "transfer": "srgb"}))
+    (row,) = score_into_run(items_from_folder(tmp_path / "png"), out, report=False)
+    inside = records.read_results(run_dir).query("method == 'hbao'").iloc[0]
+    assert abs(row["psnr"] - inside["psnr"]) < 0.3 and row["psnr"] != inside["psnr"]  # 8-bit quantisation only
+
+
+def _brute_force_t(o, d, tmax, tri):
+    """Closest hit distance per ray against every triangle (float64 Möller–Trumbore), inf = miss."""
+    o, d = o.astype(np.float64), d.astype(np.float64)
+    a, b, c = (tri[:, i].astype(np.float64) for i in range(3))
+    e1, e2 = b - a, c - a
+    p = np.cross(d[:, None], e2[None])
+    det = np.einsum("tk,rtk->rt", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = o[:, None] - a[None]
+        u = np.einsum("rtk,rtk->rt", s, p) * inv
+        q = np.cross(s, e1[None])
+        v = np.einsum("rk,rtk->rt", d, q) * inv
+        t = np.einsum("tk,rtk->rt", e2, q) * inv
+        ok = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0) & (t <= tmax[:, None])
+    return np.where(ok, t, np.inf).min(1)
+
+
+@pytest.mark.parametrize("kind", ["diffuse", "shadow"])
+def test_rays_exported_answered_by_numpy_and_scored(tmp_path, kind):
+    import trimesh
+
+    folder = _export(tmp_path, Effect("rays", ray_kind=kind, rays_per_pixel=1), "rays", size=16)
+    z = np.load(folder / "batch.npz")
+    mesh = trimesh.load(folder / "scene.ply", process=False)
+    t = _brute_force_t(z["origin"], z["direction"], z["tmax"], np.asarray(mesh.triangles))
+    if kind == "shadow":  # the answer of a shadow ray: 0 = blocked, inf = reaches the light
+        t = np.where(np.isfinite(t), 0.0, np.inf)
+    np.save(folder / "answer.npy", t.astype(np.float32))
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert row["hit_agreement"] == 1.0 and row["rays"] == len(t)
+    if kind == "diffuse":
+        assert row["dist_err_p99"] < 1e-5
+        (folder / "answer.npy").unlink()  # the same answer as CSV text (a column t; inf = miss)
+        (folder / "answer.csv").write_text("t\n" + "".join(f"{x!r}\n" for x in t.astype(np.float32).tolist()))
+        (csv,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+        assert csv["hit_agreement"] == 1.0 and csv["dist_err_p99"] == row["dist_err_p99"]
+        (folder / "answer.csv").unlink()
+    np.save(folder / "answer.npy", np.full(len(t), np.inf, np.float32))  # a tracer that misses everything
+    (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert bad["hit_agreement"] < 0.9
+
+
+def _mitsuba_render(folder, spp):
+    import mitsuba as mi
+
+    from references.variant import choose_variant
+
+    mi.set_variant(choose_variant())
+    return np.array(mi.render(mi.load_file(str(folder / "scene.xml")), spp=spp))
+
+
+def test_exported_xml_renders_the_direct_reference(tmp_path):
+    from harness.scenes import load_scene
+    from references import render_reference
+
+    folder = _export(tmp_path, Effect("direct"), "direct", size=64, spp=16)
+    img = _mitsuba_render(folder, 16)
+    ref = render_reference(load_scene("cornell"), Effect("direct"), width=64, height=64, spp=1, seed=0,
+                           progress=False)
+    diff = np.abs(img - ref.mean)[ref.mask]
+    # exact inside surfaces; the film's box filter differs from a pixel-centre value only on edges
+    assert np.median(diff) < 1e-4 and np.percentile(diff, 80) < 2e-3, np.percentile(diff, [50, 80, 95])
+    assert abs(img[ref.mask].mean() / ref.mean[ref.mask].mean() - 1) < 0.03
+
+
+def test_exported_xml_renders_the_ao_reference_within_its_noise(tmp_path):
+    from harness.scenes import load_scene
+    from references import render_reference
+
+    folder = _export(tmp_path, Effect("ao"), "ao", size=48, spp=128)
+    img = _mitsuba_render(folder, 128)[..., :1]
+    ref = render_reference(load_scene("cornell"), Effect("ao"), width=48, height=48, spp=128, seed=0, progress=False)
+    m = ref.mask
+    z = np.abs(img - ref.mean)[m] / np.sqrt(2 * ref.variance[m] + 1e-12)  # both estimates equally noisy
+    assert np.median(z) < 1.0, np.median(z)  # 0.67 for two unbiased estimates of one value
+    assert abs(img[m].mean() - ref.mean[m].mean()) < 0.02
+
+
+def test_score_bad_input_is_one_line(tmp_path, capsys):
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "bad", size=16, spp=2)
+    from references.exr import write_exr
+
+    write_exr(folder / "answer.exr", {"Y": np.ones((8, 8), np.float32)})
+    cases = [["--from", str(folder)],  # wrong size
+             ["--answer", str(folder / "answer.exr")],  # no --scene/--effect
+             ["--answer", str(folder / "answer.exr"), "--from", str(folder)],
+             ["--answer", str(folder / "nothing.exr"), "--scene", "cornell", "--effect", "ao", "--size", "16x16"],
+             ["--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao", "--size", "8x8",
+              "--stage-ms", "ao=fast"],
+             ["--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao", "--size", "8x8",
+              "--stage-ms", "ao=1,2", "--stage-ms", "blur=1"]]
+    for args in cases:
+        rc = main(["score", str(tmp_path / "out"), *args, "--no-report", "--no-progress"])
+        err = capsys.readouterr().err.strip()
+        assert rc == 2 and len(err.splitlines()) == 1 and err.startswith("ldbench: error:"), (args, err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_save_arrays_writes_inputs_and_both_answers(tmp_path):
+    from harness.effects.rays import ray_metrics
+    from harness.effects.vpl_range import range_metrics
+    from harness.scenes import load_scene
+
+    suite = suite_from_dict({"suite": {"name": "arrays", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "rays", "methods": ["ldm"],
+                                      "effect_params": {"rays_per_pixel": 1},
+                                      "params": {"ldm": {"directions": 8, "resolution": 32}}},
+                                     {"scene": "cornell", "effect": "vpl_range", "methods": ["cdi-vpl"],
+                                      "effect_params": {"rsm": 16}}]}, name="arrays")
+    out = tmp_path / "run"
+    df = run_jobs(suite, out, progress=False, report=False, save_arrays=True)
+    diag = load_scene("cornell").diagonal()
+    for _, row in df.iterrows():
+        path = out / row["images"]["arrays"]
+        z = np.load(path)  # one line, no pickle
+        if row["effect"] == "rays":
+            assert z["origin"].shape == (row["rays"], 3) and z["t"].shape == z["t_ref"].shape == (row["rays"],)
+            m = ray_metrics(z["t"], z["t_ref"], tmax=z["tmax"], occlusion=False, diagonal=diag)
+            assert m["hit_agreement"] == pytest.approx(row["hit_agreement"], abs=1e-12)
+            assert m["dist_err_p95"] == pytest.approx(row["dist_err_p95"], abs=1e-12)
+        else:
+            assert z["range"].shape == z["range_ref"].shape == (row["vpls"],)
+            assert z["ray_origin"].shape == (6 * row["vpls"], 3)
+            m = range_metrics(z["range"], z["range_ref"])
+            assert m["range_err_p95"] == pytest.approx(row["range_err_p95"], abs=1e-12)
+    plain = run_jobs(suite, tmp_path / "plain", progress=False, report=False)
+    assert "arrays" not in plain.iloc[0]["images"] and not list((tmp_path / "plain").rglob("*.npz"))
+
+
+def test_vpl_ranges_exported_answered_by_numpy_and_scored(tmp_path):
+    import trimesh
+
+    folder = _export(tmp_path, Effect("vpl_range", rsm=16), "vpl", size=16)
+    z = np.load(folder / "batch.npz")
+    mesh = trimesh.load(folder / "scene.ply", process=False)
+    t = _brute_force_t(z["ray_origin"], z["ray_direction"], z["ray_tmax"], np.asarray(mesh.triangles))
+    ranges = np.minimum(t, float(z["cap"])).reshape(-1, 6)
+    assert str(z["mode"]) == "mean"
+    np.savez(folder / "answer.npz", range=ranges.mean(1).astype(np.float32), t=t.astype(np.float32))
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert row["range_within_5pct"] == 1.0 and row["range_err_p95"] < 1e-5 and row["hit_agreement"] == 1.0
+    np.savez(folder / "answer.npz", range=ranges.max(1).astype(np.float32))  # the wrong reduction
+    (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert bad["range_within_5pct"] < 0.9
+
+
+def test_score_one_answer_from_the_command_line(tmp_path, gpu, hbao_run, capsys):
+    run_dir, _ = hbao_run
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "cli")
+    _render_outside(gpu, folder)
+    out = tmp_path / "cli-run"
+    rc = main(["score", str(out), "--answer", str(folder / "answer.exr"), "--mask", str(folder / "mask.npy"),
+               "--scene", "cornell", "--effect", "ao", "--d-max", "0.5", "--size", f"{SIZE}x{SIZE}", "--spp", "8",
+               "--method", "mine", "--set", "taps=8", "--stage-ms", "ao=1,3", "--stage-ms", "blur=0.5,0.5",
+               "--memory", "ao=4096", "--method-commit", "abc123", "--no-report", "--no-progress"])
+    assert rc == 0, capsys.readouterr().err
+    row = records.read_results(out).iloc[0]
+    inside = records.read_results(run_dir).query("method == 'hbao'").iloc[0]
+    assert row["method"] == "mine" and row["params"] == {"taps": 8} and row["method_commit"] == "abc123"
+    assert row["psnr"] == pytest.approx(inside["psnr"], abs=1e-6)
+    assert row["stage_ms"] == {"ao": 2.0, "blur": 0.5} and row["memory_bytes"] == 4096
+    assert row["device"] == "external" and row["timing_source"] == "user"
