@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from methods.base import ParamsBase
+from harness.params import ParamsBase
 
 from .base import ImageEffect
 

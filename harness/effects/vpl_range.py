@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from harness.errors import LdbenchError
-from methods.base import ParamsBase, param
+from harness.params import ParamsBase, param
 
 from .base import EffectSpec
 
