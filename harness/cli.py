@@ -91,20 +91,20 @@ def _effect_args(p, required=True):
 
 def _effect_opts(args) -> dict:
     """Effect parameters given on the command line (flags and --effect-set)."""
-    from .suite import _float_or_inf
+    from .suite import float_or_inf
 
     opts = {}
     for name, flag, _ in EFFECT_FLAGS:
         v = getattr(args, name)
         if v is not None:
-            opts[name] = _float_or_inf(_literal(v))
+            opts[name] = float_or_inf(_literal(v))
     for kv in args.effect_set or []:
         if "=" not in kv:
             raise LdbenchError(f"--effect-set expects PARAM=VALUE, got {kv!r}")
         k, v = kv.split("=", 1)
         if k in opts:
             raise LdbenchError(f"effect parameter {k!r} given twice")
-        opts[k] = _float_or_inf(_literal(v))
+        opts[k] = float_or_inf(_literal(v))
     return opts
 
 
@@ -151,9 +151,9 @@ def _reference(args):
     from .scenes import load_scene
     from .suite import parse_size
 
-    from .suite import MAX_SPP, _int, check_budget
+    from .suite import MAX_SPP, checked_int, check_budget
     w, h = parse_size(args.size)
-    check_budget(w, h, _int(args.spp, "--spp", 1, MAX_SPP))
+    check_budget(w, h, checked_int(args.spp, "--spp", 1, MAX_SPP))
     effect = _effect_from(args)
     spec = effect.spec
     if spec.output != "image":
@@ -163,8 +163,10 @@ def _reference(args):
     for w_ in scene.warnings:
         print(f"warning: {w_}", file=sys.stderr)
     effect.check_scene(scene)
-    ref = spec.reference(scene, effect, width=w, height=h, spp=args.spp, seed=0,
-                         inputs=spec.inputs(scene, w, h, effect.params, 0), cache=not args.no_cache)
+    from references import EXACT, render_effect
+
+    ref = render_effect(scene, effect, width=w, height=h, spp=args.spp, seed=0,
+                        inputs=spec.inputs(scene, w, h, effect.params, 0, exact=EXACT), cache=not args.no_cache)
     m = ref.meta
     took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
@@ -277,7 +279,7 @@ def suite_from_args(args):
 
 def _run(args):
     import time
-    from .runner import run_jobs
+    from .executors import run_jobs
 
     suite = suite_from_args(args)
     executor = _executor_from(args)

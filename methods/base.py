@@ -83,6 +83,9 @@ class Method:
     effects: frozenset = frozenset()
     Params: type = ParamsBase
     folder: Path = Path(__file__).parent
+    #: the exact ray tracer ``t = oracle(scene, batch)`` (a :class:`~harness.effects.rays.RayBatch`; inf =
+    #: miss), set by the harness for adapters whose parameters ask for an exact baseline (never timed)
+    oracle = None
 
     def __init__(self, params: ParamsBase | None = None):
         self.params = params if params is not None else self.Params()
@@ -96,6 +99,13 @@ class Method:
         harness-built inputs (e.g. a :class:`~harness.effects.rays.RayBatch`, already uploaded), the
         same the reference receives; None for image effects."""
         raise NotImplementedError
+
+    def exact_distances(self, scene, batch):
+        """The hit distances of ``batch`` from :attr:`oracle` (an error if the harness gave none)."""
+        if self.oracle is None:
+            raise LdbenchError(f"method {self.name!r}: this mode needs the harness's exact ray oracle "
+                               "(Method.oracle), which was not given")
+        return self.oracle(scene, batch)
 
     def release(self) -> None:
         """Free every GPU object (everything allocated through ``self.res``)."""

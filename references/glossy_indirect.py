@@ -16,7 +16,7 @@ from .wavefront import render_estimator
 
 def glossy_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key):
     e = float(effect.exponent)
-    u = _int._rng2(mi, dr, pixel, sample, seed_key)
+    u = _int.rng2(mi, dr, pixel, sample, seed_key)
     n, d = lanes["n"], lanes["d"]
     r = d - 2.0 * dr.dot(d, n) * n
     cos_a = dr.power(u.x, 1.0 / (e + 1.0))
@@ -25,7 +25,7 @@ def glossy_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key)
     w = mi.Frame3f(r).to_world(mi.Vector3f(sin_a * dr.cos(phi), sin_a * dr.sin(phi), cos_a))
     c = dr.dot(w, n)
     active = c > 0.0
-    si2 = mscene.ray_intersect(mi.Ray3f(_int._offset(mi, dr, lanes["p"], n), w), active)
+    si2 = mscene.ray_intersect(mi.Ray3f(_int.spawn_offset(mi, dr, lanes["p"], n), w), active)
     hit = active & si2.is_valid()
     L = _int.direct_light(mi, dr, mscene, si2, hit)
     return dr.select(hit, lanes["albedo"] * ((e + 2.0) / (e + 1.0)) * c * L, mi.Color3f(0.0))

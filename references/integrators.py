@@ -115,7 +115,7 @@ def primary_rays(scene, width: int, height: int):
     return np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
 
 
-def _vec(mi, cls, a):
+def vec(mi, cls, a):
     a = np.ascontiguousarray(a, np.float32)
     return cls(mi.Float(a[:, 0]), mi.Float(a[:, 1]), mi.Float(a[:, 2]))
 
@@ -130,13 +130,13 @@ def np3(v) -> np.ndarray:
     return np.stack([np1(v[i]) for i in range(3)], axis=-1)
 
 
-def _offset(mi, dr, p, n):
+def spawn_offset(mi, dr, p, n):
     """Mitsuba's spawn offset: p + n · (1 + max|p|) · RayEpsilon (n already on the ray's side)."""
     mag = (1.0 + dr.max(dr.abs(p))) * mi.math.RayEpsilon
     return p + n * mag
 
 
-def _rng2(mi, dr, pixel, sample, seed_key):
+def rng2(mi, dr, pixel, sample, seed_key):
     """Two uniform floats per lane from a PCG32 seeded by TEA(pixel, seed) and the sample index."""
     k0, _ = mi.sample_tea_32(pixel, seed_key, 8)
     state = mi.sample_tea_64(k0, sample, 8)
@@ -149,7 +149,7 @@ def _rng2(mi, dr, pixel, sample, seed_key):
 
 def trace_primary(mi, dr, mscene, o, d):
     """Intersect primary rays (numpy float32 (N,3)); returns (ray, si)."""
-    ray = mi.Ray3f(_vec(mi, mi.Point3f, o), _vec(mi, mi.Vector3f, d))
+    ray = mi.Ray3f(vec(mi, mi.Point3f, o), vec(mi, mi.Vector3f, d))
     si = mscene.ray_intersect(ray)
     return ray, si
 
@@ -184,10 +184,10 @@ def sample_values(mi, dr, mscene, effect, p, n, albedo, lane_pixel, lane_sample,
     ``p``, ``n``, ``albedo`` are per-lane primary-hit position, camera-facing geometric normal and
     albedo (Dr.Jit arrays).
     """
-    u = _rng2(mi, dr, lane_pixel, lane_sample, seed_key)
+    u = rng2(mi, dr, lane_pixel, lane_sample, seed_key)
     frame = mi.Frame3f(n)
     w = frame.to_world(mi.warp.square_to_cosine_hemisphere(u))
-    ray = mi.Ray3f(_offset(mi, dr, p, n), w)
+    ray = mi.Ray3f(spawn_offset(mi, dr, p, n), w)
     if effect.name == "ao":
         if math.isinf(effect.d_max):
             return dr.select(mscene.ray_test(ray), 0.0, 1.0)

@@ -16,13 +16,13 @@ from .wavefront import render_estimator
 
 
 def soft_shadow_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key):
-    u = _int._rng2(mi, dr, pixel, sample, seed_key)
+    u = _int.rng2(mi, dr, pixel, sample, seed_key)
     z = 1.0 - 2.0 * u.x
     rr = dr.safe_sqrt(1.0 - z * z)
     phi = 2.0 * dr.pi * u.y
     c = mi.Point3f(*[float(x) for x in scene.lights[0].position])
     y = c + float(effect.light_radius) * mi.Vector3f(rr * dr.cos(phi), rr * dr.sin(phi), z)
-    o = _int._offset(mi, dr, lanes["p"], lanes["n"])
+    o = _int.spawn_offset(mi, dr, lanes["p"], lanes["n"])
     v = y - o
     dist = dr.norm(v)
     w = v / dist
