@@ -52,15 +52,15 @@ DEFAULT_HISTORY_DIR = "history"
 def row_machine_key(row) -> str:
     """The row's ``machine_key``, else computed from its ``machine`` dict or machine columns."""
     from . import records
-    from .compare import _get
+    from .compare import row_value
 
-    k = _get(row, "machine_key")
+    k = row_value(row, "machine_key")
     if k:
         return str(k)
-    m = _get(row, "machine")
+    m = row_value(row, "machine")
     if isinstance(m, dict) and any(m.get(f) for f in ("device", "gl_renderer", "driver")):
         return records.machine_key(m)
-    return records.machine_key({f: _get(row, f) for f in ("device", "gl_renderer", "driver")})
+    return records.machine_key({f: row_value(row, f) for f in ("device", "gl_renderer", "driver")})
 
 
 def _serialize(df):
@@ -292,42 +292,42 @@ def _series(df):
     """
     import numpy as np
     import pandas as pd
-    from .compare import DEFAULT_MATCH, _canon, _get, _key, _labels
+    from .compare import DEFAULT_MATCH, canonical, row_value, row_key, benchmark_labels
     from .records import summarize_samples
 
     match = HISTORY_MATCH
-    pairs = [(_get(r, "run_id"), _key(r, match)) for _, r in df.iterrows()]
+    pairs = [(row_value(r, "run_id"), row_key(r, match)) for _, r in df.iterrows()]
     if len(set(pairs)) < len(pairs):
         match = DEFAULT_MATCH
     keyed = {}
     for _, row in df.iterrows():
-        keyed.setdefault(_key(row, match), []).append(row)
-    labels = _labels({k: rows[-1] for k, rows in keyed.items()})
+        keyed.setdefault(row_key(row, match), []).append(row)
+    labels = benchmark_labels({k: rows[-1] for k, rows in keyed.items()})
     out = {}
     for k, rows in keyed.items():
         pts = []
         for row in rows:
-            ok = _get(row, "status") == "ok"
-            raw = _get(row, "raw_ms") or {}
+            ok = row_value(row, "status") == "ok"
+            raw = row_value(row, "raw_ms") or {}
             s = summarize_samples((raw.get("total") or raw.get("wall") or []) if isinstance(raw, dict) else [])
-            med = _get(row, "total_ms")
+            med = row_value(row, "total_ms")
             med = float(med) if (ok and med is not None) else math.nan
             if s["n"]:
                 q1, q3 = s["q1"], s["q3"]
             else:
-                iqr = _get(row, "total_ms_iqr")
+                iqr = row_value(row, "total_ms_iqr")
                 half = float(iqr) / 2 if iqr is not None else 0.0
                 q1, q3 = med - half, med + half
             qcol = _quality_column(row)
-            psnr = _get(row, qcol)
-            commit = str(_get(row, "commit") or "")[:7] or "?"
-            if _get(row, "dirty"):
+            psnr = row_value(row, qcol)
+            commit = str(row_value(row, "commit") or "")[:7] or "?"
+            if row_value(row, "dirty"):
                 commit += "*"
-            t = str(_get(row, "time") or "")
-            pts.append({"run_id": _get(row, "run_id"), "time": t, "commit": commit,
+            t = str(row_value(row, "time") or "")
+            pts.append({"run_id": row_value(row, "run_id"), "time": t, "commit": commit,
                         "total_ms": med, "q1": q1 if ok else math.nan, "q3": q3 if ok else math.nan,
                         "psnr": float(psnr) if (ok and psnr is not None) else math.nan,
-                        "status": _get(row, "status"), "params": _canon(_get(row, "params"))})
+                        "status": row_value(row, "status"), "params": canonical(row_value(row, "params"))})
         p = pd.DataFrame(pts).drop_duplicates("run_id", keep="last").reset_index(drop=True)
         p["psnr"] = p["psnr"].replace([np.inf], np.nan)  # a perfect match has no place on a dB axis
         p.attrs["quality"] = _quality_column(rows[-1])
@@ -338,9 +338,9 @@ def _series(df):
 def _quality_column(row) -> str:
     """The quality series of a benchmark: PSNR for image effects, else the first metric its effect
     gates (``rays``: hit agreement). Stored under the key "psnr" of the series."""
-    from .compare import _gate
+    from .compare import gated_metrics
 
-    gate = _gate(row)
+    gate = gated_metrics(row)
     return gate[0][0] if gate else "psnr"
 
 

@@ -34,7 +34,7 @@ from .device import MACHINE_FIELDS
 
 
 def _fmt(v, nd=2):
-    v2 = F._num(v) if not isinstance(v, str) else v
+    v2 = F.as_number(v) if not isinstance(v, str) else v
     if v2 is None:
         return "–"
     if isinstance(v2, str):
@@ -45,7 +45,7 @@ def _fmt(v, nd=2):
 
 
 def _params_str(p) -> str:
-    p = p if isinstance(p, dict) else F._as_dict(p)
+    p = p if isinstance(p, dict) else F.as_dict(p)
     return ", ".join(f"{k}={F.fmt_value(v)}" for k, v in p.items())
 
 
@@ -204,7 +204,7 @@ def metric_tables(df) -> list:
 
 
 def _metric(r, c) -> str:
-    v = F._num(r.get(c))
+    v = F.as_number(r.get(c))
     if v is None:
         return "–"
     if c.endswith("per_s"):

@@ -197,7 +197,7 @@ def test_first_n_layers(gpu, scenes, method, params):
 
 def test_overflow_is_a_degraded_row(tmp_path):
     """A pool too small for the fragments: the row is degraded (the image lacks fragments)."""
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "24x24", "warmup": 0, "frames": 1},

@@ -2,7 +2,7 @@
 (``ldbench run`` without ``--executor``). References first (each once), then the jobs in suite order."""
 from __future__ import annotations
 
-from ..runner import RunContext, _progress, prepare, prepare_key, release_inputs, run_job
+from ..runner import RunContext, progress_bar, prepare, prepare_key, release_inputs, run_job
 
 
 class LocalExecutor:
@@ -14,9 +14,9 @@ class LocalExecutor:
         prepared: dict = {}
         try:
             keys = plan.keys()
-            for key in _progress(keys, len(keys), "references", progress):
+            for key in progress_bar(keys, len(keys), "references", progress):
                 prepared[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=progress)
             return [run_job(ctx, job, prepared[prepare_key(job)])
-                    for job in _progress(plan.jobs, len(plan.jobs), "runs", progress)]
+                    for job in progress_bar(plan.jobs, len(plan.jobs), "runs", progress)]
         finally:
             release_inputs(prepared)
