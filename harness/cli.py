@@ -327,8 +327,11 @@ def _history_args(p):
 
 
 def _history(args):
-    from .history import run_cli
-    return run_cli(args)
+    if args.history_command == "add":
+        from .history import run_add
+        return run_add(args)
+    from .history_plots import run_plot
+    return run_plot(args)
 
 
 # ---- reproduce (harness/reproduce.py) --------------------------------------------------------------

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from . import figures as F
 from .device import MACHINE_FIELDS
+from .effects import get_spec
 
 # --------------------------------------------------------------------------------------------------
 # formatting
@@ -227,7 +228,7 @@ def _metric_tables_html(h: _Html, df):
             h.raw(tr + "".join((f'<td class="num">{esc(v)}</td>' if num else f"<td>{esc(v)}</td>")
                                for v, num in cells) + "</tr>")
         h.raw("</tbody></table>")
-        spec = __import__("harness.effects", fromlist=["get_spec"]).get_spec(name)
+        spec = get_spec(name)
         h.text("p", f"Reference: {spec.reference_backend}. Columns as defined in harness/effects/{name}.py "
                     "(rates are fractions of all rays; distance errors are fractions of the scene diagonal; "
                     "M = 10^6 per second).", cls="cap")

@@ -128,13 +128,12 @@ class Method:
 
 def registry() -> dict:
     """{name: Method subclass} for every adapter package under ``methods/`` (discovered)."""
-    import methods
-
+    package = __name__.rpartition(".")[0]  # the methods package, whatever it is installed as
     found = {}
-    for mod in pkgutil.iter_modules(methods.__path__):
+    for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
         if not mod.ispkg:
             continue
-        m = importlib.import_module(f"methods.{mod.name}")
+        m = importlib.import_module(f"{package}.{mod.name}")
         for obj in vars(m).values():
             if isinstance(obj, type) and issubclass(obj, Method) and obj is not Method and obj.name:
                 found[obj.name] = obj
