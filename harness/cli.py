@@ -192,7 +192,7 @@ def _run_args(p):
     p.add_argument("--frames", type=int, default=None)
     p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE", help="method parameter")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
-    p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
+    p.add_argument("--out", default=None, help="run directory (default runs/<suite>-<time>)")
     p.add_argument("--no-report", action="store_true")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
@@ -283,8 +283,8 @@ def _run(args):
 
     suite = suite_from_args(args)
     executor = _executor_from(args)
-    from .naming import slug  # a suite named "../../x" stays inside reports/
-    out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
+    from .naming import slug  # a suite named "../../x" stays inside runs/
+    out = Path(args.out) if args.out else Path("runs") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
     cols = [c for c in ("scene", "method", "effect", "width", "height", "total_ms", "memory_bytes", "psnr",
                         "ssim", "status") if c in df.columns]
@@ -340,7 +340,7 @@ def _reproduce_args(p):
     p.add_argument("--list", action="store_true", help="list the reproducible tables and figures")
     p.add_argument("--scale", default="paper", help="paper (the suite as written) | ci (tiny, for llvmpipe)")
     p.add_argument("--size", default=None, help="WxH, overrides the scale's image size")
-    p.add_argument("--out", default=None, help="run directory (default reports/<table>-<scale>-<time>)")
+    p.add_argument("--out", default=None, help="run directory (default runs/<table>-<scale>-<time>)")
     p.add_argument("--from-run", default=None, metavar="RUN_DIR", help="reuse an existing run directory")
     p.add_argument("--no-report", action="store_true")
     p.add_argument("--no-progress", action="store_true")

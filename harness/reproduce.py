@@ -633,7 +633,7 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         if not path.is_file():
             raise LdbenchError(f"the suite of {key} is missing: {entry.suite}")
         suite = scale_suite(load_suite(path), entry.scales[scale], size)
-        run_dir = Path(out) if out else Path("reports") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
+        run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
     res = evaluate(entry, df, scale)

@@ -184,7 +184,7 @@ def test_rerun_replaces_the_run(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
-def test_suite_name_cannot_escape_reports(tmp_path):
+def test_suite_name_cannot_escape_runs(tmp_path):
     work = tmp_path / "a" / "b"
     work.mkdir(parents=True)
     s = work / "s.toml"
@@ -194,7 +194,7 @@ def test_suite_name_cannot_escape_reports(tmp_path):
                        cwd=work, capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
                        timeout=300)
     assert p.returncode == 0, p.stderr
-    runs = list((work / "reports").iterdir())
+    runs = list((work / "runs").iterdir())
     assert len(runs) == 1 and runs[0].name.startswith("escape-")
     assert sorted(x.name for x in tmp_path.iterdir()) == ["a"] and sorted(x.name for x in (tmp_path / "a").iterdir()) == ["b"]
 

@@ -5,13 +5,13 @@
 # Usage, from the project root with its Python environment set up:
 #     OUT=/some/dir bash scripts/gpu/issue16.sh [STEP ...]
 # STEPs (default: serial ray summary):
-#     serial      ldbench run SUITE                          (reports/issue16/serial, its own reference cache)
-#     ray         ldbench run SUITE --executor ray           over all GPUs (reports/issue16/ray-N)
+#     serial      ldbench run SUITE                          (runs/issue16/serial, its own reference cache)
+#     ray         ldbench run SUITE --executor ray           over all GPUs (runs/issue16/ray-N)
 #     ray:K       the same on the first K GPUs only          (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary     speed-up against the GPU count, equality of every row's metrics and images with the serial
 #                 run (harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
 #                 -> "$OUT/issue16/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
-# The runs stay in reports/issue16/ (ignored by git), so steps can be split over several calls of one warm
+# The runs stay in runs/issue16/ (ignored by git), so steps can be split over several calls of one warm
 # machine, e.g. `... issue16.sh serial` then `... issue16.sh ray summary`.
 # Each run renders its own references (a fresh cache per run): the Ray run gets no head start from the serial
 # one, and equal images prove that references too are the same on every GPU.
@@ -35,7 +35,7 @@ set -u
 cd "$(dirname "$0")/../.."
 PY="${PYTHON:-python3}"
 O="${OUT:-/tmp/ldbench-gpu}/issue16"
-W="reports/issue16"
+W="runs/issue16"
 DRY="${ISSUE16_DRY:-0}"
 SUITE="${ISSUE16_SUITE:-suites/aalund2015-ao.toml}"
 ARGS="${ISSUE16_ARGS:-}"
