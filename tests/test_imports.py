@@ -51,7 +51,7 @@ APART = {frozenset({"methods", "references"})}
 
 
 def modules() -> dict[str, Path]:
-    """{folder-dotted name: path} of every module of the packages (``harness.effects`` is its __init__)."""
+    """{folder-dotted name: path} of every module of the packages (a package is its __init__)."""
     out = {}
     for pkg in packages():
         for f in (ROOT / pkg).rglob("*.py"):
