@@ -73,6 +73,7 @@ def installed(tmp_path_factory):
     purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                                   check=True, capture_output=True, text=True).stdout.strip())
     deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    deps |= {p for p in sys.path if p.endswith(("site-packages", "dist-packages")) and Path(p).is_dir()}  # .pth-added
     (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
     p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", "--no-index",
                         str(wheel)], capture_output=True, text=True, timeout=300)
