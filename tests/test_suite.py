@@ -1,5 +1,5 @@
 """Suites and parameters are strict: a value of the wrong type, out of range or unused is one clear
-error before anything renders, never a silent conversion (harness/suite.py, harness/params.py coerce,
+error before anything renders, never a silent conversion (harness/suite.py, methods/base.py _coerce,
 --set/--spp/--frames/--warmup/--size in harness/cli.py)."""
 import dataclasses
 
@@ -10,8 +10,7 @@ from harness.checks import camera_sees_geometry, unique_scene_names
 from harness.cli import build_parser, suite_from_args
 from harness.errors import LdbenchError
 from harness.suite import DEFAULT_SIZE, MAX_SPP, parse_size, resolve_sizes, suite_from_dict
-from harness.params import coerce
-from methods.base import get_method
+from methods.base import _coerce, get_method
 
 
 def suite(head=None, **run):
@@ -71,10 +70,10 @@ def test_suite_accepts_declared_types():
 ])
 def test_coerce_is_strict(kind, value, ok):
     if ok:
-        assert isinstance(coerce(kind, value, "p"), kind)
+        assert isinstance(_coerce(kind, value, "p"), kind)
     else:
         with pytest.raises(LdbenchError, match="parameter p="):
-            coerce(kind, value, "p")
+            _coerce(kind, value, "p")
 
 
 def run_args(*argv):

@@ -4,7 +4,7 @@ An effect spec declares, as data and a few hooks:
 
 =====================  ===========================================================================
 ``name``               the effect's name (``ao``, ``rays``, ...)
-``Params``             a frozen :class:`~harness.params.ParamsBase` dataclass: its validated parameters
+``Params``             a frozen :class:`~methods.base.ParamsBase` dataclass: its validated parameters
 ``output``             ``"image"``, ``"rays"`` or ``"vpls"``: what a method returns
 ``needs_light``        whether the definition involves the scene's light (:meth:`requires_light` may
                        refine it by parameter); :meth:`check_scene` is the one place that enforces it

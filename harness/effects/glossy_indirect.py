@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.params import ParamsBase, param
+from methods.base import ParamsBase, param
 
 from .base import ImageEffect
 

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.params import ParamsBase
+from methods.base import ParamsBase
 
 from .base import ImageEffect
 

@@ -70,7 +70,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from harness.errors import LdbenchError
-from harness.params import ParamsBase, param
+from methods.base import ParamsBase, param
 
 from .base import EffectSpec
 
