@@ -87,6 +87,7 @@ class Graph:
         self.edges: dict[str, dict[str, int]] = {}
         self.private: list[str] = []
         self.misnamed: list[str] = []
+        self.unresolved: list[str] = []
         for mod, path in self.mods.items():
             self._scan(mod, path)
 
@@ -101,6 +102,8 @@ class Graph:
             return None
         else:
             return None
+        if name not in self.mods:
+            self.unresolved.append(f"{where}: import {name}: no such module")
         while name and name not in self.mods:
             name = name.rpartition(".")[0]
         return name or None
@@ -260,6 +263,10 @@ def test_imports_use_the_installed_name(graph):
     assert not graph.misnamed, "\n".join(graph.misnamed)
 
 
+def test_imports_name_modules_that_exist(graph):
+    assert not graph.unresolved, "\n".join(graph.unresolved)
+
+
 if __name__ == "__main__":  # python tests/test_imports.py: the whole list at once
     g = Graph()
     for c in g.cycles():
@@ -270,3 +277,5 @@ if __name__ == "__main__":  # python tests/test_imports.py: the whole list at on
         print("PRIVATE", p)
     for m in g.misnamed:
         print("NAME", m)
+    for m in g.unresolved:
+        print("MISSING", m)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.params import ParamsBase
+from methods.base import ParamsBase
 
 from .base import ImageEffect
 
