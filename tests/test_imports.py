@@ -31,7 +31,8 @@ FOLDER_LAYER = {"core": "foundation", "methods": "methods", "references": "refer
 #: Files and folders of the layer they will move to while they still lie elsewhere (a path ending in "/"
 #: is a folder); once moved, their folder says it.
 MOVING = {
-    "foundation": ("harness/errors.py", "harness/params.py", "harness/conventions.py", "harness/gpu.py",
+    "foundation": ("harness/errors.py", "harness/params.py", "harness/conventions.py", "harness/bindings.py",
+                   "harness/gpu.py",
                    "harness/egl.py", "harness/device.py", "harness/scene.py", "harness/meshio.py",
                    "harness/scenes.py", "harness/scene_registry.py", "harness/mitsuba_xml.py",
                    "harness/metrics.py", "harness/imageio.py", "harness/effects/", "references/exr.py"),
