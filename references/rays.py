@@ -28,6 +28,18 @@ def epsilons() -> tuple:
         return float(mi.math.RayEpsilon), float(mi.math.ShadowEpsilon)
 
 
+def make_batch(scene, width: int, height: int, params, seed: int):
+    """:func:`harness.effects.rays.make_batch` from Mitsuba's exact primary hits (what the harness hands in)."""
+    from types import SimpleNamespace
+
+    from harness.effects import rays
+
+    from .render import primary_hits
+
+    return rays.make_batch(scene, width, height, params, seed, SimpleNamespace(primary_hits=primary_hits,
+                                                                              epsilons=epsilons))
+
+
 def trace_oracle(scene, batch):
     """:class:`~harness.effects.rays.RaysReference`: exact answers and the oracle's time on ``batch``."""
     from harness.effects.rays import RaysReference

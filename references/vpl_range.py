@@ -14,7 +14,7 @@ import numpy as np
 from harness.errors import LdbenchError
 
 from . import integrators as _int
-from .rays import trace_oracle
+from .rays import epsilons, trace_oracle
 from .variant import choose_variant, variant_active
 
 
@@ -39,6 +39,15 @@ def rsm_hits(scene, R: int) -> dict:
         m = _int.np1(valid).astype(bool)
         return {"mask": m, "position": _int.np3(si.p), "normal": _int.np3(n),
                 "albedo": _int.np3(mi.Color3f(alb)), "direction": np.asarray(d, np.float64)}
+
+
+def make_vpls(scene, params, seed: int):
+    """:func:`harness.effects.vpl_range.make_vpls` from Mitsuba's exact RSM hits (what the harness hands in)."""
+    from types import SimpleNamespace
+
+    from harness.effects import vpl_range
+
+    return vpl_range.make_vpls(scene, params, seed, SimpleNamespace(rsm_hits=rsm_hits, epsilons=epsilons))
 
 
 def exact_ranges(scene, batch):

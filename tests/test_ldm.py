@@ -260,12 +260,10 @@ def ldm_rays(gpu, scene, batch, size, **params):
 
 def test_rays_identical_over_layouts_and_inserts(gpu):
     from harness.effects.rays import RaysParams
-    from harness.effects.rays import make_batch
-    from references import EXACT
-    from references.rays import trace_oracle
+    from references.rays import make_batch, trace_oracle
 
     scene = cornell_like()
-    batch = make_batch(scene, 24, 24, RaysParams(rays_per_pixel=2), 0, EXACT)
+    batch = make_batch(scene, 24, 24, RaysParams(rays_per_pixel=2), 0)
     base, stages = ldm_rays(gpu, scene, batch, 24, directions=32, resolution=64)
     assert "trace" in stages and base.arrays["t"].shape == (len(batch),)
     agree = (np.isfinite(base.arrays["t"]) == np.isfinite(trace_oracle(scene, batch).t)).mean()
@@ -304,11 +302,10 @@ def test_map_table_finds_the_nearest_map(gpu):
     30 752 rays of this batch; the table can pick the second-nearest map for ~1e-5 of directions)."""
     from harness.effects.rays import RaysParams
     from harness.scenes import load_scene
-    from harness.effects.rays import make_batch
-    from references import EXACT
+    from references.rays import make_batch
 
     scene = load_scene("cornell")
-    batch = make_batch(scene, 64, 64, RaysParams(rays_per_pixel=8), 0, EXACT)
+    batch = make_batch(scene, 64, 64, RaysParams(rays_per_pixel=8), 0)
     out = {lk: ldm_rays(gpu, scene, batch, 64, directions=512, resolution=64, map_lookup=lk)[0].arrays["t"]
            for lk in ("table", "scan")}
     same = (out["table"] == out["scan"]) | (np.isinf(out["table"]) & np.isinf(out["scan"]))

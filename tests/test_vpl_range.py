@@ -24,9 +24,7 @@ from harness.errors import LdbenchError
 from harness.scene import Camera, Scene, SpotLight
 from methods.base import View
 from methods.cdi_vpl import CdiVpl, CdiVplParams
-from harness.effects.vpl_range import make_vpls
-from references import EXACT
-from references.vpl_range import exact_ranges
+from references.vpl_range import exact_ranges, make_vpls
 from testkit import box
 
 VPL_GLSL = Path(__file__).resolve().parents[1] / "methods" / "cdi_vpl" / "vpl.glsl"
@@ -125,7 +123,7 @@ void main() {
 def box_batch():
     sc = box_scene()
     eff = Effect("vpl_range", rsm=48, cone_angle=50.0, miss_range=2.0)
-    batch = make_vpls(sc, eff.params, 5, EXACT)
+    batch = make_vpls(sc, eff.params, seed=5)
     return sc, eff, batch, exact_ranges(sc, batch)
 
 
