@@ -18,33 +18,24 @@ key                 renderer                                            effects
 """
 from __future__ import annotations
 
+import sys
 from types import SimpleNamespace
 
 from harness.errors import LdbenchError
 
 from . import glossy_indirect, oit, rays, render as _render, soft_shadows, vpl_range
 
-
-def _image(render):
-    def run(scene, effect, *, width, height, spp, seed, inputs, cache, progress):
-        return render(scene, effect, width=width, height=height, spp=spp, seed=seed, cache=cache, progress=progress)
-    return run
-
-
-def _exact(answer):
-    def run(scene, effect, *, width, height, spp, seed, inputs, cache, progress):
-        return answer(scene, inputs)
-    return run
-
-
-#: {reference key: renderer(scene, effect, *, width, height, spp, seed, inputs, cache, progress)}.
+#: {reference key: (module, function name, how it is called)}, the module None for this package itself:
+#: "image" renderers take the view and sampling arguments, "exact" ones the scene and the effect's inputs.
+#: The function is looked up when called, so that what a caller patches (``references.render_reference``)
+#: is what runs.
 RENDERERS = {
-    "image": _image(_render.render_reference),
-    "glossy_indirect": _image(glossy_indirect.render_glossy_indirect),
-    "soft_shadows": _image(soft_shadows.render_soft_shadows),
-    "oit": lambda scene, effect, *, width, height, **_: oit.render_oit(scene, width, height),
-    "rays": _exact(rays.trace_oracle),
-    "vpl_range": _exact(vpl_range.exact_ranges),
+    "image": (None, "render_reference", "image"),
+    "glossy_indirect": (glossy_indirect, "render_glossy_indirect", "image"),
+    "soft_shadows": (soft_shadows, "render_soft_shadows", "image"),
+    "oit": (oit, "render_oit", "oit"),
+    "rays": (rays, "trace_oracle", "exact"),
+    "vpl_range": (vpl_range, "exact_ranges", "exact"),
 }
 
 #: The exact geometry of the effects' inputs (:mod:`harness.effects.base`): Mitsuba 3 on the same triangles.
@@ -57,8 +48,13 @@ def render_effect(scene, effect, *, width: int, height: int, spp: int, seed: int
     key = effect.spec.reference_key
     if key not in RENDERERS:
         raise LdbenchError(f"no reference renders effect {effect.name!r} (reference key {key!r})")
-    return RENDERERS[key](scene, effect, width=width, height=height, spp=spp, seed=seed, inputs=inputs,
-                          cache=cache, progress=progress)
+    module, name, kind = RENDERERS[key]
+    fn = getattr(module or sys.modules[__package__], name)
+    if kind == "exact":
+        return fn(scene, inputs)
+    if kind == "oit":
+        return fn(scene, width, height)
+    return fn(scene, effect, width=width, height=height, spp=spp, seed=seed, cache=cache, progress=progress)
 
 
 def trace(scene, batch):
