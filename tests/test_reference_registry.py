@@ -1,23 +1,22 @@
 """The references' registry (references/registry.py): every effect's reference key has a renderer, and
 render_effect hands each effect to the renderer of its key, with the arguments that renderer takes."""
-import importlib
-
 import pytest
 
+import references as package
 from harness.effects import Effect, registry
+from references import glossy_indirect, oit, rays, render_effect, soft_shadows, vpl_range
 from references import registry as R
-from references import render_effect
 
-#: effect -> (module of references, function): the ground truth each effect's definition names
+#: effect -> (module of references, function, how it is called): the ground truth of each effect
 EXPECTED = {
-    "ao": ("references", "render_reference", "image"),
-    "direct": ("references", "render_reference", "image"),
-    "indirect": ("references", "render_reference", "image"),
-    "glossy_indirect": ("references.glossy_indirect", "render_glossy_indirect", "image"),
-    "soft_shadows": ("references.soft_shadows", "render_soft_shadows", "image"),
-    "oit": ("references.oit", "render_oit", "oit"),
-    "rays": ("references.rays", "trace_oracle", "exact"),
-    "vpl_range": ("references.vpl_range", "exact_ranges", "exact"),
+    "ao": (package, "render_reference", "image"),
+    "direct": (package, "render_reference", "image"),
+    "indirect": (package, "render_reference", "image"),
+    "glossy_indirect": (glossy_indirect, "render_glossy_indirect", "image"),
+    "soft_shadows": (soft_shadows, "render_soft_shadows", "image"),
+    "oit": (oit, "render_oit", "oit"),
+    "rays": (rays, "trace_oracle", "exact"),
+    "vpl_range": (vpl_range, "exact_ranges", "exact"),
 }
 
 
@@ -36,7 +35,7 @@ def test_render_effect_calls_the_renderer_of_the_effect(name, monkeypatch):
         seen["args"], seen["kwargs"] = args, kwargs
         return "ref"
 
-    monkeypatch.setattr(importlib.import_module(module), fname, fake)
+    monkeypatch.setattr(module, fname, fake)
     eff = Effect(name)
     assert render_effect("scene", eff, width=4, height=3, spp=2, seed=7, inputs="in", progress=False) == "ref"
     if kind == "exact":
