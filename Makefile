@@ -15,10 +15,10 @@ $(STAMP): pyproject.toml scripts/system-deps.sh
 	touch $@
 
 bench: $(STAMP)
-	$(VENV)/bin/ldbench run suites/default.toml --out reports/default
+	$(VENV)/bin/ldbench run suites/default.toml --out runs/default
 
 test: $(STAMP)
 	$(PY) -m pytest $(PYTEST_ARGS) tests
 
 clean:
-	rm -rf $(VENV) .cache reports/default
+	rm -rf $(VENV) .cache runs/default

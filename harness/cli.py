@@ -102,20 +102,20 @@ def _effect_args(p, required=True):
 
 def _effect_opts(args) -> dict:
     """Effect parameters given on the command line (flags and --effect-set)."""
-    from .suite import _float_or_inf
+    from .suite import float_or_inf
 
     opts = {}
     for name, flag, _ in EFFECT_FLAGS:
         v = getattr(args, name)
         if v is not None:
-            opts[name] = _float_or_inf(_literal(v))
+            opts[name] = float_or_inf(_literal(v))
     for kv in args.effect_set or []:
         if "=" not in kv:
             raise LdbenchError(f"--effect-set expects PARAM=VALUE, got {kv!r}")
         k, v = kv.split("=", 1)
         if k in opts:
             raise LdbenchError(f"effect parameter {k!r} given twice")
-        opts[k] = _float_or_inf(_literal(v))
+        opts[k] = float_or_inf(_literal(v))
     return opts
 
 
@@ -166,9 +166,9 @@ def _reference(args):
     from .scenes import load_scene
     from .suite import parse_size
 
-    from .suite import MAX_SPP, _int, check_budget
+    from .suite import MAX_SPP, checked_int, check_budget
     w, h = parse_size(args.size)
-    check_budget(w, h, _int(args.spp, "--spp", 1, MAX_SPP))
+    check_budget(w, h, checked_int(args.spp, "--spp", 1, MAX_SPP))
     out = _reference_out(args.out)
     effect = _effect_from(args)
     spec = effect.spec
@@ -179,8 +179,10 @@ def _reference(args):
     for w_ in scene.warnings:
         log.warning(w_)
     effect.check_scene(scene)
-    ref = spec.reference(scene, effect, width=w, height=h, spp=args.spp, seed=0,
-                         inputs=spec.inputs(scene, w, h, effect.params, 0), cache=not args.no_cache)
+    from references import EXACT, render_effect
+
+    ref = render_effect(scene, effect, width=w, height=h, spp=args.spp, seed=0,
+                        inputs=spec.inputs(scene, w, h, effect.params, 0, exact=EXACT), cache=not args.no_cache)
     m = ref.meta
     took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
@@ -232,7 +234,7 @@ def _run_args(p):
                    help="method parameter (repeatable; with a suite it overrides the suite's value)")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
                    help="scene builder parameter (repeatable)")
-    p.add_argument("--out", default=None, help="run directory (default reports/<suite>-<time>)")
+    p.add_argument("--out", default=None, help="run directory (default runs/<suite>-<time>)")
     p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
     p.add_argument("--no-progress", action="store_true",
                    help="no progress bar (it is shown only when stderr is a terminal anyway)")
@@ -338,12 +340,12 @@ def suite_from_args(args):
 
 def _run(args):
     import time
-    from .runner import run_jobs
+    from .executors import run_jobs
 
     suite = suite_from_args(args)
     executor = _executor_from(args)
-    from .naming import slug  # a suite named "../../x" stays inside reports/
-    out = Path(args.out) if args.out else Path("reports") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
+    from .naming import slug  # a suite named "../../x" stays inside runs/
+    out = Path(args.out) if args.out else Path("runs") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
     from .report import terminal_table
     print(terminal_table(df))
@@ -383,8 +385,11 @@ def _history_args(p):
 
 
 def _history(args):
-    from .history import run_cli
-    return run_cli(args)
+    if args.history_command == "add":
+        from .history import run_add
+        return run_add(args)
+    from .history_plots import run_plot
+    return run_plot(args)
 
 
 # ---- reproduce (harness/reproduce.py) --------------------------------------------------------------
@@ -393,7 +398,7 @@ def _reproduce_args(p):
     p.add_argument("--list", action="store_true", help="list the reproducible tables and figures")
     p.add_argument("--scale", default="paper", help="paper (the suite as written) | ci (tiny, for llvmpipe)")
     p.add_argument("--size", default=None, help="WxH, overrides the scale's image size")
-    p.add_argument("--out", default=None, help="run directory (default reports/<table>-<scale>-<time>)")
+    p.add_argument("--out", default=None, help="run directory (default runs/<table>-<scale>-<time>)")
     p.add_argument("--from-run", default=None, metavar="RUN_DIR", help="reuse an existing run directory")
     p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
     p.add_argument("--no-progress", action="store_true",
@@ -431,12 +436,12 @@ def _question_args(p, required=True):
 
 def _question_from(args):
     from .score import Question
-    from .suite import MAX_SPP, _int, check_budget, parse_size
+    from .suite import MAX_SPP, check_budget, checked_int, parse_size
 
     w, h = parse_size(args.size or "256x256")
-    spp = _int(64 if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
+    spp = checked_int(64 if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
     check_budget(w, h, spp)
-    seed = _int(0 if args.seed is None else args.seed, "--seed", 0)
+    seed = checked_int(0 if args.seed is None else args.seed, "--seed", 0)
     return Question(scene=args.scene, effect=_effect_from(args), width=w, height=h, spp=spp, seed=seed,
                     scene_params=_scene_params(args.scene_set))
 

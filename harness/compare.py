@@ -211,7 +211,7 @@ def _plain(v):
     return v
 
 
-def _canon(v) -> str:
+def canonical(v) -> str:
     v = _plain(v)
     if isinstance(v, float) and v.is_integer():
         v = int(v)
@@ -222,7 +222,7 @@ def _canon(v) -> str:
 _JSON_TEXT = ("scene_params",)
 
 
-def _get(row, col):
+def row_value(row, col):
     v = _plain(row[col]) if col in row.index else None
     if col in _JSON_TEXT and isinstance(v, str):
         try:
@@ -232,18 +232,18 @@ def _get(row, col):
     return v
 
 
-def _key(row, keys) -> tuple:
+def row_key(row, keys) -> tuple:
     out = []
     for k in keys:
         if k == "scene_params":
-            out.append(_canon(_get(row, k) or {}))
+            out.append(canonical(row_value(row, k) or {}))
         elif k == "method":  # an adapter's earlier name (e.g. ldm-ao) matches its current one
             from methods.base import canonical_name
-            out.append(_canon(canonical_name(str(_get(row, k)))))
+            out.append(canonical(canonical_name(str(row_value(row, k)))))
         elif k == "params":  # defaults dropped, old names mapped: a new parameter orphans no baseline row
-            out.append(_canon(canonical_params(_get(row, "method"), _get(row, k) or {})))
+            out.append(canonical(canonical_params(row_value(row, "method"), row_value(row, k) or {})))
         else:
-            out.append(_canon(_get(row, k)))
+            out.append(canonical(row_value(row, k)))
     return tuple(out)
 
 
@@ -266,7 +266,7 @@ def canonical_params(method, params: dict) -> dict:
     out = {}
     for name, value in params.items():
         name = renamed.get(name, name)
-        if name in defaults and _canon(value) == _canon(defaults[name]):
+        if name in defaults and canonical(value) == canonical(defaults[name]):
             continue
         out[name] = value
     return out
@@ -275,7 +275,7 @@ def canonical_params(method, params: dict) -> dict:
 def _index(df, keys, what) -> dict:
     idx = {}
     for _, row in df.iterrows():
-        k = _key(row, keys)
+        k = row_key(row, keys)
         if k in idx:
             raise LdbenchError(
                 f"{what} has several rows for {_describe_key(keys, k)}; add keys to --match "
@@ -299,37 +299,37 @@ def _fmt_value(v):
 
 
 def _effect_label(row) -> str:
-    eff = _get(row, "effect") or "?"
+    eff = row_value(row, "effect") or "?"
     if eff == "ao":
         d = effect_d_max(row)
         return f"ao({effect_param(row, 'falloff', 'step')}, d_max={'inf' if d is None or math.isinf(d) else f'{d:g}'})"
-    ep = {k: v for k, v in (_get(row, "effect_params") or {}).items() if k != "effect"}
+    ep = {k: v for k, v in (row_value(row, "effect_params") or {}).items() if k != "effect"}
     return f"{eff}({', '.join(f'{k}={_fmt_value(v)}' for k, v in ep.items())})" if ep else str(eff)
 
 
-def _labels(rows_by_key: dict) -> dict:
+def benchmark_labels(rows_by_key: dict) -> dict:
     """Readable benchmark names: scene[params] · method · effect · WxH, plus the method parameters that
     differ between benchmarks of the same scene, method and effect."""
     groups: dict = {}
     for k, row in rows_by_key.items():
-        g = (_get(row, "scene"), _get(row, "method"), _get(row, "effect"))
+        g = (row_value(row, "scene"), row_value(row, "method"), row_value(row, "effect"))
         groups.setdefault(g, []).append(k)
     labels = {}
     for g, ks in groups.items():
         varying = set()
         if len(ks) > 1:
-            dicts = [(_get(rows_by_key[k], "params") or {}) for k in ks]
+            dicts = [(row_value(rows_by_key[k], "params") or {}) for k in ks]
             names = set().union(*[set(d) for d in dicts])
-            varying = {n for n in names if len({_canon(d.get(n)) for d in dicts}) > 1}
+            varying = {n for n in names if len({canonical(d.get(n)) for d in dicts}) > 1}
         for k in ks:
             row = rows_by_key[k]
-            sp = _get(row, "scene_params") or {}
-            scene = f"{_get(row, 'scene')}" + (f"[{_fmt_params(sp)}]" if sp else "")
-            parts = [scene, _get(row, "method"), _effect_label(row)]
-            w, h = _get(row, "width"), _get(row, "height")
+            sp = row_value(row, "scene_params") or {}
+            scene = f"{row_value(row, 'scene')}" + (f"[{_fmt_params(sp)}]" if sp else "")
+            parts = [scene, row_value(row, "method"), _effect_label(row)]
+            w, h = row_value(row, "width"), row_value(row, "height")
             if w is not None and h is not None:
                 parts.append(f"{w}x{h}")
-            p = _get(row, "params") or {}
+            p = row_value(row, "params") or {}
             if varying:
                 parts.append(_fmt_params({n: p.get(n) for n in sorted(varying)}))
             labels[k] = " · ".join(str(x) for x in parts)
@@ -347,15 +347,15 @@ def _labels(rows_by_key: dict) -> dict:
 def _config_diff(brow, rrow) -> str:
     """Differences between two matched rows outside the match keys (params, size, reference)."""
     diffs = []
-    bp, rp = _get(brow, "params") or {}, _get(rrow, "params") or {}
-    cb, cr = canonical_params(_get(brow, "method"), bp), canonical_params(_get(rrow, "method"), rp)
+    bp, rp = row_value(brow, "params") or {}, row_value(rrow, "params") or {}
+    cb, cr = canonical_params(row_value(brow, "method"), bp), canonical_params(row_value(rrow, "method"), rp)
     shown = lambda c, n: _fmt_value(c[n]) if n in c else "default"  # noqa: E731
     for n in sorted(set(cb) | set(cr)):  # a parameter left at its default is no difference
-        if _canon(cb.get(n)) != _canon(cr.get(n)):
+        if canonical(cb.get(n)) != canonical(cr.get(n)):
             diffs.append(f"{n} {shown(cb, n)} → {shown(cr, n)}")
     for col in ("width", "height", "effect_params", "scene_params", "scene_hash", "triangles", "ref_spp"):
-        if _canon(_get(brow, col)) != _canon(_get(rrow, col)):
-            diffs.append(f"{col} {_get(brow, col)} → {_get(rrow, col)}")
+        if canonical(row_value(brow, col)) != canonical(row_value(rrow, col)):
+            diffs.append(f"{col} {row_value(brow, col)} → {row_value(rrow, col)}")
     return ", ".join(diffs)
 
 
@@ -364,7 +364,7 @@ def _config_diff(brow, rrow) -> str:
 
 
 def _samples(row) -> list:
-    raw = _get(row, "raw_ms") or {}
+    raw = row_value(row, "raw_ms") or {}
     if not isinstance(raw, dict):
         return []
     s = raw.get("total") or raw.get("wall") or []
@@ -412,8 +412,8 @@ def machine_diff(brow, rrow) -> list:
     """``[(field, baseline value, run value)]`` for the machine fields that differ
     (:func:`harness.device.timing_fields`: the CPU too where it is the device)."""
     out = []
-    for f in timing_fields(_get(brow, "device"), _get(rrow, "device")):
-        bv, rv = _get(brow, f), _get(rrow, f)
+    for f in timing_fields(row_value(brow, "device"), row_value(rrow, "device")):
+        bv, rv = row_value(brow, f), row_value(rrow, f)
         if (bv or None) != (rv or None):
             out.append((f, bv, rv))
     return out
@@ -425,7 +425,7 @@ def machine_diff(brow, rrow) -> list:
 
 def _ref_noise(row) -> tuple[float, bool]:
     """(sigma, known): RMS over foreground pixels of the std-dev of the reference mean."""
-    rn = _get(row, "ref_noise")
+    rn = row_value(row, "ref_noise")
     if isinstance(rn, dict):
         v = rn.get("rms_std_of_mean")
         if v is not None and math.isfinite(float(v)) and float(v) >= 0:
@@ -434,7 +434,7 @@ def _ref_noise(row) -> tuple[float, bool]:
 
 
 def _settings(row) -> dict:
-    ms = _get(row, "metric_settings")
+    ms = row_value(row, "metric_settings")
     return ms if isinstance(ms, dict) else {}
 
 
@@ -451,7 +451,7 @@ def _valid_pixels(row) -> int:
     n = _settings(row).get("valid_pixels")
     if n:
         return max(int(n), 1)
-    w, h = _get(row, "width"), _get(row, "height")
+    w, h = row_value(row, "width"), row_value(row, "height")
     return max(int(w or 1) * int(h or 1), 1)
 
 
@@ -535,11 +535,11 @@ def quality_thresholds(brow, rrow, th: Thresholds) -> dict:
     """
     sb, kb = _ref_noise(brow)
     sr, kr = _ref_noise(rrow)
-    pb, pr = _get(brow, "psnr"), _get(rrow, "psnr")
+    pb, pr = row_value(brow, "psnr"), row_value(rrow, "psnr")
     db, dr = _data_range(brow), _data_range(rrow)
     mb = mse_from_psnr(float(pb), db) if pb is not None and not math.isnan(float(pb)) else math.nan
     mr = mse_from_psnr(float(pr), dr) if pr is not None and not math.isnan(float(pr)) else math.nan
-    same = (_get(brow, "ref_key") is not None and _get(brow, "ref_key") == _get(rrow, "ref_key")
+    same = (row_value(brow, "ref_key") is not None and row_value(brow, "ref_key") == row_value(rrow, "ref_key")
             and abs(sb - sr) <= 1e-12 * max(sb, sr, 1e-30))
     n = min(_valid_pixels(brow), _valid_pixels(rrow))
     if math.isnan(mb) or math.isnan(mr):
@@ -551,7 +551,7 @@ def quality_thresholds(brow, rrow, th: Thresholds) -> dict:
         noise_db = noise_ssim = 0.0
     elif mb > 0:
         noise_db = 10.0 * math.log10(1.0 + B / mb)
-        sb_ssim = _get(brow, "ssim")
+        sb_ssim = row_value(brow, "ssim")
         noise_ssim = ((1.0 - float(sb_ssim)) * B / mb
                       if sb_ssim is not None and math.isfinite(float(sb_ssim)) else 0.0)
     else:  # a perfect baseline: any error beyond B is a regression
@@ -613,7 +613,7 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
     bidx = _index(base, match, "baseline")
     ridx = _index(run, match, "run")
     union = {**{k: v for k, v in ridx.items()}, **{k: v for k, v in bidx.items() if k not in ridx}}
-    labels = _labels(union)
+    labels = benchmark_labels(union)
     comp = Comparison(match=match, thresholds=th)
     comp.rows = {labels[k]: (bidx.get(k), ridx.get(k)) for k in union}
     machine_warned = set()
@@ -624,18 +624,18 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
         name = labels[k]
         brow, rrow = bidx.get(k), ridx.get(k)
         if rrow is None:
-            comp.checks.append(Check(name, "status", str(_get(brow, "status")), "—", "row vanished",
+            comp.checks.append(Check(name, "status", str(row_value(brow, "status")), "—", "row vanished",
                                      "missing" if not th.allow_missing else "n/a",
                                      "allowed by --allow-missing" if th.allow_missing else ""))
             continue
         if brow is None:
-            comp.checks.append(Check(name, "status", "—", str(_get(rrow, "status")), "new row", "new"))
+            comp.checks.append(Check(name, "status", "—", str(row_value(rrow, "status")), "new row", "new"))
             continue
         comp.matched += 1
         diff = _config_diff(brow, rrow)
         if diff:
             comp.notes.append(f"{name}: {diff}")
-        bstat, rstat = str(_get(brow, "status") or "?"), str(_get(rrow, "status") or "?")
+        bstat, rstat = str(row_value(brow, "status") or "?"), str(row_value(rrow, "status") or "?")
         if rstat != "ok":
             comp.checks.append(Check(name, "status", bstat, rstat, "",
                                      "degraded" if rstat.startswith("degraded") else "failed"))
@@ -646,11 +646,11 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
 
         # time
         md = machine_diff(brow, rrow)
-        tb, tr = _f(_get(brow, "total_ms")), _f(_get(rrow, "total_ms"))
+        tb, tr = _f(row_value(brow, "total_ms")), _f(row_value(rrow, "total_ms"))
         if not th.time:
             comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), "", "skipped", "--no-time"))
-        elif (not th.cpu_time and _get(brow, "device") == "cpu-software"
-              and _get(rrow, "device") == "cpu-software"):
+        elif (not th.cpu_time and row_value(brow, "device") == "cpu-software"
+              and row_value(rrow, "device") == "cpu-software"):
             if "cpu" not in machine_warned:
                 machine_warned.add("cpu")
                 comp.warnings.append("software rasterizer (cpu-software): frame times are wall clock on "
@@ -676,7 +676,7 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
             comp.checks.append(Check(name, "time", _fmt_ms(tb), _fmt_ms(tr), change, t["verdict"], t["note"]))
 
         # quality
-        gate = _gate(rrow)
+        gate = gated_metrics(rrow)
         if gate:
             checks = [metric_check(name, brow, rrow, *g) for g in gate]
             compared = any(c.verdict != "n/a" for c in checks)
@@ -687,8 +687,8 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
             comp.checks += checks
             continue
         q = quality_thresholds(brow, rrow, th)
-        pb, pr = _f(_get(brow, "psnr")), _f(_get(rrow, "psnr"))
-        sb, sr = _f(_get(brow, "ssim")), _f(_get(rrow, "ssim"))
+        pb, pr = _f(row_value(brow, "psnr")), _f(row_value(rrow, "psnr"))
+        sb, sr = _f(row_value(brow, "ssim")), _f(row_value(rrow, "ssim"))
         if pb is None or math.isnan(pb) or sb is None or math.isnan(sb):
             nan_base.append(name)
         if pb is None or math.isnan(pb):
@@ -696,7 +696,7 @@ def compare_frames(base, run, *, match=DEFAULT_MATCH, thresholds: Thresholds | N
         v, change, _ = _psnr_check(pb, pr, q, th)
         if v != "n/a":
             notes = [] if q["noise_known"] else ["reference noise unknown"]
-            if _get(brow, "scene_hash") != _get(rrow, "scene_hash"):
+            if row_value(brow, "scene_hash") != row_value(rrow, "scene_hash"):
                 notes.append("scene differs")
             elif not q["same_reference"]:
                 notes.append("references differ")
@@ -724,17 +724,17 @@ def _nan_baseline(name, metric, current, th) -> Check:
     return Check(name, metric, "NaN", current, "baseline NaN", "unchecked", "nothing to compare against")
 
 
-def _gate(row) -> tuple:
+def gated_metrics(row) -> tuple:
     """The effect's gated metrics (non-image effects), () for image effects and unknown effects."""
     from .effects import registry
 
-    spec = registry().get(str(_get(row, "effect")))
+    spec = registry().get(str(row_value(row, "effect")))
     return tuple(spec.gate) if spec is not None else ()
 
 
 def metric_check(name, brow, rrow, col, better, abs_tol, rel_tol) -> Check:
     """One gated metric of a non-image effect: worse by more than max(abs_tol, rel_tol·|base|) fails."""
-    b, r = _f(_get(brow, col)), _f(_get(rrow, col))
+    b, r = _f(row_value(brow, col)), _f(row_value(rrow, col))
     fmt = lambda v: "NaN" if v is None or math.isnan(v) else f"{v:.4g}"  # noqa: E731
     if b is None or math.isnan(b):
         return Check(name, col, fmt(b), fmt(r), "", "n/a")

@@ -51,7 +51,7 @@ t sin θ cos φ + b sin θ sin φ + axis cos θ.
 - Per-sample streams in shaders (the LDI gather): state = pcg(pixel ^ pcg(seed ^ pcg(sample)))
   (:func:`sample_stream`, :func:`pcg_hash` = the PCG-RXS-M-XS hash of Jarzynski and Olano 2020); each
   uniform is state ← pcg(state), u = (state >> 8) / 2²⁴ (:func:`pcg_uniforms`).
-- Mitsuba references: one PCG32 per lane seeded through TEA (``references.integrators._rng2``).
+- Mitsuba references: one PCG32 per lane seeded through TEA (``references.integrators.rng2``).
 
 **VPL range** (:func:`reduce_range`): each of the six distances t is clamped to the miss range ``cap``
 (t ∉ [0, ∞) — a miss, NaN, a negative "no hit" — counts ``cap``), then the mean or the max of the six.

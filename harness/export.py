@@ -205,7 +205,9 @@ def export_question(question, out) -> Path:
              "rays.npz": "every pixel's view ray", "light.json": "the lights"}
     spec = effect.spec
     if spec.output in ("rays", "vpls"):
-        batch = spec.inputs(scene, w, h, effect.params, question.seed)
+        from references import EXACT
+
+        batch = spec.inputs(scene, w, h, effect.params, question.seed, exact=EXACT)
         if spec.output == "rays":
             _atomic_npz(out / "batch.npz", origin=batch.origin, direction=batch.direction, tmax=batch.tmax,
                         normal=batch.normal, pixel=batch.pixel, width=w, height=h, kind=batch.kind,

@@ -69,7 +69,7 @@ def short_hash(*parts) -> str:
     return hashlib.sha1(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()[:6]
 
 
-def _as_dict(v) -> dict:
+def as_dict(v) -> dict:
     if isinstance(v, dict):
         return v
     if isinstance(v, str) and v.strip():
@@ -81,7 +81,7 @@ def _as_dict(v) -> dict:
     return {}
 
 
-def _num(v):
+def as_number(v):
     """float of a value, None when missing or not a number."""
     if v is None:
         return None
@@ -135,24 +135,24 @@ def prepare(df):
     df = df.copy().reset_index(drop=True)
     for c in ("params", "effect_params", "scene_params", "images", "stage_ms", "counters", "memory",
               "stage_iqr", "metric_settings"):
-        df[c] = [_as_dict(v) for v in (df[c] if c in df else [None] * len(df))]
+        df[c] = [as_dict(v) for v in (df[c] if c in df else [None] * len(df))]
     for c in ("scene", "method", "effect", "status", "scene_hash", "device"):
         if c not in df:
             df[c] = None
     df["d_max"] = [effect_d_max(r) for _, r in df.iterrows()]
     df["falloff"] = [effect_param(r, "falloff") for _, r in df.iterrows()]
-    w = [int(x) if _num(x) is not None else 0 for x in df.get("width", [0] * len(df))]
-    h = [int(x) if _num(x) is not None else 0 for x in df.get("height", [0] * len(df))]
+    w = [int(x) if as_number(x) is not None else 0 for x in df.get("width", [0] * len(df))]
+    h = [int(x) if as_number(x) is not None else 0 for x in df.get("height", [0] * len(df))]
     df["size"] = [f"{a}x{b}" for a, b in zip(w, h)]
     df["pixels"] = [a * b for a, b in zip(w, h)]
     mem = df["memory_bytes"] if "memory_bytes" in df else [None] * len(df)
-    df["memory_mb"] = [(_num(m) / MB) if _num(m) is not None else math.nan for m in mem]
+    df["memory_mb"] = [(as_number(m) / MB) if as_number(m) is not None else math.nan for m in mem]
     for c in ("total_ms", "total_ms_iqr", "wall_ms", "psnr", "ssim", "flip", "relmse", *RAY_COLUMNS):
-        df[c] = [(_num(v) if _num(v) is not None else math.nan) for v in (df[c] if c in df else [None] * len(df))]
+        df[c] = [(as_number(v) if as_number(v) is not None else math.nan) for v in (df[c] if c in df else [None] * len(df))]
     q1, q3 = [], []
     for raw, med in zip(df["raw_ms"] if "raw_ms" in df else [None] * len(df), df["total_ms"]):
-        tot = _as_dict(raw).get("total") if raw is not None else None
-        vals = [x for x in (_num(t) for t in (tot or [])) if x is not None]
+        tot = as_dict(raw).get("total") if raw is not None else None
+        vals = [x for x in (as_number(t) for t in (tot or [])) if x is not None]
         if vals:
             a, b = np.percentile(vals, [25, 75])
             q1.append(float(a)), q3.append(float(b))
@@ -217,7 +217,7 @@ class Figure:
 
 def _sortable(v):
     """Sort key mixing numbers (numeric order, inf last) and text."""
-    n = _num(v) if not isinstance(v, str) else None
+    n = as_number(v) if not isinstance(v, str) else None
     return (0, n, "") if n is not None else (1, 0.0, str(v))
 
 
@@ -281,7 +281,7 @@ def swept_parameters(df) -> list[str]:
             keys += [k for k in s if k not in keys]
         for k in keys:
             vals = {json.dumps(s.get(k), default=str) for s in g["sweep"]}
-            if len(vals) > 1 and k not in out and all(_num(s.get(k)) is not None or s.get(k) is None
+            if len(vals) > 1 and k not in out and all(as_number(s.get(k)) is not None or s.get(k) is None
                                                      for s in g["sweep"]):
                 out.append(k)
     return out
@@ -293,7 +293,7 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
     plt = _plt()
     ok = _ok(df)
     ycol = "total_ms" if what == "time" else "memory_mb"
-    rows = [r for _, r in ok.iterrows() if _num(r["sweep"].get(param)) is not None and not math.isnan(r[ycol])]
+    rows = [r for _, r in ok.iterrows() if as_number(r["sweep"].get(param)) is not None and not math.isnan(r[ycol])]
     if what == "memory":
         rows = [r for r in rows if r[ycol] > 0]
     if not rows:
@@ -307,7 +307,7 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
     series: dict = {}
     for r in rows:
         series.setdefault(skey(r), []).append(r)
-    series = {k: v for k, v in series.items() if len({_num(r["sweep"][param]) for r in v}) > 1}
+    series = {k: v for k, v in series.items() if len({as_number(r["sweep"][param]) for r in v}) > 1}
     if not series:
         return None
     # which attributes differ between series (to keep labels short)
@@ -329,13 +329,13 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
             continue  # a parameter of only some methods
         if len({json.dumps(r["sweep"].get(k), default=str) for r in first}) > 1:
             diff.append(k)
-    allx = [_num(r["sweep"][param]) for v in series.values() for r in v]
+    allx = [as_number(r["sweep"][param]) for v in series.values() for r in v]
     xs_all, inf_x, log = _x_positions(allx)
     fig, ax = plt.subplots(figsize=(7.5, 4.6))
     pal = _palette(list(series))
     for k, rs in series.items():
-        rs = sorted(rs, key=lambda r: _num(r["sweep"][param]))
-        x = [inf_x if math.isinf(_num(r["sweep"][param])) else _num(r["sweep"][param]) for r in rs]
+        rs = sorted(rs, key=lambda r: as_number(r["sweep"][param]))
+        x = [inf_x if math.isinf(as_number(r["sweep"][param])) else as_number(r["sweep"][param]) for r in rs]
         y = [r[ycol] for r in rs]
         lab = _series_label(rs[0], [d for d in diff if d != "falloff"])
         if "falloff" in diff:
@@ -428,7 +428,7 @@ def figure_stages(df, run_dir: Path, scene: str, max_bars: int = 30) -> list[Fig
         x = np.arange(len(chunk))
         bottom = np.zeros(len(chunk))
         for s in stages:
-            v = np.array([_num(r["stage_ms"].get(s)) or 0.0 for r in chunk])
+            v = np.array([as_number(r["stage_ms"].get(s)) or 0.0 for r in chunk])
             if not v.any():
                 continue
             ax.bar(x, v, bottom=bottom, color=pal[s], label=s, width=0.7)
@@ -600,7 +600,7 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
         elif rel:
             problems.append(f"missing {rel}")
         errs.append(e)
-        vm = _num(r["images"].get("error_vmax"))
+        vm = as_number(r["images"].get("error_vmax"))
         if vm is None and e is not None and e.size:
             vm = float(np.percentile(e[e > 0], 99)) if (e > 0).any() else 0.0
         if vm is not None:
@@ -773,7 +773,7 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None =
 
 
 def _f(v, nd):
-    v = _num(v)
+    v = as_number(v)
     if v is None:
         return "–"
     if math.isinf(v):

@@ -220,6 +220,58 @@ LDBENCH_ROOT = Path(__file__).resolve().parent.parent
 BUILD_INFO = Path(__file__).resolve().parent / "build_info.json"
 
 
+def _git(repo_dir, *args) -> str | None:
+    try:
+        p = subprocess.run(["git", "-C", str(repo_dir), *args], capture_output=True, text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return p.stdout if p.returncode == 0 else None
+
+
+def git_info_from_env() -> dict:
+    """``LDBENCH_COMMIT`` / ``LDBENCH_DIRTY`` (0/1) as :func:`git_info` fields (None when unset)."""
+    dirty = os.environ.get("LDBENCH_DIRTY")
+    return {"commit": os.environ.get("LDBENCH_COMMIT") or None,
+            "dirty": None if dirty is None else dirty == "1", "branch": None}
+
+
+def _same_dir(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def git_info(repo_dir=LDBENCH_ROOT) -> dict:
+    """Commit, dirty flag and branch of ldbench's own git checkout, whose root is ``repo_dir``.
+
+    The repository counts only when ``repo_dir`` is its top level: an ldbench installed or copied
+    inside another repository (a wheel in a project's virtualenv, a vendored copy) must not record
+    that repository's commit.
+
+    Returns
+    -------
+    dict
+        ``commit`` (full hash; None before the first commit), ``dirty`` (True when
+        ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
+        detached HEAD). All None (reported as "unknown") when git is missing or ``repo_dir`` is not the
+        top level of a repository, unless ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a
+        copied working tree without ``.git`` (a remote GPU runner) can still record which commit it ran.
+    """
+    top = _git(repo_dir, "rev-parse", "--show-toplevel")
+    if top is None or not _same_dir(top.strip(), repo_dir):
+        return git_info_from_env()
+    status = _git(repo_dir, "status", "--porcelain")
+    if status is None:
+        return git_info_from_env()
+    commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
+    if not commit and os.environ.get("LDBENCH_COMMIT"):  # a tree copied without its history
+        return git_info_from_env()
+    branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
+    return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
+            "branch": branch.strip() if branch else None}
+
+
 @lru_cache(maxsize=1)
 def ldbench_version() -> str | None:
     """ldbench's version: pyproject.toml's in a checkout (the tree you run), else the installed metadata."""
@@ -240,10 +292,8 @@ def ldbench_version() -> str | None:
 
 
 def ldbench_info() -> dict:
-    """``version``, ``commit``, ``dirty`` of the running ldbench: git in a checkout (records.git_info,
+    """``version``, ``commit``, ``dirty`` of the running ldbench: git in a checkout (:func:`git_info`,
     with its LDBENCH_COMMIT override), else what the wheel's build wrote (harness/build_info.json)."""
-    from harness.records import git_info
-
     g = git_info(LDBENCH_ROOT)
     commit, dirty = g.get("commit"), g.get("dirty")
     if commit is None and BUILD_INFO.is_file():

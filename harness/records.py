@@ -48,6 +48,7 @@ import numpy as np
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 from .naming import key_slug
+from .plugins import LDBENCH_ROOT, git_info, git_info_from_env  # noqa: F401 (re-exported: records' git columns)
 
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -252,63 +253,6 @@ def machine_columns(info: dict) -> dict:
 
 # --------------------------------------------------------------------------------------------------
 # git
-
-
-def _git(repo_dir, *args) -> str | None:
-    try:
-        p = subprocess.run(["git", "-C", str(repo_dir), *args], capture_output=True, text=True,
-                           timeout=_SUBPROCESS_TIMEOUT_S)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return p.stdout if p.returncode == 0 else None
-
-
-def git_info_from_env() -> dict:
-    """``LDBENCH_COMMIT`` / ``LDBENCH_DIRTY`` (0/1) as :func:`git_info` fields (None when unset)."""
-    dirty = os.environ.get("LDBENCH_DIRTY")
-    return {"commit": os.environ.get("LDBENCH_COMMIT") or None,
-            "dirty": None if dirty is None else dirty == "1", "branch": None}
-
-
-#: ldbench's own root: the folder holding the ``harness`` package (and pyproject.toml in a checkout).
-LDBENCH_ROOT = Path(__file__).resolve().parent.parent
-
-
-def _same_dir(a, b) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
-def git_info(repo_dir=LDBENCH_ROOT) -> dict:
-    """Commit, dirty flag and branch of ldbench's own git checkout, whose root is ``repo_dir``.
-
-    The repository counts only when ``repo_dir`` is its top level: an ldbench installed or copied
-    inside another repository (a wheel in a project's virtualenv, a vendored copy) must not record
-    that repository's commit.
-
-    Returns
-    -------
-    dict
-        ``commit`` (full hash; None before the first commit), ``dirty`` (True when
-        ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
-        detached HEAD). All None (reported as "unknown") when git is missing or ``repo_dir`` is not the
-        top level of a repository, unless ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a
-        copied working tree without ``.git`` (a remote GPU runner) can still record which commit it ran.
-    """
-    top = _git(repo_dir, "rev-parse", "--show-toplevel")
-    if top is None or not _same_dir(top.strip(), repo_dir):
-        return git_info_from_env()
-    status = _git(repo_dir, "status", "--porcelain")
-    if status is None:
-        return git_info_from_env()
-    commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
-    if not commit and os.environ.get("LDBENCH_COMMIT"):  # a tree copied without its history
-        return git_info_from_env()
-    branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
-    return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
-            "branch": branch.strip() if branch else None}
 
 
 def git_columns(info: dict) -> dict:
@@ -619,10 +563,14 @@ def check_columns(columns, what, required=SCHEMA_COLUMNS) -> None:
                            + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
 
 
+#: The file a run directory being written carries (:mod:`harness.rundir`): its rows are not a finished run.
+PARTIAL_MARKER = ".ldbench-partial"
+
+
 def check_not_partial(path) -> None:
     """Refuse a folder (or a file in one) that a run is still writing or was killed writing: it carries
-    :data:`harness.rundir.MARKER` (``.DIR.partial-PID/``); its rows are not a finished run."""
-    from .rundir import MARKER
+    :data:`PARTIAL_MARKER` (``.DIR.partial-PID/``); its rows are not a finished run."""
+    MARKER = PARTIAL_MARKER
 
     p = Path(path)
     d = p if p.is_dir() else p.parent

@@ -32,13 +32,14 @@ from pathlib import Path
 
 from . import figures as F
 from .device import MACHINE_FIELDS
+from .effects import get_spec
 
 # --------------------------------------------------------------------------------------------------
 # formatting
 
 
 def _fmt(v, nd=2):
-    v2 = F._num(v) if not isinstance(v, str) else v
+    v2 = F.as_number(v) if not isinstance(v, str) else v
     if v2 is None:
         return "–"
     if isinstance(v2, str):
@@ -63,7 +64,7 @@ def _defaults(method: str) -> tuple:
 
 def _same(a, b) -> bool:
     """Parameter values equal after a records round trip (128 == 128.0, "inf" == inf, tuple == list)."""
-    fa, fb = F._num(a), F._num(b)
+    fa, fb = F.as_number(a), F.as_number(b)
     if fa is not None and fb is not None and not isinstance(a, bool) and not isinstance(b, bool):
         return fa == fb
     if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
@@ -77,7 +78,7 @@ def shown_params(method, p, keep=()) -> list:
     the ungrouped ones first under group ``""``. A dotted name ("structure.source") belongs to the group
     before its first dot; old flat names are read through ``Params.renamed``. The results files keep
     the full set."""
-    p = p if isinstance(p, dict) else F._as_dict(p)
+    p = p if isinstance(p, dict) else F.as_dict(p)
     defaults, renamed = _defaults(str(method))
     groups: dict = {}
     for k, v in p.items():
@@ -94,7 +95,7 @@ def swept_params(df) -> dict:
     them in every row of the method, even where a row has the default value."""
     seen: dict = {}
     for m, p in zip(df["method"], df["params"]):
-        for k, v in (p if isinstance(p, dict) else F._as_dict(p)).items():
+        for k, v in (p if isinstance(p, dict) else F.as_dict(p)).items():
             seen.setdefault(m, {}).setdefault(k, set()).add(json.dumps(v, sort_keys=True, default=str))
     return {m: {k for k, vals in ks.items() if len(vals) > 1} for m, ks in seen.items()}
 
@@ -281,7 +282,7 @@ def metric_tables(df) -> list:
 
 
 def _metric(r, c) -> str:
-    v = F._num(r.get(c))
+    v = F.as_number(r.get(c))
     if v is None:
         return "–"
     if c.endswith("per_s"):
@@ -307,7 +308,7 @@ def terminal_table(df) -> str:
         rows = d[d["effect"] == eff]
         spec = reg.get(eff)
         cols = [c for c in (spec.metrics if spec is not None else ("psnr", "ssim"))
-                if c in rows.columns and any(F._num(v) is not None for v in rows[c])]
+                if c in rows.columns and any(F.as_number(v) is not None for v in rows[c])]
         table = pd.DataFrame([{"scene": r["scene"], "method": r["method"], "effect": r["effect_text"],
                                "size": r["size"], "params": _row_params(r, swept, "; "),
                                "total ms": _fmt(r["total_ms"]), "memory MB": _fmt(r["memory_mb"], 1),
@@ -334,7 +335,7 @@ def _metric_tables_html(h: _Html, df):
             h.raw(tr + "".join((f'<td class="num">{esc(v)}</td>' if num else f"<td>{esc(v)}</td>")
                                for v, num in cells) + "</tr>")
         h.raw("</tbody></table>")
-        spec = __import__("harness.effects", fromlist=["get_spec"]).get_spec(name)
+        spec = get_spec(name)
         h.text("p", f"Reference: {spec.reference_backend}. Columns as defined in harness/effects/{name}.py "
                     "(rates are fractions of all rays; distance errors are fractions of the scene diagonal; "
                     "M = 10^6 per second).", cls="cap")

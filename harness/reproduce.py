@@ -404,9 +404,9 @@ def our_value(r, q: str):
 
         v = structure_bytes(r["memory"])
     if q.startswith(FAMILIES):
-        from .figures import _as_dict
+        from .figures import as_dict
 
-        d = _as_dict(v) or {}
+        d = as_dict(v) or {}
         names = q.split(":", 1)[1].split("+")
         vals = [_float(d.get(n)) for n in names]
         return None if any(x is None for x in vals) else float(sum(vals))
@@ -513,14 +513,14 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     Returns a JSON-able dict (also written as ``reproduce.json``): ``rows`` (one line per row ×
     quantity), ``claims`` (with verdicts), setup strings and notes.
     """
-    from .figures import _as_dict
+    from .figures import as_dict
 
     scale = entry.scales.get(scale_name, {})
     recs = []
     for _, r in df.iterrows():
         d = r.to_dict()
         for c in ("params", "effect_params", "scene_params", "raw_ms", "memory", "stage_iqr"):
-            d[c] = _as_dict(d.get(c))
+            d[c] = as_dict(d.get(c))
         recs.append(d)
     found = {}
     rows_out = []
@@ -721,14 +721,14 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
             raise LdbenchError(f"--from-run: {run_dir} is not a directory")
         df = read_results(run_dir)
     else:
-        from .runner import run_jobs
+        from .executors import run_jobs
         from .suite import load_suite
 
         path = suite_file(entry)
         if not path.is_file():
             raise LdbenchError(f"the suite of {key} is missing: {entry.suite}")
         suite = scale_suite(load_suite(path), entry.scales[scale], size)
-        run_dir = Path(out) if out else Path("reports") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
+        run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
     res = evaluate(entry, df, scale)

@@ -44,12 +44,12 @@ import shutil
 from pathlib import Path
 
 from .errors import LdbenchError
+from .records import PARTIAL_MARKER as MARKER  # noqa: F401 (records refuses what carries it)
 
 RUN_FILES = ("results.parquet", "suite.json")
-MARKER = ".ldbench-partial"
 
 
-#: The keys of the ``suite.json`` ldbench writes (:func:`harness.runner.run_jobs`).
+#: The keys of the ``suite.json`` ldbench writes (:func:`harness.executors.run_jobs`).
 SUITE_KEYS = ("name", "source", "jobs")
 
 

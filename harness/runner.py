@@ -15,27 +15,21 @@ The run directory is written under a temporary name and renamed into place only 
 Who runs the jobs is an executor (:mod:`harness.executors`): this process one job after the other
 (``local``, the default), or Ray tasks on one or several machines (``ray``). :func:`plan_run`,
 :func:`prepare` and :func:`run_job` (with its :class:`RunContext`) are the units both use; the run
-directory stays with :func:`run_jobs`, in this process.
+directory stays with :func:`harness.executors.run_jobs`, in this process.
 """
 from __future__ import annotations
 
-import json
 import logging
 import sys
 import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from .errors import LdbenchError
 from .naming import slug as _slug
-from .rundir import RunDir
 from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .suite import Job, Suite, resolve_sizes
-
-if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
-    import pandas as pd
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -62,7 +56,8 @@ def scene_dir(scene) -> str:
     return _slug(scene.name)
 
 
-def _progress(iterable, total, desc, enabled):
+def progress_bar(iterable, total, desc, enabled):
+    """``iterable`` with a tqdm bar on stderr when ``enabled``."""
     if not enabled:
         return iterable
     from tqdm import tqdm
@@ -156,96 +151,15 @@ def _ldbench_git() -> dict:
 def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
     """The effect's inputs and reference of one :func:`prepare_key` (the reference from the cache, or
     rendered into it)."""
+    from references import EXACT, render_effect
+
     _, effect, w, h, spp, seed = key
-    inputs = effect.spec.inputs(scene, w, h, effect.params, seed)
-    ref = effect.spec.reference(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs,
-                                cache=cache, progress=progress)
+    inputs = effect.spec.inputs(scene, w, h, effect.params, seed, exact=EXACT)
+    ref = render_effect(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs, cache=cache,
+                        progress=progress)
     camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
     finite_reference(scene, ref, f"{effect.label()} at {w}x{h}")  # likewise
     return Prepared(scene, inputs, ref)
-
-
-def run_jobs(suite: Suite, out_dir, *, progress: bool = True, report: bool = True,
-             reference_cache: bool = True, executor=None, save_arrays: bool = False) -> "pd.DataFrame":
-    """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
-
-    ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
-    executor object (:mod:`harness.executors`). Whatever runs the jobs, this process holds the run
-    directory's lock, writes the results and commits the folder, or deletes it on any failure.
-    """
-    from . import records
-    from .executors import get_executor
-    from .gpu import Gpu
-
-    ex = get_executor(executor)  # before the run directory: a missing extra is one line, nothing written
-    rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
-    tmp = rundir.open()
-    gpu = None
-    interrupts = _Interrupts()
-    try:
-        interrupts.__enter__()
-        gpu = Gpu()
-        plan = plan_run(suite, gpu, reference_cache=reference_cache)
-        plan.save_arrays = bool(save_arrays or getattr(ex, "save_arrays", False))
-        suite.jobs = plan.jobs
-        if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
-            gpu.release()
-            gpu = None
-        rows = ex.run(plan, tmp, gpu=gpu, progress=progress)
-        records.write_results(rows, tmp)
-        if gpu is not None:
-            gpu.release()
-            gpu = None
-        (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
-                                                    "jobs": len(suite.jobs)}, indent=1))
-        if report:
-            from .report import build_report
-            build_report(tmp, records.read_results(tmp, unfinished=True))
-        if interrupts.seen:  # a Ctrl-C whose KeyboardInterrupt some library caught: still no commit
-            raise KeyboardInterrupt
-        rundir.commit()  # old run aside, new one in, old one deleted
-    except BaseException:
-        try:
-            if gpu is not None:
-                gpu.release()
-        finally:
-            rundir.abort()
-        raise
-    finally:
-        interrupts.__exit__()
-    return records.read_results(out_dir)
-
-
-class _Interrupts:
-    """Remembers a SIGINT (Ctrl-C) received while a run directory is written, so that a run is never
-    committed after one, even when code between the signal and the commit (a report library, a
-    cluster client) caught the KeyboardInterrupt. The signal itself still raises as before."""
-
-    def __init__(self):
-        self.seen = False
-        self._prev = None
-
-    def __enter__(self):
-        import signal
-        import threading
-
-        prev = signal.getsignal(signal.SIGINT)
-        if threading.current_thread() is threading.main_thread() and callable(prev):
-            self._prev = prev
-            signal.signal(signal.SIGINT, self._handler)
-        return self
-
-    def _handler(self, signum, frame):
-        self.seen = True
-        self._prev(signum, frame)  # Python's default handler raises KeyboardInterrupt
-
-    def __exit__(self, *exc):
-        if self._prev is not None:
-            import signal
-
-            signal.signal(signal.SIGINT, self._prev)
-            self._prev = None
-        return False
 
 
 def release_inputs(prepared) -> None:
@@ -281,12 +195,14 @@ def error_text(e: BaseException) -> str:
 
 def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     from methods.base import View, get_method
+    from references import trace
 
     from . import records
 
     cls = get_method(job.method)
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
+    method.oracle = trace  # the exact baselines some adapters offer (never timed)
     method.run_seed = int(job.seed)  # before setup: a method may draw its random tables there
     scene, spec, ref = prep.scene, job.effect.spec, prep.reference
     view = View(scene.camera, job.width, job.height, seed=int(job.seed))

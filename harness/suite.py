@@ -138,7 +138,7 @@ def parse_size(v) -> tuple[int, int]:
     return w, h
 
 
-def _int(v, name, lo, hi=None):
+def checked_int(v, name, lo, hi=None):
     """An integer (a bool or a float is not one, even 2.0) in [lo, hi]."""
     if not _is_int(v):
         raise LdbenchError(f"{name} must be an integer, got {v!r}")
@@ -193,9 +193,9 @@ def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None) -
     import dataclasses
 
     wh = parse_size(size) if size is not None else None
-    spp = None if spp is None else _int(spp, "spp", 1, MAX_SPP)
-    warmup = None if warmup is None else _int(warmup, "warmup", 0, MAX_WARMUP)
-    frames = None if frames is None else _int(frames, "frames", 1, MAX_FRAMES)
+    spp = None if spp is None else checked_int(spp, "spp", 1, MAX_SPP)
+    warmup = None if warmup is None else checked_int(warmup, "warmup", 0, MAX_WARMUP)
+    frames = None if frames is None else checked_int(frames, "frames", 1, MAX_FRAMES)
     jobs = []
     for j in suite.jobs:
         j = dataclasses.replace(
@@ -235,7 +235,7 @@ def _frozen(d: dict) -> tuple:
     return tuple(sorted((k, tuple(v) if isinstance(v, list) else v) for k, v in d.items()))
 
 
-def _float_or_inf(v):
+def float_or_inf(v):
     if isinstance(v, str) and v.lower() in ("inf", "infinity", "unbounded"):
         return math.inf
     return v
@@ -257,11 +257,11 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
         scene = str((base_dir / scene).resolve()) if (base_dir / scene).exists() else scene
     size = run.get("size", defaults["size"])
     w, h = parse_size(size) if size is not None else (None, None)  # None: the scene's (resolve_sizes)
-    spp = _int(run.get("spp", defaults["spp"]), "spp", 1, MAX_SPP)
+    spp = checked_int(run.get("spp", defaults["spp"]), "spp", 1, MAX_SPP)
     if w is not None:
         check_budget(w, h, spp)
-    warmup = _int(run.get("warmup", defaults["warmup"]), "warmup", 0, MAX_WARMUP)
-    frames = _int(run.get("frames", defaults["frames"]), "frames", 1, MAX_FRAMES)
+    warmup = checked_int(run.get("warmup", defaults["warmup"]), "warmup", 0, MAX_WARMUP)
+    frames = checked_int(run.get("frames", defaults["frames"]), "frames", 1, MAX_FRAMES)
     scene_params = run.get("scene_params", {}) or {}
     if not isinstance(scene_params, dict):
         raise LdbenchError("scene_params must be a table")
@@ -277,9 +277,9 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
         raise LdbenchError(f"effect parameter {sorted(both)[0]!r} given twice (top level and effect_params)")
     opts = {**top, **effect_params}
     for name in _names(run["effect"], "effect"):
-        effects += effects_from_user(name, [{k: _float_or_inf(v) for k, v in combo.items()}
+        effects += effects_from_user(name, [{k: float_or_inf(v) for k, v in combo.items()}
                                             for combo in (_grid(opts) if opts else [{}])])
-    seed = _int(run.get("seed", 0), "seed", 0, MAX_SEED)
+    seed = checked_int(run.get("seed", 0), "seed", 0, MAX_SEED)
 
     methods = run.get("methods", "all")
     if methods != "all":

@@ -309,6 +309,9 @@ class Method:
     effects: frozenset = frozenset()
     Params: type = ParamsBase
     folder: Path = Path(__file__).parent
+    #: the exact ray tracer ``t = oracle(scene, batch)`` (a :class:`~harness.effects.rays.RayBatch`; inf =
+    #: miss), set by the harness for adapters whose parameters ask for an exact baseline (never timed)
+    oracle = None
     run_seed: int = 0  # the run's --seed, set by the runner before setup (View.seed carries it too)
 
     def __init__(self, params: ParamsBase | None = None):
@@ -328,6 +331,13 @@ class Method:
         harness-built inputs (e.g. a :class:`~harness.effects.rays.RayBatch`, already uploaded), the
         same the reference receives; None for image effects."""
         raise NotImplementedError
+
+    def exact_distances(self, scene, batch):
+        """The hit distances of ``batch`` from :attr:`oracle` (an error if the harness gave none)."""
+        if self.oracle is None:
+            raise LdbenchError(f"method {self.name!r}: this mode needs the harness's exact ray oracle "
+                               "(Method.oracle), which was not given")
+        return self.oracle(scene, batch)
 
     def release(self) -> None:
         """Free every GPU object (everything allocated through ``self.res``)."""
@@ -362,14 +372,14 @@ def registry() -> dict:
     """{name: Method subclass}: every adapter package under ``methods/`` (discovered), every entry point
     of group ``ldbench.methods``, and the ``package.module:Class`` references registered in this process
     or its driver (:mod:`harness.plugins`). Two classes with one name are one error naming both."""
-    import methods
     from harness import plugins
 
+    package = __name__.rpartition(".")[0]  # the methods package, whatever it is installed as
     found, sources = {}, {}
-    for mod in pkgutil.iter_modules(methods.__path__):
+    for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
         if not mod.ispkg:
             continue
-        m = importlib.import_module(f"methods.{mod.name}")
+        m = importlib.import_module(f"{package}.{mod.name}")
         for obj in vars(m).values():
             if isinstance(obj, type) and issubclass(obj, Method) and obj is not Method and obj.name:
                 plugins.add_unique(found, sources, obj, f"{obj.__module__}.{obj.__qualname__} (ldbench)", "method")

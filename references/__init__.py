@@ -6,6 +6,8 @@ ref = render_reference(scene, Effect("ao"), width=256, height=256, spp=1024)
 ref.mean, ref.variance, ref.mask, ref.meta
 ```
 
+- :func:`render_effect` and :data:`EXACT` (:mod:`references.registry`): the ground truth of any effect by
+  its spec's ``reference_key``, and the exact geometry the effects build their inputs from.
 - :func:`render_reference` (:mod:`references.render`): ``ao``, ``direct``, ``indirect`` references with
   per-pixel variance of the mean, primary rays through pixel centres, whole-wavefront sampling, cache.
 - :func:`choose_variant` (:mod:`references.variant`): ``cuda_ad_rgb`` if CUDA works, else
@@ -15,10 +17,11 @@ ref.mean, ref.variance, ref.mask, ref.meta
 """
 from .cache import REFERENCE_VERSION, default_cache_dir
 from .exr import read_exr, read_image, write_exr, write_image
+from .registry import EXACT, render_effect, trace
 from .render import Reference, primary_hits, render_reference
 from .variant import choose_variant, setup_llvm_env
 
 __all__ = [
-    "render_reference", "Reference", "choose_variant", "setup_llvm_env", "primary_hits",
+    "render_effect", "EXACT", "trace", "render_reference", "Reference", "choose_variant", "setup_llvm_env", "primary_hits",
     "REFERENCE_VERSION", "default_cache_dir", "write_exr", "read_exr", "write_image", "read_image",
 ]

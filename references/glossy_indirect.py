@@ -17,7 +17,7 @@ from .wavefront import render_estimator
 
 def glossy_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key):
     e = float(effect.exponent)
-    u = _int._rng2(mi, dr, pixel, sample, seed_key)
+    u = _int.rng2(mi, dr, pixel, sample, seed_key)
     n, d = lanes["n"], lanes["d"]
     r = d - 2.0 * dr.dot(d, n) * n
     cos_a = dr.power(u.x, 1.0 / (e + 1.0))

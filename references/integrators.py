@@ -118,7 +118,7 @@ def primary_rays(scene, width: int, height: int):
     return np.ascontiguousarray(o, np.float32), np.ascontiguousarray(d, np.float32)
 
 
-def _vec(mi, cls, a):
+def vec(mi, cls, a):
     a = np.ascontiguousarray(a, np.float32)
     return cls(mi.Float(a[:, 0]), mi.Float(a[:, 1]), mi.Float(a[:, 2]))
 
@@ -150,7 +150,7 @@ def spawn_points(si) -> np.ndarray:
     return np.ascontiguousarray(x, np.float32)
 
 
-def _rng2(mi, dr, pixel, sample, seed_key):
+def rng2(mi, dr, pixel, sample, seed_key):
     """Two uniform floats per lane from a PCG32 seeded by TEA(pixel, seed) and the sample index."""
     k0, _ = mi.sample_tea_32(pixel, seed_key, 8)
     state = mi.sample_tea_64(k0, sample, 8)
@@ -163,7 +163,7 @@ def _rng2(mi, dr, pixel, sample, seed_key):
 
 def trace_primary(mi, dr, mscene, o, d):
     """Intersect primary rays (numpy float32 (N,3)); returns (ray, si)."""
-    ray = mi.Ray3f(_vec(mi, mi.Point3f, o), _vec(mi, mi.Vector3f, d))
+    ray = mi.Ray3f(vec(mi, mi.Point3f, o), vec(mi, mi.Vector3f, d))
     si = mscene.ray_intersect(ray)
     return ray, si
 
@@ -198,7 +198,7 @@ def sample_values(mi, dr, mscene, effect, p, n, albedo, lane_pixel, lane_sample,
     ``p``, ``n``, ``albedo`` are per-lane primary-hit position, camera-facing geometric normal and
     albedo (Dr.Jit arrays).
     """
-    u = _rng2(mi, dr, lane_pixel, lane_sample, seed_key)
+    u = rng2(mi, dr, lane_pixel, lane_sample, seed_key)
     frame = mi.Frame3f(n)
     w = frame.to_world(mi.warp.square_to_cosine_hemisphere(u))
     ray = mi.Ray3f(spawn_origin(mi, dr, p, n), w)

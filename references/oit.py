@@ -28,8 +28,8 @@ import numpy as np
 
 from harness.errors import LdbenchError
 
-from .render import Reference, _variant_active
-from .variant import choose_variant
+from .render import Reference
+from .variant import choose_variant, variant_active
 
 MAX_LAUNCHES = 100_000  # per mesh: a bound on the depth complexity (never reached by a sane scene)
 
@@ -76,7 +76,7 @@ def intersections(scene, width: int, height: int) -> Intersections:
     variant = choose_variant()
     out_pix, out_t, out_m = [], [], []
     launches = 0
-    with _variant_active(variant) as mi:
+    with variant_active(variant) as mi:
         for k, m in enumerate(scene.meshes):
             if len(m.faces) == 0:
                 continue
@@ -96,7 +96,7 @@ def intersections(scene, width: int, height: int) -> Intersections:
                 if len(idx) == 0:
                     break
                 org = (o64[idx] + d64[idx] * s[:, None]).astype(np.float32)
-                ray = mi.Ray3f(_int._vec(mi, mi.Point3f, org), _int._vec(mi, mi.Vector3f, d32[idx]))
+                ray = mi.Ray3f(_int.vec(mi, mi.Point3f, org), _int.vec(mi, mi.Vector3f, d32[idx]))
                 pi = ms.ray_intersect_preliminary(ray)
                 valid, t_loc, prim = pi.is_valid(), mi.Float(pi.t), mi.UInt32(pi.prim_index)
                 dr.eval(valid, t_loc, prim)

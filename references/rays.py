@@ -1,8 +1,9 @@
 """The exact ray oracle of the ``rays`` effect (:mod:`harness.effects.rays`): Mitsuba 3 on the same triangles.
 
-:func:`make_batch` builds the harness's ray batch from Mitsuba's own primary hits; :func:`trace_oracle`
-answers it in one wavefront with ``ray_intersect_preliminary`` (closest hit, ``maxt`` = the ray's t_max)
-or ``ray_test`` (shadow rays) and times itself:
+:func:`harness.effects.rays.make_batch` builds the ray batch from Mitsuba's own primary hits
+(:func:`references.render.primary_hits`) and :func:`epsilons`; :func:`trace_oracle` answers it in one
+wavefront with ``ray_intersect_preliminary`` (closest hit, ``maxt`` = the ray's t_max) or ``ray_test``
+(shadow rays) and times itself:
 
 - CUDA: the sum of Dr.Jit's kernel device times (``dr.kernel_history()``, ``execution_time``) of a second,
   identical launch, so code generation and compilation of the first launch are excluded;
@@ -18,30 +19,26 @@ import numpy as np
 from harness.errors import LdbenchError
 
 from . import integrators as _int
-from .render import _variant_active, primary_hits
-from .variant import choose_variant
+from .variant import choose_variant, variant_active
 
 
-def _epsilons():
+def epsilons():
     """Mitsuba's (RayEpsilon, ShadowEpsilon) of the variant in use: ``harness.conventions``' values for the
     float32 variants."""
-    with _variant_active(choose_variant()) as mi:
+    with variant_active(choose_variant()) as mi:
         return float(mi.math.RayEpsilon), float(mi.math.ShadowEpsilon)
 
 
 def make_batch(scene, width: int, height: int, params, seed: int):
-    """The :class:`~harness.effects.rays.RayBatch` of ``params`` for this view."""
-    from harness.effects.rays import build_batch
+    """:func:`harness.effects.rays.make_batch` from Mitsuba's exact primary hits (what the harness hands in)."""
+    from types import SimpleNamespace
 
-    hits = primary_hits(scene, width, height)
-    if not hits["mask"].any():
-        raise LdbenchError(f"scene {scene.name!r}: the camera sees no geometry, no rays to cast")
-    _, dirs = scene.camera.primary_rays(width, height)
-    ray_eps, shadow_eps = _epsilons()
-    light = scene.lights[0] if scene.lights else None
-    batch = build_batch(hits, dirs, params, seed, light=light, ray_epsilon=ray_eps, shadow_epsilon=shadow_eps)
-    batch.primary_mask = hits["mask"]
-    return batch
+    from harness.effects import rays
+
+    from .render import primary_hits
+
+    return rays.make_batch(scene, width, height, params, seed, SimpleNamespace(primary_hits=primary_hits,
+                                                                              epsilons=epsilons))
 
 
 def trace_oracle(scene, batch):
@@ -50,10 +47,10 @@ def trace_oracle(scene, batch):
     import drjit as dr
 
     variant = choose_variant()
-    with _variant_active(variant) as mi:
+    with variant_active(variant) as mi:
         mscene = _int.build_scene(scene, with_lights=False)
-        o = _int._vec(mi, mi.Point3f, batch.origin)
-        d = _int._vec(mi, mi.Vector3f, batch.direction)
+        o = _int.vec(mi, mi.Point3f, batch.origin)
+        d = _int.vec(mi, mi.Vector3f, batch.direction)
         tmax = mi.Float(np.ascontiguousarray(batch.tmax, np.float32))
         dr.eval(o, d, tmax)
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 import math
 import sys
 import time
-from contextlib import contextmanager
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +27,7 @@ from harness.errors import LdbenchError
 
 from . import cache as _cache
 from . import integrators as _int
-from .variant import choose_variant, mitsuba_version
+from .variant import choose_variant, mitsuba_version, variant_active
 
 # Samples (secondary rays) per wavefront, by variant. On the CPU 2^22 keeps the indirect wavefront (full
 # surface interactions plus shadow rays) well under 1 GB at no loss of speed; on a GPU 2^24 is about
@@ -69,14 +68,14 @@ def _check_args(scene, effect, width, height, spp, seed):
     return effect
 
 
-def _seed_key(seed: int) -> int:
+def mix_seed(seed: int) -> int:
     x = (int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & ((1 << 64) - 1)
     x ^= x >> 29
     x = (x * 0xBF58476D1CE4E5B9) & ((1 << 64) - 1)
     return (x ^ (x >> 32)) & 0xFFFFFFFF
 
 
-def _progress(total, desc, enabled):
+def progress_bar(total, desc, enabled):
     try:
         from tqdm import tqdm
     except ImportError:  # pragma: no cover
@@ -107,9 +106,9 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
     var = np.zeros((npix, C), np.float64)
     mask = np.zeros(npix, bool)
     stochastic = effect.spec.stochastic(effect.params)
-    seed_key = dr.opaque(mi.UInt32, _seed_key(seed))
+    seed_key = dr.opaque(mi.UInt32, mix_seed(seed))
     chunk = max(1, min(npix, batch_rays))
-    bar = _progress(npix * (spp if stochastic else 1), f"reference {scene.name} {effect.label()}", progress)
+    bar = progress_bar(npix * (spp if stochastic else 1), f"reference {scene.name} {effect.label()}", progress)
     try:
         for c0 in range(0, npix, chunk):
             c1 = min(npix, c0 + chunk)
@@ -125,7 +124,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
                 continue
             n = _int.facing_normal(dr, si, ray.d)
             alb = si.bsdf().eval_diffuse_reflectance(si, valid) if effect.name == "indirect" else None
-            p_hit = _int._vec(mi, mi.Point3f, _int.spawn_points(si))  # crease points; sample_values spawns
+            p_hit = _int.vec(mi, mi.Point3f, _int.spawn_points(si))  # crease points; sample_values spawns
             dr.eval(valid, p_hit, n, alb)
             m = _int.np1(valid).astype(bool)
             mask[c0:c1] = m
@@ -179,23 +178,6 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays):
             mask.reshape(H, W))
 
 
-@contextmanager
-def _variant_active(variant: str):
-    """Mitsuba with ``variant`` set for the block; the caller's variant restored afterwards."""
-    import mitsuba as mi
-
-    prev = mi.variant()
-    mi.set_variant(variant)
-    try:
-        yield mi
-    finally:
-        if prev is not None and prev != variant:
-            try:
-                mi.set_variant(prev)
-            except Exception:
-                pass
-
-
 def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024, cache: bool = True,
                      cache_dir=None, progress: bool = True, seed: int = 0,
                      batch_rays: int | None = None) -> Reference:
@@ -234,7 +216,7 @@ def cached_render(scene, effect, width: int, height: int, spp: int, spp_requeste
     metadata and storing: what every reference renderer shares (this module and :mod:`references.wavefront`).
     ``rays_per_sample``: rays per sample of a hit pixel, for ``rays_per_second`` (one primary ray per pixel
     besides)."""
-    with _variant_active(variant):
+    with variant_active(variant):
         version = mitsuba_version()
         fields = _cache.key_fields(scene, effect, width, height, spp, seed, version, variant)
         key = _cache.cache_key(fields)
@@ -283,7 +265,7 @@ def primary_hits(scene, width: int, height: int) -> dict:
     variant = choose_variant()
     import drjit as dr
 
-    with _variant_active(variant) as mi:
+    with variant_active(variant) as mi:
         mscene = _int.build_scene(scene, with_lights=False)
         o, d = _int.primary_rays(scene, width, height)
         ray, si = _int.trace_primary(mi, dr, mscene, o, d)

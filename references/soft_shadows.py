@@ -17,7 +17,7 @@ from .wavefront import render_estimator
 
 
 def soft_shadow_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key):
-    u = _int._rng2(mi, dr, pixel, sample, seed_key)
+    u = _int.rng2(mi, dr, pixel, sample, seed_key)
     z = 1.0 - 2.0 * u.x
     rr = dr.safe_sqrt(1.0 - z * z)
     phi = 2.0 * dr.pi * u.y

@@ -18,6 +18,7 @@ import glob
 import os
 import re
 import sys
+from contextlib import contextmanager
 
 from harness.errors import LdbenchError
 
@@ -162,3 +163,20 @@ if __name__ == "__main__":  # pragma: no cover
     except LdbenchError as e:
         print(f"ldbench: error: {e}", file=sys.stderr)
         sys.exit(2)
+
+
+@contextmanager
+def variant_active(variant: str):
+    """Mitsuba with ``variant`` set for the block; the caller's variant restored afterwards."""
+    import mitsuba as mi
+
+    prev = mi.variant()
+    mi.set_variant(variant)
+    try:
+        yield mi
+    finally:
+        if prev is not None and prev != variant:
+            try:
+                mi.set_variant(prev)
+            except Exception:
+                pass

@@ -9,7 +9,7 @@ lanes of a wavefront, where ``lanes`` holds per-lane Dr.Jit arrays: ``p`` (the h
 :func:`references.integrators.spawn_origin` of it, as in render_reference), ``n`` (geometric normal facing the
 camera), ``albedo``,
 ``d`` (the camera ray's direction) and ``direct`` (the unshadowed direct light leaving the hit towards
-the camera, when ``needs_direct``). Random numbers: :func:`references.integrators._rng2` (one PCG32
+the camera, when ``needs_direct``). Random numbers: :func:`references.integrators.rng2` (one PCG32
 stream per pixel, sample index and seed). Mean and variance of the mean as in :mod:`references.render`;
 cached under the same key scheme (:mod:`references.cache`).
 """
@@ -20,7 +20,7 @@ import numpy as np
 from harness.errors import LdbenchError
 
 from . import integrators as _int
-from .render import BATCH_RAYS, Reference, _progress, _seed_key, cached_render
+from .render import BATCH_RAYS, Reference, cached_render, mix_seed, progress_bar
 from .variant import choose_variant
 
 
@@ -34,9 +34,9 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estim
     mean = np.zeros((npix, 3), np.float64)
     var = np.zeros((npix, 3), np.float64)
     mask = np.zeros(npix, bool)
-    seed_key = dr.opaque(mi.UInt32, _seed_key(seed))
+    seed_key = dr.opaque(mi.UInt32, mix_seed(seed))
     chunk = max(1, min(npix, batch_rays))
-    bar = _progress(npix * spp, f"reference {scene.name} {effect.label()}", progress)
+    bar = progress_bar(npix * spp, f"reference {scene.name} {effect.label()}", progress)
     try:
         for c0 in range(0, npix, chunk):
             c1 = min(npix, c0 + chunk)
@@ -45,7 +45,7 @@ def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estim
             per_pixel = {"n": _int.facing_normal(dr, si, ray.d),
                          "albedo": mi.Color3f(si.bsdf().eval_diffuse_reflectance(si, valid)),
                          "d": mi.Vector3f(ray.d),
-                         "p": _int._vec(mi, mi.Point3f, _int.spawn_points(si))}
+                         "p": _int.vec(mi, mi.Point3f, _int.spawn_points(si))}
             if needs_direct:
                 per_pixel["direct"] = _int.direct_light(mi, dr, mscene, si, valid, shadows=False)
             dr.eval(valid, *per_pixel.values())

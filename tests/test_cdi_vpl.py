@@ -27,7 +27,7 @@ from harness.errors import LdbenchError
 from harness.scenes import load_scene
 from methods.base import View, get_method
 from methods.cdi_vpl import CdiVpl, CdiVplParams
-from references import render_reference
+from references import EXACT, render_effect, render_reference, trace
 
 SIZE = 64
 
@@ -39,6 +39,7 @@ def cornell():
 
 def run(gpu, scene, effect, inputs=None, size=SIZE, keep=False, **params):
     m = CdiVpl(CdiVplParams.from_dict(params))
+    m.oracle = trace
     m.setup(gpu, scene)
     if inputs is not None:
         inputs.upload(gpu)
@@ -75,8 +76,8 @@ def test_registered_and_params():
 @pytest.fixture(scope="module")
 def rays_case(cornell):
     e = Effect("rays", ray_kind="diffuse", rays_per_pixel=2)
-    batch = e.spec.inputs(cornell, 48, 48, e.params, 0)
-    return e, batch, e.spec.reference(cornell, e, width=48, height=48, spp=1, seed=0, inputs=batch)
+    batch = e.spec.inputs(cornell, 48, 48, e.params, 0, exact=EXACT)
+    return e, batch, render_effect(cornell, e, width=48, height=48, spp=1, seed=0, inputs=batch)
 
 
 def test_rays_against_the_oracle(gpu, cornell, rays_case):
@@ -221,7 +222,7 @@ def test_static_cdi_releases_the_triangles(gpu, cornell):
     """``cdi = "static"``: built once in setup, the frame is the raycast alone and the method holds the CDI
     (and its outputs) only; the answers equal the per-frame build's."""
     e = Effect("vpl_range", rsm=32)
-    batch = e.spec.inputs(cornell, 8, 8, e.params, 0)
+    batch = e.spec.inputs(cornell, 8, 8, e.params, 0, exact=EXACT)
     a = run(gpu, cornell, e, batch, size=8)
     b = run(gpu, cornell, e, batch, size=8, cdi="static")
     np.testing.assert_array_equal(a.arrays["range"], b.arrays["range"])
@@ -237,7 +238,7 @@ def test_dispatches_beyond_the_group_limit(gpu, cornell, monkeypatch):
     import methods.cdi_vpl as cdi
 
     e = Effect("vpl_range", rsm=32)
-    batch = e.spec.inputs(cornell, 8, 8, e.params, 0)
+    batch = e.spec.inputs(cornell, 8, 8, e.params, 0, exact=EXACT)
     want = [run(gpu, cornell, e, batch, size=8, range=r).arrays["range"] for r in ("cdi", "random")]
     monkeypatch.setattr(cdi, "MAX_GROUPS", 2)
     got = [run(gpu, cornell, e, batch, size=8, range=r).arrays["range"] for r in ("cdi", "random")]

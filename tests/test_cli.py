@@ -188,7 +188,7 @@ def test_rerun_replaces_the_run(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
-def test_suite_name_cannot_escape_reports(tmp_path):
+def test_suite_name_cannot_escape_runs(tmp_path):
     work = tmp_path / "a" / "b"
     work.mkdir(parents=True)
     s = work / "s.toml"
@@ -198,7 +198,7 @@ def test_suite_name_cannot_escape_reports(tmp_path):
                        cwd=work, capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
                        timeout=300)
     assert p.returncode == 0, p.stderr
-    runs = list((work / "reports").iterdir())
+    runs = list((work / "runs").iterdir())
     assert len(runs) == 1 and runs[0].name.startswith("escape-")
     assert sorted(x.name for x in tmp_path.iterdir()) == ["a"] and sorted(x.name for x in (tmp_path / "a").iterdir()) == ["b"]
 
@@ -317,7 +317,7 @@ def test_an_unexpected_exception_is_one_row_and_the_run_completes(tmp_path, monk
     """A job raising something other than LdbenchError (a bug, a driver fault) marks its own row
     ``error: TYPE: message``; the other rows are kept and the run directory is committed."""
     from methods.hbao import HBAO
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
 
     def broken(self, *a, **k):
         raise RuntimeError("simulated driver fault\nsecond line")
@@ -485,7 +485,7 @@ def test_an_unexpected_reference_failure_marks_its_jobs_and_the_run_completes(tm
     """As on the Ray executor: a reference raising something other than LdbenchError marks the rows of
     its jobs; the jobs of other references still run."""
     import references as refs
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     real = refs.render_reference

@@ -20,7 +20,7 @@ ray = pytest.importorskip("ray", reason="the test extra installs ray (pip instal
 
 from harness.executors.check import TIMED, differences, image_files  # noqa: E402
 from harness.executors.ray import RayExecutor, cpus_per_gpu, group_jobs  # noqa: E402
-from harness.runner import run_jobs  # noqa: E402
+from harness.executors import run_jobs  # noqa: E402
 from harness.suite import suite_from_dict  # noqa: E402
 
 def _suite(d_max=(0.5, "inf"), methods=("hbao", "ldm")):
@@ -207,13 +207,13 @@ def test_cli_flags_checked(tmp_path, capsys):
 
 def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
     """What the Ctrl-C test above raises becomes exit 130 and one line at the command line."""
-    import harness.runner
+    import harness.executors
     from harness.cli import main
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(harness.runner, "run_jobs", interrupted)
+    monkeypatch.setattr(harness.executors, "run_jobs", interrupted)
     assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--d-max", "0.1", "--executor", "ray",
                  "--out", str(tmp_path / "r")]) == 130
     assert capsys.readouterr().err == "ldbench: interrupted\n"

@@ -4,6 +4,7 @@ import pandas as pd
 import pytest
 
 from harness import history as H
+from harness import history_plots as HP
 from harness import records as R
 from harness.cli import main
 
@@ -132,7 +133,7 @@ def test_rays_history_follows_hit_agreement(tmp_path):
             hit_agreement=(0.976 if day <= 8 else 0.95) + 0.0002 * rng.standard_normal())
         R.write_results([row], tmp_path / f"r{day}")
         H.add_run(tmp_path / f"r{day}", hist)
-    res = H.plot_history(hist)
+    res = HP.plot_history(hist)
     cps = [c for c in res["change_points"] if c["metric"] == "hit_agreement"]
     assert len(cps) == 1 and cps[0]["index"] == 8 and cps[0]["change"] < -0.02
 

@@ -53,7 +53,7 @@ def test_overflow_of_a_fixed_pool_is_a_violated_invariant(gpu, case):
 
 def test_a_fixed_pool_that_overflows_degrades_the_row(tmp_path):
     """The case that passed as ``ok`` before: ldm with a fixed pool keeping 10 fragments."""
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "16x16", "warmup": 0, "frames": 1},

@@ -18,6 +18,7 @@ from methods.base import View, get_method
 from methods.directions import cube_cell, cube_directions, cube_k
 from methods.ldi import Ldi, LdiParams
 from methods.scan import Scan
+from references import EXACT
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -570,7 +571,7 @@ def test_prebuilt_ldis_answer_as_the_per_frame_build(gpu):
 
     sc = load_scene("cornell")
     e = Effect("rays", rays_per_pixel=1)
-    batch = e.spec.inputs(sc, 16, 16, e.params, 0)
+    batch = e.spec.inputs(sc, 16, 16, e.params, 0, exact=EXACT)
     out = {}
     for pre in (False, True):
         m = _ldi(gpu, sc, directions=24, resolution=32, prebuild=pre)

@@ -7,6 +7,7 @@ import pytest
 
 from testkit import plane, quad
 from harness.effects import Effect, get_spec
+from references import render_effect
 from harness.errors import LdbenchError
 from harness.scene import Camera, Scene, SpotLight
 from methods.base import View
@@ -112,7 +113,7 @@ def test_glossy_matches_reference(gpu, mitsuba, exponent, bias, psnr):
     from harness import metrics
 
     scene, eff = _floor_wall(), Effect("glossy_indirect", exponent=exponent)
-    ref = eff.spec.reference(scene, eff, width=32, height=32, spp=2048, seed=0, inputs=None, progress=False)
+    ref = render_effect(scene, eff, width=32, height=32, spp=2048, seed=0, inputs=None, progress=False)
     r, stages = _render(gpu, scene, eff, 32, directions=96, resolution=128, rays_per_pixel=512)
     m = ref.mask
     ratio = r.image[m].mean() / ref.mean[m].mean()
@@ -150,7 +151,7 @@ def test_soft_shadows_on_cornell(gpu, mitsuba):
     from harness.scenes import load_scene
 
     scene, eff = load_scene("cornell"), Effect("soft_shadows", light_radius=0.05)
-    ref = eff.spec.reference(scene, eff, width=48, height=48, spp=1024, seed=0, inputs=None, progress=False)
+    ref = render_effect(scene, eff, width=48, height=48, spp=1024, seed=0, inputs=None, progress=False)
     r, stages = _render(gpu, scene, eff, 48, directions=96)
     m = ref.mask
     assert "shadow" not in stages and r.counters["rays_per_pixel"] == 16

@@ -236,7 +236,7 @@ def test_ll_oit_pool_policies_and_aggregated_counter(gpu, scenes, refs, params):
 
 def test_overflow_is_a_degraded_row(tmp_path):
     """A pool too small for the fragments: the row is degraded (the image lacks fragments)."""
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "24x24", "warmup": 0, "frames": 1},

@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 
 from harness import records
+from layout import ROOT, import_prefix, installed_path, packages
 
-ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("harness", "methods", "references")
+PACKAGES = tuple(packages())
+PREFIX = import_prefix()  # "ldbench." once the folders are installed under one name
 ADAPTER_DIRS = sorted(p.parent.name for p in (ROOT / "methods").glob("*/__init__.py"))
 TINY = ["--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0", "--no-report", "--no-progress"]
 
@@ -41,8 +42,8 @@ def _expected_files() -> set:
     for pkg in PACKAGES:
         for p in (ROOT / pkg).rglob("*"):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".glsl", ".toml", ".js", ".css"):
-                out.add(p.relative_to(ROOT).as_posix())
-    out |= {f"harness/suites/{p.name}" for p in (ROOT / "suites").glob("*.toml")}
+                out.add(installed_path(p.relative_to(ROOT).as_posix()))
+    out |= {installed_path(f"harness/suites/{p.name}") for p in (ROOT / "suites").glob("*.toml")}
     return out
 
 
@@ -72,6 +73,7 @@ def installed(tmp_path_factory):
     purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                                   check=True, capture_output=True, text=True).stdout.strip())
     deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
+    deps |= {p for p in sys.path if p.endswith(("site-packages", "dist-packages")) and Path(p).is_dir()}  # .pth-added
     (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
     p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps", "--no-index",
                         str(wheel)], capture_output=True, text=True, timeout=300)
@@ -98,13 +100,17 @@ def test_wheel_holds_every_adapter_glsl_and_suite(installed):
     assert not missing, f"missing from the wheel: {sorted(missing)}"
     assert len(ADAPTER_DIRS) >= 3
     for a in ADAPTER_DIRS:
-        assert f"methods/{a}/__init__.py" in names
-    assert "harness/scene_registry.toml" in names and "harness/suites/default.toml" in names
-    assert not any(n.startswith(("tests/", "suites/", "docs/")) for n in names)
+        assert installed_path(f"methods/{a}/__init__.py") in names
+    registry_toml = next(ROOT.glob("*/scene_registry.toml")).relative_to(ROOT).as_posix()
+    assert installed_path(registry_toml) in names and installed_path("harness/suites/default.toml") in names
+    top = {n.split("/")[0] for n in names} - {n.split("/")[0] for n in names if ".dist-info/" in n}
+    # nothing generic at the top of site-packages: one import name once the folders are mapped under it
+    assert top == ({PREFIX[:-1]} if PREFIX else set(PACKAGES)), sorted(top)
 
 
 def test_installed_ldbench_runs_outside_the_source_tree(installed):
-    where = _run(installed, installed["py"], "-c", "import harness, methods; print(harness.__file__, methods.__file__)")
+    where = _run(installed, installed["py"], "-c", f"import importlib; print(*(importlib.import_module('{PREFIX}' + p)"
+                 f".__file__ for p in {PACKAGES!r}))")
     assert all(Path(p).is_relative_to(installed["purelib"]) for p in where.split()), where
     from methods.base import registry
 

@@ -251,7 +251,7 @@ def test_the_run_seed_reaches_methods(tmp_path, monkeypatch, clean_plugins):
     parameter is mixed with it (Method.seed_for), unchanged at run seed 0."""
     import numpy as np
 
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
     from methods.base import Method
     from references.exr import read_exr
@@ -333,7 +333,7 @@ def test_module_class_names_are_forwarded_to_workers(tmp_path, monkeypatch, clea
 def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
     """The example's SSAO against the reference (thresholds just below the measured 13.2 dB step and
     16.1 dB quadratic at 32², spp 16), and the quadratic mode weighting occluders below 1."""
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     from harness.newmethod import write_template

@@ -11,6 +11,7 @@ from harness.effects import Effect
 from harness.effects.rays import RayBatch, RaysParams, build_batch, is_hit, ray_metrics
 from harness.errors import LdbenchError
 from harness.scene import Camera, Mesh, Scene, SpotLight
+from references import EXACT, render_effect
 from references.rays import make_batch, trace_oracle
 from testkit import box, cornell_like
 
@@ -204,8 +205,8 @@ def test_every_ray_kind_through_every_tracer(gpu, kind):
 
     sc = load_scene("cornell")
     e = Effect("rays", ray_kind=kind, rays_per_pixel=1, **({"d_max": 0.5} if kind == "ao" else {}))
-    batch = e.spec.inputs(sc, 24, 24, e.params, 0)
-    ref = e.spec.reference(sc, e, width=24, height=24, spp=1, seed=0, inputs=batch)
+    batch = e.spec.inputs(sc, 24, 24, e.params, 0, exact=EXACT)
+    ref = render_effect(sc, e, width=24, height=24, spp=1, seed=0, inputs=batch)
     sizes = {"ldm": dict(directions=128, resolution=64), "ldi": dict(directions=54, resolution=64),
              "cdi-vpl": dict(directions=169, resolution=64)}
     for name, want in KIND_AGREEMENT[kind].items():

@@ -125,7 +125,7 @@ def test_a_non_finite_reference_never_scores_a_row():
 def test_a_run_stops_before_scoring_against_a_non_finite_reference(tmp_path, monkeypatch):
     import references as refs
     from harness.errors import LdbenchError
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     real = refs.render_reference

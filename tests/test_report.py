@@ -70,7 +70,7 @@ def local(run_dir: Path, link: str) -> Path:
 
 @pytest.fixture(scope="module")
 def real_run(tmp_path_factory):
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     suite = suite_from_dict({

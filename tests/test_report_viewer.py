@@ -34,7 +34,7 @@ needs_chromium = pytest.mark.skipif(_chromium() is None, reason=CHROMIUM_SKIP)
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    from harness.runner import run_jobs
+    from harness.executors import run_jobs
     from harness.suite import suite_from_dict
 
     suite = suite_from_dict({

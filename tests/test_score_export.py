@@ -10,7 +10,7 @@ import pytest
 from harness import records
 from harness.cli import main
 from harness.effects import Effect
-from harness.runner import run_jobs
+from harness.executors import run_jobs
 from harness.score import Question, items_from_folder, score_into_run
 from harness.suite import suite_from_dict
 

@@ -8,6 +8,8 @@ An effect spec declares, as data and a few hooks:
 ``output``             ``"image"``, ``"rays"`` or ``"vpls"``: what a method returns
 ``needs_light``        whether the definition involves the scene's light (:meth:`requires_light` may
                        refine it by parameter); :meth:`check_scene` is the one place that enforces it
+``reference_key``      the key of its ground truth in the references' registry
+                       (:data:`references.registry.RENDERERS`; the harness wires the two)
 ``reference_backend``  the ground truth, in words (Mitsuba 3 integrator or oracle)
 ``metrics``            the result columns the effect fills
 ``gate``               (non-image effects) the metrics the nightly gate checks: (column, "higher"|"lower"
@@ -16,20 +18,28 @@ An effect spec declares, as data and a few hooks:
 ``supersedes``         effect parameters that replace a method's parameter of the same name on this
                        effect (the harness builds the inputs from them): the row records the effect's
 ``inputs()``           arrays the harness builds deterministically from (scene, view, seed) and hands
-                       identically to the method and to the reference (None for pure image effects)
-``reference()``        the ground truth for those inputs
+                       identically to the method and to the reference (None for pure image effects),
+                       from the exact geometry the harness passes in (``exact``, below)
 ``score()``            the metric columns of one method result against the reference
 ``save()``             images of the result, the reference and the error, for reports
 =====================  ===========================================================================
 
 :class:`ImageEffect` implements the image effects (``ao``, ``direct``, ``indirect``): Mitsuba 3 reference
-images with per-pixel variance (:func:`references.render_reference`), PSNR/SSIM/FLIP/relMSE and coverage.
+images with per-pixel variance (``reference_key`` "image": :func:`references.render_reference`),
+PSNR/SSIM/FLIP/relMSE and coverage.
+
+This package imports nothing above the foundation: a spec names its reference by key, and the inputs of
+the effects that need exact geometry (``rays``, ``vpl_range``) are built from ``exact``, an object the
+harness hands in with ``primary_hits(scene, width, height)`` and ``rsm_hits(scene, R)`` (dicts of
+``mask``, ``position``, ``normal``, ...) and ``epsilons()`` (the ray and shadow epsilons of the ground
+truth); :data:`references.registry.EXACT` is the Mitsuba 3 one.
 """
 from __future__ import annotations
 
 import importlib
 import math
 import pkgutil
+from pathlib import Path
 
 import numpy as np
 
@@ -46,6 +56,7 @@ class EffectSpec:
     Params: type = None
     output: str = "image"
     needs_light: bool = False
+    reference_key: str = ""
     reference_backend: str = ""
     metrics: tuple = ()
     gate: tuple = ()
@@ -76,14 +87,12 @@ class EffectSpec:
         """Whether the reference is a Monte Carlo estimate (then ``spp`` matters)."""
         return True
 
-    def inputs(self, scene, width: int, height: int, params, seed: int):
-        """Harness-built inputs handed to both the method and the reference (None: none)."""
+    def inputs(self, scene, width: int, height: int, params, seed: int, exact=None):
+        """Harness-built inputs handed to both the method and the reference (None: none); ``exact`` is
+        the exact geometry they are built from (module docstring)."""
         return None
 
-    # ---- reference, metrics, artefacts --------------------------------------------------------------
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        raise NotImplementedError
-
+    # ---- metrics, artefacts -------------------------------------------------------------------------
     def score(self, result, reference, *, scene, inputs, stage_ms: dict) -> dict:
         raise NotImplementedError
 
@@ -103,14 +112,9 @@ class ImageEffect(EffectSpec):
     channels = 3
     background = 0.0
     data_range = None
+    reference_key = "image"
     reference_backend = "Mitsuba 3, references.render_reference"
     metrics = IMAGE_METRICS
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references import render_reference
-
-        return render_reference(scene, effect, width=width, height=height, spp=spp, seed=seed, cache=cache,
-                                progress=progress)
 
     def method_image(self, result, reference):
         """(image, coverage mask): the method's image with its missing pixels (mask False) set to
@@ -176,14 +180,14 @@ def registry() -> dict:
     of group ``ldbench.effects`` (:mod:`harness.plugins`); two specs with one name are one error."""
     global _REGISTRY
     if _REGISTRY is None:
-        import harness.effects as pkg
         from harness import plugins
 
+        package = __name__.rpartition(".")[0]  # this package, whatever it is installed as
         found, sources = {}, {}
-        for mod in pkgutil.iter_modules(pkg.__path__):
+        for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
             if mod.name.startswith("_") or mod.name == "base":
                 continue
-            m = importlib.import_module(f"harness.effects.{mod.name}")
+            m = importlib.import_module(f"{package}.{mod.name}")
             for obj in vars(m).values():
                 if (isinstance(obj, type) and issubclass(obj, EffectSpec) and obj.name
                         and obj.__module__ == m.__name__):

@@ -35,13 +35,8 @@ class GlossyIndirect(ImageEffect):
     name = "glossy_indirect"
     Params = GlossyIndirectParams
     needs_light = True
+    reference_key = "glossy_indirect"
     reference_backend = "Mitsuba 3: normalized Phong lobe sampling, next-event estimation at the hit"
 
     def label(self, params):
         return f"glossy_indirect-e{params.exponent:g}"
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references.glossy_indirect import render_glossy_indirect
-
-        return render_glossy_indirect(scene, effect, width=width, height=height, spp=spp, seed=seed, cache=cache,
-                                      progress=progress)

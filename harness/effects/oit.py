@@ -71,16 +71,12 @@ class OIT(ImageEffect):
     channels = 3
     background = 1.0
     data_range = 1.0
+    reference_key = "oit"
     reference_backend = ("Mitsuba 3: every intersection along the pixel-centre ray (ray_intersect_preliminary "
                          "re-launched past each hit, per mesh), composited front to back (exact)")
 
     def stochastic(self, params):
         return False  # exact: spp does not apply
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references.oit import render_oit
-
-        return render_oit(scene, width, height)
 
     def preview_scale(self, reference):
         return None  # colours lie in [0, 1]: PNG previews unscaled

@@ -176,6 +176,22 @@ def build_batch(hits: dict, cam_dirs: np.ndarray, params: RaysParams, seed: int,
                     occlusion=params.ray_kind == "shadow")
 
 
+def make_batch(scene, width: int, height: int, params: RaysParams, seed: int, exact) -> RayBatch:
+    """The :class:`RayBatch` of ``params`` for this view, from the exact primary hits and epsilons of
+    ``exact`` (:mod:`harness.effects.base`)."""
+    if exact is None:
+        raise LdbenchError("the rays effect builds its rays from exact primary hits: pass exact=")
+    hits = exact.primary_hits(scene, width, height)
+    if not hits["mask"].any():
+        raise LdbenchError(f"scene {scene.name!r}: the camera sees no geometry, no rays to cast")
+    _, dirs = scene.camera.primary_rays(width, height)
+    ray_eps, shadow_eps = exact.epsilons()
+    light = scene.lights[0] if scene.lights else None
+    batch = build_batch(hits, dirs, params, seed, light=light, ray_epsilon=ray_eps, shadow_epsilon=shadow_eps)
+    batch.primary_mask = hits["mask"]
+    return batch
+
+
 @dataclass
 class RaysReference:
     """The oracle's answer on a batch: ``t`` (inf = miss, 0 = blocked shadow ray), timing, primary mask."""
@@ -241,6 +257,7 @@ class Rays(EffectSpec):
     name = "rays"
     Params = RaysParams
     output = "rays"
+    reference_key = "rays"
     reference_backend = "Mitsuba 3 oracle: ray_intersect_preliminary / ray_test on the same rays"
     metrics = RAY_METRICS
     # Exact answers on both sides: no reference noise, so fixed tolerances (absolute, relative).
@@ -268,15 +285,8 @@ class Rays(EffectSpec):
             out["d_max"] = "inf" if math.isinf(params.d_max) else params.d_max
         return out
 
-    def inputs(self, scene, width, height, params, seed):
-        from references.rays import make_batch
-
-        return make_batch(scene, width, height, params, seed)
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references.rays import trace_oracle
-
-        return trace_oracle(scene, inputs)
+    def inputs(self, scene, width, height, params, seed, exact=None):
+        return make_batch(scene, width, height, params, seed, exact)
 
     def _t(self, result, batch):
         t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)

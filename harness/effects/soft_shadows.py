@@ -37,13 +37,8 @@ class SoftShadows(ImageEffect):
     name = "soft_shadows"
     Params = SoftShadowsParams
     needs_light = True
+    reference_key = "soft_shadows"
     reference_backend = "Mitsuba 3: unshadowed spot term x visible fraction of the light sphere (ray_test)"
 
     def label(self, params):
         return f"soft_shadows-r{params.light_radius:g}"
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references.soft_shadows import render_soft_shadows
-
-        return render_soft_shadows(scene, effect, width=width, height=height, spp=spp, seed=seed, cache=cache,
-                                   progress=progress)

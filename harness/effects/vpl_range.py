@@ -5,7 +5,7 @@ exact distances along the same rays (archer2019 §3.2).
 identically to the method and to the oracle):
 
 1. **VPLs**: a reflective shadow map (RSM) of the scene's first light, built with **Mitsuba** on the
-   harness side (:func:`references.vpl_range.make_vpls`): ``rsm`` × ``rsm`` rays from the light through the
+   harness side (:func:`make_vpls`, hits from ``exact.rsm_hits``): ``rsm`` × ``rsm`` rays from the light through the
    texel centres of :func:`rsm_camera` (a square perspective view along the spot axis with a field of view
    of twice the cut-off angle), exact first hits. Each texel whose ray hits inside the cone (fall-off > 0)
    is one VPL: position y, normal n (geometric, facing the light), flux Φ = albedo · I · fall-off · Ω
@@ -198,6 +198,44 @@ class VplRangeReference:
         return np.ones(1, bool) if len(self.range) else np.zeros(1, bool)
 
 
+def make_vpls(scene, params: VplRangeParams, seed: int, exact) -> VplBatch:
+    """The :class:`VplBatch` of ``params`` (an ``rsm``² RSM, six rays per VPL), from the exact first hits
+    of the RSM rays and the ray epsilon of ``exact`` (:mod:`harness.effects.base`)."""
+    from .rays import RayBatch
+
+    if exact is None:
+        raise LdbenchError("the vpl_range effect builds its VPLs from exact RSM hits: pass exact=")
+    if not scene.lights:
+        raise LdbenchError(f"scene {scene.name!r} has no light: no reflective shadow map")
+    R = int(params.rsm)
+    light = scene.lights[0]
+    hits = exact.rsm_hits(scene, R)
+    d = hits["direction"]
+    fall = light.falloff(d @ np.asarray(light.direction(), np.float64))
+    keep = hits["mask"] & (fall > 0)
+    texel = np.flatnonzero(keep).astype(np.uint32)
+    if len(texel) == 0:
+        raise LdbenchError(f"scene {scene.name!r}: the light's RSM at {R}x{R} sees no geometry, no VPLs")
+    y = hits["position"][keep].astype(np.float64)
+    n = hits["normal"][keep].astype(np.float64)
+    w = d[keep]
+    omega = texel_solid_angle(light, R, w)
+    flux = hits["albedo"][keep] * np.asarray(light.intensity)[None] * (fall[keep] * omega)[:, None]
+    dist2 = ((y - np.asarray(light.position)) ** 2).sum(1)
+    area = omega * dist2 / np.maximum(np.abs((n * w).sum(1)), MIN_COS)
+    ray_eps, _ = exact.epsilons()
+    dirs = vpl_directions(n, w, texel, primary=params.primary, cone_angle=params.cone_angle, seed=seed)
+    o = np.repeat(ray_origins(hits["spawn"][keep].astype(np.float64), n, ray_eps), RAYS_PER_VPL, axis=0)
+    cap = float(params.miss_range) * scene.diagonal()
+    f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
+    nn = np.repeat(n, RAYS_PER_VPL, axis=0)
+    rays = RayBatch(f4(o), f4(dirs.reshape(-1, 3)), np.full(len(o), cap, np.float32), f4(nn),
+                    np.repeat(texel, RAYS_PER_VPL), R, R, "vpl", occlusion=False,
+                    primary_mask=keep.reshape(R, R))
+    return VplBatch(position=f4(y), normal=f4(n), incident=f4(w), flux=f4(flux), area=f4(area), texel=texel,
+                    rsm=R, rays=rays, cap=cap, mode=params.range_mode, seed=int(seed))
+
+
 def range_metrics(r: np.ndarray, r_ref: np.ndarray) -> dict:
     """Relative range errors: p50, p95 and the fraction within 5 % (NaN answers count as wrong)."""
     r = np.asarray(r, np.float64)
@@ -218,6 +256,7 @@ class VplRange(EffectSpec):
     Params = VplRangeParams
     output = "vpls"
     needs_light = True
+    reference_key = "vpl_range"
     reference_backend = "Mitsuba 3: RSM by ray_intersect from the light; oracle ray_intersect_preliminary on the same rays"
     metrics = VPL_METRICS
     gate = (("range_within_5pct", "higher", 0.002, 0.0), ("range_err_p95", "lower", 1e-4, 0.10))
@@ -230,15 +269,8 @@ class VplRange(EffectSpec):
         return (f"vpl_range-r{params.rsm}-{params.primary}-a{params.cone_angle:g}-{params.range_mode}"
                 f"-m{params.miss_range:g}")
 
-    def inputs(self, scene, width, height, params, seed):
-        from references.vpl_range import make_vpls
-
-        return make_vpls(scene, params, seed)
-
-    def reference(self, scene, effect, *, width, height, spp, seed, inputs, cache=True, progress=True):
-        from references.vpl_range import exact_ranges
-
-        return exact_ranges(scene, inputs)
+    def inputs(self, scene, width, height, params, seed, exact=None):
+        return make_vpls(scene, params, seed, exact)
 
     def _arrays(self, result, batch):
         r = np.asarray(result.arrays.get("range"), np.float32).reshape(-1)

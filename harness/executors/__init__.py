@@ -3,7 +3,7 @@
 An executor has ``uses_driver_gpu`` (whether the jobs use the GL context of the process that holds the
 run directory) and ``run(plan, out, *, gpu, progress) -> rows`` (one record row per ``plan.jobs``
 entry, in that order; images written under ``out``). The run directory itself (lock, partial folder,
-results files, commit or abort) stays with :func:`harness.runner.run_jobs`, whatever the executor.
+results files, commit or abort) stays with :func:`run_jobs`, whatever the executor.
 
 ================  ==================================================================================
 ``local``         this process, one job after the other (the default; :mod:`.local`)
@@ -13,7 +13,15 @@ results files, commit or abort) stays with :func:`harness.runner.run_jobs`, what
 """
 from __future__ import annotations
 
+import json
+from typing import TYPE_CHECKING
+
 from ..errors import LdbenchError
+
+if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
+    import pandas as pd
+
+    from ..suite import Suite
 
 EXECUTORS = ("local", "ray")
 
@@ -31,3 +39,87 @@ def get_executor(executor=None, **options):
     if isinstance(executor, str):
         raise LdbenchError(f"unknown executor {executor!r} (known: {', '.join(EXECUTORS)})")
     return executor
+
+
+def run_jobs(suite: "Suite", out_dir, *, progress: bool = True, report: bool = True,
+             reference_cache: bool = True, executor=None, save_arrays: bool = False) -> "pd.DataFrame":
+    """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
+
+    ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
+    executor object (:mod:`harness.executors`). Whatever runs the jobs, this process holds the run
+    directory's lock, writes the results and commits the folder, or deletes it on any failure.
+    """
+    from .. import records
+    from ..gpu import Gpu
+    from ..rundir import RunDir
+    from ..runner import plan_run
+
+    ex = get_executor(executor)  # before the run directory: a missing extra is one line, nothing written
+    rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
+    tmp = rundir.open()
+    gpu = None
+    interrupts = _Interrupts()
+    try:
+        interrupts.__enter__()
+        gpu = Gpu()
+        plan = plan_run(suite, gpu, reference_cache=reference_cache)
+        plan.save_arrays = bool(save_arrays or getattr(ex, "save_arrays", False))
+        suite.jobs = plan.jobs
+        if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
+            gpu.release()
+            gpu = None
+        rows = ex.run(plan, tmp, gpu=gpu, progress=progress)
+        records.write_results(rows, tmp)
+        if gpu is not None:
+            gpu.release()
+            gpu = None
+        (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
+                                                    "jobs": len(suite.jobs)}, indent=1))
+        if report:
+            from ..report import build_report
+            build_report(tmp, records.read_results(tmp, unfinished=True))
+        if interrupts.seen:  # a Ctrl-C whose KeyboardInterrupt some library caught: still no commit
+            raise KeyboardInterrupt
+        rundir.commit()  # old run aside, new one in, old one deleted
+    except BaseException:
+        try:
+            if gpu is not None:
+                gpu.release()
+        finally:
+            rundir.abort()
+        raise
+    finally:
+        interrupts.__exit__()
+    return records.read_results(out_dir)
+
+
+class _Interrupts:
+    """Remembers a SIGINT (Ctrl-C) received while a run directory is written, so that a run is never
+    committed after one, even when code between the signal and the commit (a report library, a
+    cluster client) caught the KeyboardInterrupt. The signal itself still raises as before."""
+
+    def __init__(self):
+        self.seen = False
+        self._prev = None
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        prev = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is threading.main_thread() and callable(prev):
+            self._prev = prev
+            signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def _handler(self, signum, frame):
+        self.seen = True
+        self._prev(signum, frame)  # Python's default handler raises KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self._prev is not None:
+            import signal
+
+            signal.signal(signal.SIGINT, self._prev)
+            self._prev = None
+        return False

@@ -7,7 +7,7 @@ exception of a reference marks its jobs ``error: reference failed: ...``, of a j
 from __future__ import annotations
 
 from ..errors import LdbenchError
-from ..runner import RunContext, _progress, error_text, failed_row, prepare, prepare_key, release_inputs, run_job
+from ..runner import RunContext, progress_bar, error_text, failed_row, prepare, prepare_key, release_inputs, run_job
 
 
 class LocalExecutor:
@@ -20,7 +20,7 @@ class LocalExecutor:
         failed: dict = {}  # key -> why its reference could not be made
         try:
             keys = plan.keys()
-            for key in _progress(keys, len(keys), "references", progress):
+            for key in progress_bar(keys, len(keys), "references", progress):
                 try:
                     prepared[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=progress)
                 except LdbenchError:
@@ -29,6 +29,6 @@ class LocalExecutor:
                     failed[key] = f"error: reference failed: {error_text(e)}"
             return [failed_row(plan, job, failed[prepare_key(job)]) if prepare_key(job) in failed
                     else run_job(ctx, job, prepared[prepare_key(job)])
-                    for job in _progress(plan.jobs, len(plan.jobs), "runs", progress)]
+                    for job in progress_bar(plan.jobs, len(plan.jobs), "runs", progress)]
         finally:
             release_inputs(prepared)

@@ -31,7 +31,7 @@ environment            the driver's ``LDBENCH_*`` variables are set in every wor
 =====================  ==========================================================================
 
 The run directory (lock, partial folder, results, commit) stays with the driver
-(:func:`harness.runner.run_jobs`). Rows come back in suite order, with the local run's schema.
+(:func:`harness.executors.run_jobs`). Rows come back in suite order, with the local run's schema.
 
 Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
 TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
@@ -324,7 +324,7 @@ class RayExecutor:
     def run(self, plan, out, *, gpu=None, progress: bool = True) -> list[dict]:
         from collections import deque
 
-        from ..runner import _progress, failed_row
+        from ..runner import failed_row, progress_bar
 
         ray = import_ray()
         out = Path(out)
@@ -356,7 +356,7 @@ class RayExecutor:
             preps: dict = {}  # key -> prep object ref, once its reference is done
             idle = list(range(n))
             calls = 0
-            bar = _progress(None, len(plan.jobs), "runs", progress) if progress else None
+            bar = progress_bar(None, len(plan.jobs), "runs", progress) if progress else None
 
             def settle(items, key, new_rows=None, status=None):
                 for m, (i, job) in enumerate(items):

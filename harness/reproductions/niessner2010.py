@@ -160,14 +160,14 @@ def premise(df, scale: str = "paper") -> list[dict]:
     """The verdicts the engine cannot express, from a results table of the suite (one dict per statement:
     ``text``, ``ours``, ``verdict``). Times on a CPU are 'not measurable here'."""
     from harness.reproduce import CPU_SOFTWARE, FAILS, HOLDS, NOT_MEASURABLE, NOT_MEASURED, find_row, scale_match
-    from harness.figures import _as_dict
+    from harness.figures import as_dict
 
     sc = NIESSNER2010_TABLE1.scales[scale]
     recs = []
     for _, r in df.iterrows():
         d = r.to_dict()
         for c in ("params", "effect_params", "scene_params", "raw_ms"):
-            d[c] = _as_dict(d.get(c))
+            d[c] = as_dict(d.get(c))
         recs.append(d)
     rows = {pr["id"]: find_row(recs, scale_match(pr["match"], sc))[0] for pr in NIESSNER2010_TABLE1.rows}
 

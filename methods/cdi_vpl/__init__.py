@@ -81,6 +81,7 @@ import numpy as np
 
 from harness.bindings import B
 from harness.errors import LdbenchError
+from harness.effects.vpl_range import reduce_ranges
 from methods.base import Method, ParamsBase, Result, group, param
 from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from methods.invariants import layered_invariants
@@ -335,11 +336,9 @@ class CdiVpl(Method):
                 gpu.ctx.memory_barrier()
         else:  # exact: Mitsuba once per batch (untimed), then a copy per frame
             if self._exact_cache is None or self._exact_cache[0] is not batch:
-                from references.vpl_range import exact_ranges
-
-                ref = exact_ranges(self.scene, batch)
-                self._exact_cache = (batch, self.res.buffer("out.exact", ref.range),
-                                     self.res.buffer("out.exact_t", np.asarray(ref.t, np.float32)))
+                t = np.asarray(self.exact_distances(self.scene, batch.rays), np.float32)
+                self._exact_cache = (batch, self.res.buffer("out.exact", reduce_ranges(t, batch.cap, batch.mode)),
+                                     self.res.buffer("out.exact_t", t))
             with gpu.stage("exact_range"):
                 _, rng, tt = self._exact_cache
                 gpu.ctx.copy_buffer(self._out["ranges"], rng)

@@ -213,7 +213,6 @@ class VplLighting:
     # ---- the exact baseline: Mitsuba on the same six rays, once (the scene and the light are static) -----
     def _exact_table(self, scene):
         from harness.effects.rays import RayBatch
-        from references.rays import trace_oracle
 
         self.render_rsm()
         pos = read_texture(self.rsm_pos)      # row 0 = top, as the harness's RSM
@@ -241,7 +240,7 @@ class VplLighting:
             k = len(o)
             batch = RayBatch(f4(o), f4(dirs.reshape(-1, 3)), np.full(k, self.cap, np.float32),
                              f4(np.repeat(n, RAYS_PER_VPL, axis=0)), np.zeros(k, np.uint32), k, 1, "vpl", False)
-            t = trace_oracle(scene, batch).t
+            t = self.m.exact_distances(scene, batch)
             table[valid] = reduce_ranges(t, self.cap, self.p.range_mode)
         self.table = self.res.buffer("vpl.exact_ranges", table)
 

@@ -5,13 +5,13 @@
 # Usage, from the project root with its Python environment set up:
 #     OUT=/some/dir bash scripts/gpu/ray-executor-speedup.sh [STEP ...]
 # STEPs (default: serial ray summary):
-#     serial   ldbench run SUITE                 (reports/ray-executor-speedup/serial, its own reference cache)
-#     ray      ldbench run SUITE --executor ray  over all GPUs (reports/ray-executor-speedup/ray-N)
+#     serial   ldbench run SUITE                 (runs/ray-executor-speedup/serial, its own reference cache)
+#     ray      ldbench run SUITE --executor ray  over all GPUs (runs/ray-executor-speedup/ray-N)
 #     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
 #              run (harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
 #              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
-# The runs stay in reports/ray-executor-speedup/ (ignored by git), so steps can be split over several
+# The runs stay in runs/ray-executor-speedup/ (ignored by git), so steps can be split over several
 # commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
 # Each run renders its own references (a fresh cache per run): the Ray run gets no head start from the serial
 # one, and equal images prove that references too are the same on every GPU.
@@ -36,7 +36,7 @@ set -u
 cd "$(dirname "$0")/../.."
 PY="${PYTHON:-python3}"
 O="${OUT:-/tmp/ldbench-gpu}/ray-executor-speedup"
-W="reports/ray-executor-speedup"
+W="runs/ray-executor-speedup"
 DRY="${LDBENCH_GPU_DRY:-0}"
 SUITE="${LDBENCH_GPU_SUITE:-suites/aalund2015-ao.toml}"
 ARGS="${LDBENCH_GPU_RUN_ARGS:-}"
