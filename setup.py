@@ -1,5 +1,5 @@
 """Build hook only (the project is described in pyproject.toml): a wheel records the commit it was built
-from in ``harness/build_info.json``, so an installed ldbench still knows its commit (harness/plugins.py,
+from in ``core/build_info.json``, so an installed ldbench still knows its commit (core/plugins.py,
 ``ldbench_info``). Outside a git checkout the file holds ``LDBENCH_COMMIT`` / ``LDBENCH_DIRTY`` if set,
 else nulls."""
 import json
@@ -34,7 +34,7 @@ def build_info() -> dict:
 class BuildPyWithInfo(build_py):
     def run(self):
         super().run()
-        target = Path(self.build_lib) / "harness" / "build_info.json"
+        target = Path(self.build_lib) / "ldbench" / "core" / "build_info.json"
         target.parent.mkdir(parents=True, exist_ok=True)
         target.write_text(json.dumps(build_info()) + "\n")
 

@@ -1,6 +1,6 @@
 """ldbench: benchmark and validation of real-time GI through rasterized layered depth structures.
 
-The public reader of a run's results is :func:`read_results` (:func:`harness.records.read_results`;
+The public reader of a run's results is :func:`read_results` (:func:`ldbench.harness.records.read_results`;
 docs/results-columns.md); it is imported on first use, so ``import harness`` stays light.
 """
 

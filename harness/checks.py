@@ -1,5 +1,5 @@
 """Input checks that need the loaded scenes or the references (the suite itself is checked earlier,
-by :mod:`harness.suite`). Each raises a one-line :class:`~harness.errors.LdbenchError` before any
+by :mod:`ldbench.harness.suite`). Each raises a one-line :class:`~ldbench.core.errors.LdbenchError` before any
 method renders, or returns a corrected value.
 """
 from __future__ import annotations
@@ -8,7 +8,7 @@ import dataclasses
 
 import numpy as np
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 
 def unique_scene_names(scenes: dict) -> dict:

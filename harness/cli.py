@@ -1,6 +1,6 @@
 """The ``ldbench`` command line (docs/design.md, "Command line"; exit codes in docs/cli.md).
 
-Every user error is an :class:`~harness.errors.LdbenchError`: one line on stderr, exit status 2, no
+Every user error is an :class:`~ldbench.core.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
 Progress and information go through :mod:`logging` to stderr (``-v`` adds debug messages, ``-q``
 keeps only warnings and errors, ``-qq`` only errors); what a command answers (tables, listings,
@@ -13,9 +13,9 @@ import logging
 import sys
 from pathlib import Path
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
-#: The package's logger tree; ``__package__`` also under ``python -m harness.cli`` (``__name__`` is then
+#: The package's logger tree; ``__package__`` also under ``python -m ldbench.harness.cli`` (``__name__`` is then
 #: ``"__main__"``, whose logger would not be the parent of the other modules' loggers).
 _LOG_ROOT = __package__ or __name__.rpartition(".")[0]
 log = logging.getLogger(f"{_LOG_ROOT}.cli")
@@ -36,8 +36,8 @@ def _scenes_args(p):
 
 
 def _scenes(args):
-    from . import scene_registry
-    from .scenes import list_scenes
+    from ldbench.core import scene_registry
+    from ldbench.core.scenes import list_scenes
 
     reg = scene_registry.registry()
     if args.action == "fetch":
@@ -71,7 +71,7 @@ def _methods_args(p):
 
 
 def _methods(args):
-    from methods.base import registry
+    from ldbench.methods.base import registry
 
     for name, cls in registry().items():
         also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
@@ -91,7 +91,7 @@ EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (worl
 
 
 def _effect_args(p, required=True):
-    from .effects import EFFECTS
+    from ldbench.core.effects import EFFECTS
 
     p.add_argument("--effect", required=required, help="the effect to compute: " + " | ".join(EFFECTS))
     for _, flag, helptext in EFFECT_FLAGS:
@@ -120,7 +120,7 @@ def _effect_opts(args) -> dict:
 
 
 def _effect_from(args):
-    from .effects.base import effects_from_user
+    from ldbench.core.effects.base import effects_from_user
 
     return effects_from_user(args.effect, [_effect_opts(args)])[0]
 
@@ -163,7 +163,7 @@ def _reference_args(p):
 
 
 def _reference(args):
-    from .scenes import load_scene
+    from ldbench.core.scenes import load_scene
     from .suite import parse_size
 
     from .suite import MAX_SPP, checked_int, check_budget
@@ -179,7 +179,7 @@ def _reference(args):
     for w_ in scene.warnings:
         log.warning(w_)
     effect.check_scene(scene)
-    from references import EXACT, render_effect
+    from ldbench.references import EXACT, render_effect
 
     ref = render_effect(scene, effect, width=w, height=h, spp=args.spp, seed=0,
                         inputs=spec.inputs(scene, w, h, effect.params, 0, exact=EXACT), cache=not args.no_cache)
@@ -188,8 +188,8 @@ def _reference(args):
     print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
           f"key={m.get('key')}")
     if out is not None:
-        from references.exr import write_exr
-        from references.exr import image_channels
+        from ldbench.core.exr import write_exr
+        from ldbench.core.exr import image_channels
         write_exr(out, image_channels(ref.mean))
         print(f"wrote {out}")
     return 0
@@ -272,7 +272,7 @@ def _method_sets(pairs) -> dict:
             raise LdbenchError(f"--set expects METHOD.PARAM=VALUE, got {kv!r}")
         k, v = kv.split("=", 1)
         m, p = k.split(".", 1)
-        from methods.base import canonical_name
+        from ldbench.methods.base import canonical_name
         params.setdefault(canonical_name(m), {})[p] = _literal(v)
     return params
 
@@ -292,7 +292,7 @@ def suite_from_args(args):
         suite = load_suite(args.suite)
         if params:  # --set overrides a method's parameters in every job of the suite that runs it
             import dataclasses
-            from methods.base import get_method
+            from ldbench.methods.base import get_method
             for m, ps in params.items():
                 if not any(j.method == m for j in suite.jobs):
                     raise LdbenchError(f"--set names method {m!r}, which this suite does not run")
@@ -314,14 +314,14 @@ def suite_from_args(args):
         return override(suite, size=args.size, spp=args.spp, warmup=args.warmup, frames=args.frames)
     if not (args.scene and args.method and args.effect):
         raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
-    from methods.base import canonical_name
+    from ldbench.methods.base import canonical_name
     for m in params:
         if m not in {canonical_name(x) for x in args.method}:
             raise LdbenchError(f"--set names method {m!r}, which is not in --method")
     run = {"scene": args.scene, "effect": args.effect, "methods": args.method, "params": params,
            "scene_params": _scene_params(args.scene_set), "effect_params": _effect_opts(args)}
     if args.effect == "ao" and "d_max" not in run["effect_params"]:  # unbounded AO blackens enclosed scenes
-        from .scenes import default_d_max
+        from ldbench.core.scenes import default_d_max
         d, why = default_d_max(args.scene, **run["scene_params"])
         run["effect_params"]["d_max"] = d
     else:
@@ -347,7 +347,7 @@ def _run(args):
     from .naming import slug  # a suite named "../../x" stays inside runs/
     out = Path(args.out) if args.out else Path("runs") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
-    from .report import terminal_table
+    from ldbench.reports.report import terminal_table
     print(terminal_table(df))
     print(f"wrote {out}")
     return 1 if (df["status"] != "ok").any() else 0
@@ -358,7 +358,7 @@ def _report_args(p):
 
 
 def _report(args):
-    from .report import write_report
+    from ldbench.reports.report import write_report
 
     d = Path(args.run_dir)
     if not (d / "results.parquet").exists():
@@ -388,11 +388,11 @@ def _history(args):
     if args.history_command == "add":
         from .history import run_add
         return run_add(args)
-    from .history_plots import run_plot
+    from ldbench.reports.history_plots import run_plot
     return run_plot(args)
 
 
-# ---- reproduce (harness/reproduce.py) --------------------------------------------------------------
+# ---- reproduce (reports/reproduce.py) --------------------------------------------------------------
 def _reproduce_args(p):
     p.add_argument("table", nargs="?", help="registry key, e.g. aalund2015-fig8 (see --list)")
     p.add_argument("--list", action="store_true", help="list the reproducible tables and figures")
@@ -406,7 +406,7 @@ def _reproduce_args(p):
 
 
 def _reproduce(args):
-    from .reproduce import main_cli
+    from ldbench.reports.reproduce import main_cli
 
     return main_cli(args)
 
@@ -538,7 +538,7 @@ class _VersionAction(argparse.Action):
 
 
 def _version_text() -> str:
-    from .plugins import ldbench_info
+    from ldbench.core.plugins import ldbench_info
 
     info = ldbench_info()
     commit = (info["commit"] or "unknown commit")[:12] + ("-dirty" if info["dirty"] else "")

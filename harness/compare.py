@@ -21,7 +21,7 @@ time (``total_ms``)
     0.004, 4 + 4 give 0.014); such a check is reported ``inconclusive`` and never fails. A
     significant speed-up of at least ``min_effect`` is reported ``improved``.
     When the machines differ (``device``, ``gl_renderer``, ``driver`` or ``gpu_name``, and ``cpu`` when
-    the device is the CPU; :func:`harness.device.timing_fields`) times are not comparable: a warning
+    the device is the CPU; :func:`ldbench.core.device.timing_fields`) times are not comparable: a warning
     is printed and time checks are skipped; quality is still gated.
     On a software rasterizer (``device = cpu-software``, Mesa llvmpipe) time checks are skipped as
     well unless ``--cpu-time``: its frame times are wall clock on shared CPU cores, which move between
@@ -36,7 +36,7 @@ quality (``psnr``, ``ssim``)
     ``unchecked`` and fails, with a warning, unless ``--allow-nan-baseline``.
 
 metrics of non-image effects (``rays``, ...)
-    The effect spec's ``gate`` (:class:`harness.effects.base.EffectSpec`): each listed column may
+    The effect spec's ``gate`` (:class:`ldbench.core.effects.base.EffectSpec`): each listed column may
     get worse by at most ``max(absolute, relative × |baseline|)``; both sides are exact (an oracle, no
     sampling noise), so the tolerances are fixed. A NaN where the baseline was finite is a regression; a
     NaN baseline is ``unchecked`` (as for images) where the run has a value or where no metric of the
@@ -50,7 +50,7 @@ status
     RUN lacks is ``missing`` and fails unless ``--allow-missing``; a row only in RUN is ``new`` (never
     fails). A baseline row that had failed is not compared (``fixed`` if RUN's is ok).
 
-Exit status: 0 no regression, 1 regression, 2 bad input (:class:`~harness.errors.LdbenchError`).
+Exit status: 0 no regression, 1 regression, 2 bad input (:class:`~ldbench.core.errors.LdbenchError`).
 A Markdown report (``compare.md`` in RUN's directory, or ``--md FILE``) holds one table row per
 check: benchmark, metric, baseline, current, change, verdict, for a CI job summary. ``--json FILE``
 writes the same verdicts for machines (:func:`to_json`): per check the benchmark's match key, the
@@ -64,8 +64,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .device import timing_fields
-from .errors import LdbenchError
+from ldbench.core.device import timing_fields
+from ldbench.core.errors import LdbenchError
 from .records import effect_d_max, effect_param
 
 #: Default match keys: one benchmark = one scene (with builder parameters), method, effect (with its
@@ -238,7 +238,7 @@ def row_key(row, keys) -> tuple:
         if k == "scene_params":
             out.append(canonical(row_value(row, k) or {}))
         elif k == "method":  # an adapter's earlier name (e.g. ldm-ao) matches its current one
-            from methods.base import canonical_name
+            from ldbench.methods.base import canonical_name
             out.append(canonical(canonical_name(str(row_value(row, k)))))
         elif k == "params":  # defaults dropped, old names mapped: a new parameter orphans no baseline row
             out.append(canonical(canonical_params(row_value(row, "method"), row_value(row, k) or {})))
@@ -253,7 +253,7 @@ def canonical_params(method, params: dict) -> dict:
     recorded before a parameter was added (or renamed) matches a row recorded after. A parameter the
     adapter no longer has stays (the configuration no longer exists: the row is reported missing). An
     unknown method's parameters are returned as given."""
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
 
     if not isinstance(params, dict):
         return params
@@ -410,7 +410,7 @@ def time_check(base_samples, run_samples, th: Thresholds) -> dict:
 
 def machine_diff(brow, rrow) -> list:
     """``[(field, baseline value, run value)]`` for the machine fields that differ
-    (:func:`harness.device.timing_fields`: the CPU too where it is the device)."""
+    (:func:`ldbench.core.device.timing_fields`: the CPU too where it is the device)."""
     out = []
     for f in timing_fields(row_value(brow, "device"), row_value(rrow, "device")):
         bv, rv = row_value(brow, f), row_value(rrow, f)
@@ -726,7 +726,7 @@ def _nan_baseline(name, metric, current, th) -> Check:
 
 def gated_metrics(row) -> tuple:
     """The effect's gated metrics (non-image effects), () for image effects and unknown effects."""
-    from .effects import registry
+    from ldbench.core.effects import registry
 
     spec = registry().get(str(row_value(row, "effect")))
     return tuple(spec.gate) if spec is not None else ()

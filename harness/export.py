@@ -1,5 +1,5 @@
 """``ldbench export``: one question (scene, view, effect, size, spp, seed) as files an external renderer or
-tracer can answer exactly, and that ``ldbench score --from`` reads back (:mod:`harness.score`).
+tracer can answer exactly, and that ``ldbench score --from`` reads back (:mod:`ldbench.harness.score`).
 
 Files written into the output folder:
 
@@ -32,7 +32,7 @@ Files written into the output folder:
 
 Pixel convention: pixel (i, j), column i from the left, row j from the **top**, is the ray through the
 pixel centre (i + ½, j + ½): d ∝ x·right + y·up + forward with x = (2(i + ½)/W − 1)·tan(fov_y/2)·W/H and
-y = (1 − 2(j + ½)/H)·tan(fov_y/2) (:meth:`harness.scene.Camera.primary_rays`). Images are stored with
+y = (1 − 2(j + ½)/H)·tan(fov_y/2) (:meth:`ldbench.core.scene.Camera.primary_rays`). Images are stored with
 row 0 at the top.
 """
 from __future__ import annotations
@@ -45,7 +45,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 PIXEL_CONVENTION = ("pixel (i, j): column i from the left, row j from the top; its ray goes through the "
                     "pixel centre (i + 0.5, j + 0.5): d = normalize(x right + y up + forward), "
@@ -151,7 +151,7 @@ def camera_json(scene, width: int, height: int) -> dict:
     r, u, f = cam.basis()
     lo, hi = scene.bounds()
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-    depth = (corners - np.asarray(cam.origin)) @ f  # as methods.gbuffer.SceneGeometry.near_far
+    depth = (corners - np.asarray(cam.origin)) @ f  # as ldbench.methods.gbuffer.SceneGeometry.near_far
     diag = float(np.linalg.norm(hi - lo))
     far = max(float(depth.max()), 1e-3 * diag) * 1.01 + 1e-3 * diag
     near = max(float(depth.min()) * 0.99, far * 1e-4)
@@ -172,12 +172,12 @@ def lights_json(scene) -> list:
 
 
 def export_question(question, out) -> Path:
-    """Write the files of the module docstring for ``question`` (:class:`harness.score.Question`) into
+    """Write the files of the module docstring for ``question`` (:class:`ldbench.harness.score.Question`) into
     ``out`` (created; existing files of these names are replaced, nothing else is touched)."""
     import trimesh
 
-    from .plugins import ldbench_info
-    from .scenes import load_scene
+    from ldbench.core.plugins import ldbench_info
+    from ldbench.core.scenes import load_scene
 
     out = Path(out)
     if out.exists() and not out.is_dir():
@@ -205,7 +205,7 @@ def export_question(question, out) -> Path:
              "rays.npz": "every pixel's view ray", "light.json": "the lights"}
     spec = effect.spec
     if spec.output in ("rays", "vpls"):
-        from references import EXACT
+        from ldbench.references import EXACT
 
         batch = spec.inputs(scene, w, h, effect.params, question.seed, exact=EXACT)
         if spec.output == "rays":

@@ -1,7 +1,7 @@
 """Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (docs/nightly.md).
 
 Storage
-    ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`harness.records.machine_key`
+    ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`ldbench.harness.records.machine_key`
     of device, GL renderer and driver: timings of different machines never share a series). The
     files hold the result rows exactly as ``results.parquet`` does (JSON columns as JSON text, the
     ``machine_key`` column filled in), sorted by time. Adding a run replaces any rows with the same
@@ -12,8 +12,8 @@ Storage
     outside git (a CI cache or artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore``
     if you keep one locally.
 
-Plots (:mod:`harness.history_plots`)
-    One PNG per machine and benchmark (benchmarks as in :data:`harness.compare.DEFAULT_MATCH`):
+Plots (:mod:`ldbench.reports.history_plots`)
+    One PNG per machine and benchmark (benchmarks as in :data:`ldbench.harness.compare.DEFAULT_MATCH`):
     the median frame time ``total_ms`` with its interquartile band (from the raw samples) and the
     quality (PSNR; for a non-image effect the first metric it gates, e.g. ``rays``: hit agreement, with
     an absolute change floor of 0.002), one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
@@ -44,7 +44,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 DEFAULT_HISTORY_DIR = "history"
 LOCK_NAME = ".lock"

@@ -19,7 +19,7 @@ import keyword
 import re
 from pathlib import Path
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 PYPROJECT = '''[build-system]
 requires = ["setuptools>=64"]
@@ -51,12 +51,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import mat_bytes
-from methods.uniforms import set_uniforms
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.methods.base import Method, ParamsBase, Result, param
+from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.uniforms import set_uniforms
 
 
 @dataclass(frozen=True)
@@ -168,9 +168,9 @@ def write_template(name: str, *, out=None, in_tree: bool = False) -> list:
     """Write the template (module docstring); returns the files written."""
     n = names(name)
     if in_tree:
-        import methods
+        import ldbench.methods
 
-        pkg = Path(methods.__path__[0]) / n["module"]
+        pkg = Path(ldbench.methods.__path__[0]) / n["module"]
         files = [(pkg / "__init__.py", INIT), (pkg / f"{n['module']}.glsl", GLSL)]
     else:
         root = Path(out) if out else Path(n["name"])

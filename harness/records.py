@@ -45,10 +45,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .device import classify_device  # noqa: F401 (the one rule; re-exported)
-from .errors import LdbenchError
+from ldbench.core.device import classify_device  # noqa: F401 (the one rule; re-exported)
+from ldbench.core.errors import LdbenchError
 from .naming import key_slug
-from .plugins import LDBENCH_ROOT, git_info, git_info_from_env  # noqa: F401 (re-exported: records' git columns)
+from ldbench.core.plugins import LDBENCH_ROOT, git_info, git_info_from_env  # noqa: F401 (re-exported: records' git columns)
 
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -242,7 +242,7 @@ def machine_key(info: dict) -> str:
 def machine_columns(info: dict) -> dict:
     """Row fields from :func:`machine_info`: ``device, gl_renderer, gl_version, driver, cpu, gpu_name,
     machine_key`` and the full dict as ``machine``; and the GPU the row ran on where the runner added
-    it to ``info`` (:attr:`harness.gpu.Gpu.device_columns`): ``egl_device`` (EGL device index),
+    it to ``info`` (:attr:`ldbench.core.gpu.Gpu.device_columns`): ``egl_device`` (EGL device index),
     ``cuda_device`` (the ``CUDA_VISIBLE_DEVICES`` GPU given to the job), ``pci_bus_id``."""
     return {"device": info.get("device"), "gl_renderer": info.get("gl_renderer"),
             "gl_version": info.get("gl_version"), "driver": info.get("driver"), "cpu": info.get("cpu"),
@@ -261,10 +261,10 @@ def git_columns(info: dict) -> dict:
 
 
 def method_columns(cls, git: dict | None = None) -> dict:
-    """Row fields of where a method's class comes from (:func:`harness.plugins.provenance`):
+    """Row fields of where a method's class comes from (:func:`ldbench.core.plugins.provenance`):
     ``ldbench_version`` (the running ldbench's), ``method_module``, ``method_dist``, ``method_version``, ``method_commit``, ``method_dirty``
     (``git``: ldbench's own :func:`git_info`, for ldbench's built-in methods)."""
-    from .plugins import ldbench_version, provenance
+    from ldbench.core.plugins import ldbench_version, provenance
 
     p = provenance(cls, git)
     return {"ldbench_version": ldbench_version(), "method_module": p["module"], "method_dist": p["dist"], "method_version": p["dist_version"],
@@ -563,7 +563,7 @@ def check_columns(columns, what, required=SCHEMA_COLUMNS) -> None:
                            + (f" (nor {', '.join(map(repr, missing[1:4]))})" if len(missing) > 1 else ""))
 
 
-#: The file a run directory being written carries (:mod:`harness.rundir`): its rows are not a finished run.
+#: The file a run directory being written carries (:mod:`ldbench.harness.rundir`): its rows are not a finished run.
 PARTIAL_MARKER = ".ldbench-partial"
 
 

@@ -5,7 +5,7 @@ ldbench: a Parquet table with the results schema and a JSON object naming the su
 (see :func:`is_run_dir`; two files of those names with other contents are someone else's).
 :class:`RunDir` is the only code that creates, replaces or deletes one:
 
-* **Refuse** (one-line :class:`~harness.errors.LdbenchError`) when DIR exists and is neither an
+* **Refuse** (one-line :class:`~ldbench.core.errors.LdbenchError`) when DIR exists and is neither an
   ldbench run nor an empty folder, when it is a file or a symbolic link, when it is the current
   directory or contains it, and when its parent cannot be written. All of this is checked by
   :meth:`RunDir.open`, before anything is rendered.
@@ -43,20 +43,20 @@ import re
 import shutil
 from pathlib import Path
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 from .records import PARTIAL_MARKER as MARKER  # noqa: F401 (records refuses what carries it)
 
 RUN_FILES = ("results.parquet", "suite.json")
 
 
-#: The keys of the ``suite.json`` ldbench writes (:func:`harness.executors.run_jobs`).
+#: The keys of the ``suite.json`` ldbench writes (:func:`ldbench.harness.executors.run_jobs`).
 SUITE_KEYS = ("name", "source", "jobs")
 
 
 def is_run_dir(path) -> bool:
     """True if ``path`` is a finished ldbench run: a directory (not a link, no :data:`MARKER`) holding
     the ``suite.json`` ldbench writes (a JSON object with :data:`SUITE_KEYS`) and a ``results.parquet``
-    whose Parquet schema has the results columns (:func:`harness.records.check_columns`). Only the
+    whose Parquet schema has the results columns (:func:`ldbench.harness.records.check_columns`). Only the
     files' headers are read."""
     import json
 

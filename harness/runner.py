@@ -2,20 +2,20 @@
 frame against the reference with its effect's metrics, and write records and images.
 
 Frames are timed by the timing protocol of docs/design.md (``setup`` and input uploads untimed, then
-``warmup`` and ``frames`` measured frames, stages by :meth:`harness.gpu.Gpu.stage`).
+``warmup`` and ``frames`` measured frames, stages by :meth:`ldbench.core.gpu.Gpu.stage`).
 
 Per (scene, effect, size, spp, seed) the harness builds the effect's inputs and its reference once
 (:class:`Prepared`) and hands the same objects to every method. A method's result is checked against
-the invariants it declares (:attr:`methods.base.Result.invariants`): a violation makes the row
+the invariants it declares (:attr:`ldbench.methods.base.Result.invariants`): a violation makes the row
 ``degraded: …`` (its metrics are still recorded).
 
 The run directory is written under a temporary name and renamed into place only when complete
-(:mod:`harness.rundir`), so a failed run never leaves a folder that looks finished.
+(:mod:`ldbench.harness.rundir`), so a failed run never leaves a folder that looks finished.
 
-Who runs the jobs is an executor (:mod:`harness.executors`): this process one job after the other
+Who runs the jobs is an executor (:mod:`ldbench.harness.executors`): this process one job after the other
 (``local``, the default), or Ray tasks on one or several machines (``ray``). :func:`plan_run`,
 :func:`prepare` and :func:`run_job` (with its :class:`RunContext`) are the units both use; the run
-directory stays with :func:`harness.executors.run_jobs`, in this process.
+directory stays with :func:`ldbench.harness.executors.run_jobs`, in this process.
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 from .naming import slug as _slug
 from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .suite import Job, Suite, resolve_sizes
@@ -90,7 +90,7 @@ class Prepared:
 
 @dataclass
 class RunPlan:
-    """A checked suite, ready for an executor (:mod:`harness.executors`): jobs in suite order with their
+    """A checked suite, ready for an executor (:mod:`ldbench.harness.executors`): jobs in suite order with their
     sizes resolved, their scenes by ``job.scene_key``, and what every row of the run shares."""
 
     suite_name: str
@@ -122,7 +122,7 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
     """Load and check every scene, resolve sizes and check them against ``gpu``: the last chance to
     reject bad input (one line, exit 2) before anything is rendered."""
     from . import records
-    from .scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     scenes = {}
     for job in suite.jobs:
@@ -142,7 +142,7 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
 
 def _ldbench_git() -> dict:
     """ldbench's commit: git in a checkout, else the one an installed wheel's build recorded."""
-    from .plugins import ldbench_info
+    from ldbench.core.plugins import ldbench_info
 
     info = ldbench_info()
     return {"commit": info["commit"], "dirty": info["dirty"], "branch": None}
@@ -151,7 +151,7 @@ def _ldbench_git() -> dict:
 def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
     """The effect's inputs and reference of one :func:`prepare_key` (the reference from the cache, or
     rendered into it)."""
-    from references import EXACT, render_effect
+    from ldbench.references import EXACT, render_effect
 
     _, effect, w, h, spp, seed = key
     inputs = effect.spec.inputs(scene, w, h, effect.params, seed, exact=EXACT)
@@ -194,8 +194,8 @@ def error_text(e: BaseException) -> str:
 
 
 def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
-    from methods.base import View, get_method
-    from references import trace
+    from ldbench.methods.base import View, get_method
+    from ldbench.references import trace
 
     from . import records
 
@@ -258,7 +258,7 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
 
 def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, status) -> dict:
     """The columns that name a job and where it ran (every row has them, failed ones too)."""
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
 
     from . import records
 

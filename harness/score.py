@@ -1,7 +1,7 @@
 """``ldbench score``: answers computed outside ldbench (another renderer, another tracer) scored against
 ldbench's references with ldbench's metrics, as rows of a normal run directory.
 
-A **question** is what ``ldbench export`` writes (:mod:`harness.export`): scene (with its builder
+A **question** is what ``ldbench export`` writes (:mod:`ldbench.harness.export`): scene (with its builder
 parameters), effect with its parameters, size, reference spp and seed. An **answer** is
 
 ==============  =========================================================================================
@@ -28,7 +28,7 @@ own version and commit record who computed the metrics.
 ``memory`` {buffer: bytes}). A folder with a question and no answer is skipped with a warning.
 
 **Joining a run**: the rows are added to RUN (a run directory, or a new one): the run is rewritten
-through :class:`harness.rundir.RunDir` (locked, into a partial folder, committed atomically), its rows
+through :class:`ldbench.harness.rundir.RunDir` (locked, into a partial folder, committed atomically), its rows
 and files kept, so ``report``, ``compare``, ``history`` and ``reproduce --from-run`` read them like any
 other rows.
 """
@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 TRANSFERS = ("srgb", "linear")
 ANSWER_NAMES = ("answer.exr", "answer.png", "answer.npy", "answer.npz", "answer.csv")
@@ -58,7 +58,7 @@ class Question:
     """What was asked: the same fields as an ldbench job's (scene, effect, size, spp, seed)."""
 
     scene: str
-    effect: object  # harness.effects.Effect
+    effect: object  # ldbench.core.effects.Effect
     width: int
     height: int
     spp: int = 64
@@ -67,7 +67,7 @@ class Question:
 
     @classmethod
     def from_json(cls, d: dict, where: str = "question.json") -> "Question":
-        from .effects.base import effect_from_key
+        from ldbench.core.effects.base import effect_from_key
 
         try:
             return cls(scene=str(d["scene"]), effect=effect_from_key(d["effect"]), width=int(d["width"]),
@@ -110,7 +110,7 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
     if suffix == ".exr":
         if transfer not in (None, "linear"):
             raise LdbenchError(f"{path.name}: an EXR is linear; --transfer {transfer} applies to PNG only")
-        from references.exr import read_exr
+        from ldbench.core.exr import read_exr
 
         ch = read_exr(path)
         names = ["Y"] if "Y" in ch else [c for c in "RGB" if c in ch]
@@ -153,7 +153,7 @@ def read_mask(path: Path, shape: tuple) -> np.ndarray:
 
         m = np.asarray(mpimg.imread(path))
     elif s == ".exr":
-        from references.exr import read_exr
+        from ldbench.core.exr import read_exr
 
         ch = read_exr(path)
         m = np.asarray(ch.get("Y", next(iter(ch.values()))))
@@ -193,7 +193,7 @@ def read_arrays(path: Path) -> dict:
 
 # ---- scoring -----------------------------------------------------------------------------------------
 def _result(question, answer: Answer, spec):
-    from methods.base import Result
+    from ldbench.methods.base import Result
 
     if spec.output == "image":
         img = read_image(answer.path, spec.channels, transfer=answer.transfer, png_scale=answer.png_scale)
@@ -215,9 +215,9 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
     """Rows of (question, answer) pairs, images written under ``out``; references shared by equal questions."""
     from . import records
     from .naming import slug
-    from .plugins import ldbench_info
+    from ldbench.core.plugins import ldbench_info
     from .runner import Prepared, job_label, prepare, reference_label, release_inputs, scene_dir
-    from .scenes import load_scene
+    from ldbench.core.scenes import load_scene
     from .suite import Job
 
     info = ldbench_info()
@@ -308,7 +308,7 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
         rd.abort()
         raise
     if report:  # as `ldbench report RUN` would, over the old rows and the new
-        from .report import write_report
+        from ldbench.reports.report import write_report
 
         write_report(run_dir)
     return rows

@@ -33,9 +33,9 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .effects import Effect
-from .effects.base import effects_from_user
-from .errors import LdbenchError
+from ldbench.core.effects import Effect
+from ldbench.core.effects.base import effects_from_user
+from ldbench.core.errors import LdbenchError
 
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description"}
 RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
@@ -69,9 +69,9 @@ class Suite:
     source: str = ""
 
 
-#: Image sides: SSIM's smallest window is 3 x 3 (:func:`harness.metrics.ssim_win_size`); 16384 is the
+#: Image sides: SSIM's smallest window is 3 x 3 (:func:`ldbench.core.metrics.ssim_win_size`); 16384 is the
 #: largest texture any GL driver we know offers (the GPU's own limits are checked by
-#: :meth:`harness.gpu.Gpu.check_image_size` before rendering).
+#: :meth:`ldbench.core.gpu.Gpu.check_image_size` before rendering).
 MIN_SIDE, MAX_SIDE = 3, 16384
 #: Default image size when neither the suite nor the scene (a Mitsuba XML ``<film>``) gives one.
 DEFAULT_SIZE = (128, 128)
@@ -243,7 +243,7 @@ def float_or_inf(v):
 
 def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[Job]:
     """Validate one ``[[run]]`` table and expand it into jobs."""
-    from methods.base import registry
+    from ldbench.methods.base import registry
 
     unknown = set(run) - RUN_KEYS
     if unknown:
@@ -287,7 +287,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     params = run.get("params", {}) or {}
     if not isinstance(params, dict) or not all(isinstance(v, dict) for v in params.values()):
         raise LdbenchError("params must be a table of tables ([run.params.METHOD])")
-    from methods.base import canonical_name  # earlier names (aliases) select the same adapter
+    from ldbench.methods.base import canonical_name  # earlier names (aliases) select the same adapter
 
     if methods != "all":
         methods = [canonical_name(m) for m in _listify(methods)]

@@ -4,14 +4,14 @@
 *face* (geometric) normal and the material id, so every pass that rasterizes the scene (G-buffer,
 shadow maps, LDM/LDI builds) shares one vertex buffer and sees the same geometric normals as Mitsuba.
 
-:class:`GBuffer` renders position / normal / albedo / depth for a :class:`~methods.base.View`.
+:class:`GBuffer` renders position / normal / albedo / depth for a :class:`~ldbench.methods.base.View`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.gpu import GLSL_DIR, read_texture
+from ldbench.core.bindings import B
+from ldbench.core.gpu import GLSL_DIR, read_texture
 
 VERTEX_ATTRS = (("in_position", 3), ("in_normal", 3), ("in_material", 1))  # float32 each
 

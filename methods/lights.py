@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.gpu import GLSL_DIR
-from harness.scene import Camera
+from ldbench.core.gpu import GLSL_DIR
+from ldbench.core.scene import Camera
 
 from .gbuffer import mat_bytes
 
@@ -32,7 +32,7 @@ def cube_face_matrices(position, near: float, far: float) -> list[np.ndarray]:
 
 
 def set_spot_uniforms(prog, light, prefix: str = "light"):
-    """Write a :class:`~harness.scene.SpotLight` into the GLSL ``SpotLight`` struct uniform."""
+    """Write a :class:`~ldbench.core.scene.SpotLight` into the GLSL ``SpotLight`` struct uniform."""
     cut, beam = np.radians(light.cutoff_angle), np.radians(light.beam_width)
     prog[f"{prefix}.position"].value = tuple(light.position)
     prog[f"{prefix}.axis"].value = tuple(light.direction())

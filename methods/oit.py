@@ -1,29 +1,29 @@
 """Shared building blocks of the order-independent-transparency adapters (``ll-oit``, ``depth-peeling``,
-``dual-depth-peeling``; effect :mod:`harness.effects.oit`).
+``dual-depth-peeling``; effect :mod:`ldbench.core.effects.oit`).
 
 - :class:`PeelingMethod`: what the two peeling baselines share — an occlusion query per pass, the
   framebuffers they own per size, the peel program's camera uniforms and the depth-complexity counters.
 - :class:`OITMethod`: the common part of the three adapters — the scene's triangles on the GPU
-  (:class:`~methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
+  (:class:`~ldbench.methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
   opacity; SSBO binding ``B.OIT_MATERIALS``, ``oit_material[]`` in ``methods/glsl/oit.glsl``), the camera's
   clip transform and depth row, the output texture (RGBA32F: composite colour, alpha = 1 where the
-  method saw at least one fragment) and its read-back as a :class:`~methods.base.Result`.
+  method saw at least one fragment) and its read-back as a :class:`~ldbench.methods.base.Result`.
 - Depth: every method orders fragments by the *linear view depth* dot(depth_row, (p, 1)) = (p − eye)·forward,
   interpolated perspective-correctly by the rasterizer (exact for a quantity linear in world space);
   along one pixel ray it orders surfaces as the reference's distance does.
-- The clip transform is the G-buffer's (:meth:`methods.gbuffer.GBuffer.view_proj`): near and far planes
+- The clip transform is the G-buffer's (:meth:`ldbench.methods.gbuffer.GBuffer.view_proj`): near and far planes
   enclosing the scene's bounds.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.effects.oit import BACKGROUND
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, Result
-from methods.gbuffer import SceneGeometry
+from ldbench.core.bindings import B
+from ldbench.core.effects.oit import BACKGROUND
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.methods.base import Method, Result
+from ldbench.methods.gbuffer import SceneGeometry
 
 
 def material_table(scene) -> np.ndarray:

@@ -10,9 +10,9 @@ of n elements costs 2·⌈log₁₀₂₄ n⌉ − 1 dispatches. Sums are 32-bit
 """
 from __future__ import annotations
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
 
 BLOCK = 1024
 MAX_X = 65535

@@ -6,7 +6,7 @@ A misspelt name is therefore silent; :func:`set_uniforms` with ``strict=True`` r
 """
 from __future__ import annotations
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 
 def set_uniforms(prog, strict: bool = False, **values) -> None:

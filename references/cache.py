@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
-from .exr import image_channels, read_exr, read_exr_header, write_exr
+from ldbench.core.exr import image_channels, read_exr, read_exr_header, write_exr
 
 # Bump whenever an integrator changes what it computes (invalidates every cached reference).
 REFERENCE_VERSION = 3  # 3: secondary rays at Mitsuba's spawn offset of the crease point (2: nudged to the camera)

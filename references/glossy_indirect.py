@@ -1,12 +1,12 @@
-"""Reference of ``glossy_indirect`` (:mod:`harness.effects.glossy_indirect`): one glossy bounce of the spot
-light's direct light, estimated with Mitsuba 3 on the same triangles (:func:`references.wavefront.render_estimator`).
+"""Reference of ``glossy_indirect`` (:mod:`ldbench.core.effects.glossy_indirect`): one glossy bounce of the spot
+light's direct light, estimated with Mitsuba 3 on the same triangles (:func:`ldbench.references.wavefront.render_estimator`).
 
 Per sample, at the camera's hit x₁ (normal n₁ facing the camera, albedo a₁, view direction d):
 ω from the normalized Phong lobe (e + 1)/(2π) cos^e α about r = d − 2(d·n₁)n₁ (``mi.warp`` is not used:
 cos α = u₀^(1/(e+1)), φ = 2π u₁ in the frame of r); ω·n₁ ≤ 0 gives 0, otherwise the ray from
 ``spawn_origin`` (x₁ + ε n₁) along ω finds x₂ and the sample is a₁ (e + 2)/(e + 1) (ω·n₁) ·
 L_direct(x₂ → x₁)
-(:func:`references.integrators.direct_light`: the spot light, two-sided diffuse at x₂, hard shadow);
+(:func:`ldbench.references.integrators.direct_light`: the spot light, two-sided diffuse at x₂, hard shadow);
 an escaping ray gives 0.
 """
 from __future__ import annotations
@@ -33,6 +33,6 @@ def glossy_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key)
 
 
 def render_glossy_indirect(scene, effect, *, width, height, spp, seed=0, cache=True, progress=True, **kw):
-    """:class:`~references.render.Reference` of ``glossy_indirect`` (module docstring)."""
+    """:class:`~ldbench.references.render.Reference` of ``glossy_indirect`` (module docstring)."""
     return render_estimator(scene, effect, width=width, height=height, spp=spp, seed=seed, estimator=glossy_sample,
                             rays_per_sample=1 + len(scene.lights), cache=cache, progress=progress, **kw)

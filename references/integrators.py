@@ -1,14 +1,14 @@
 """Mitsuba 3 scene construction and the wavefront integrators of the reference effects.
 
-Everything here runs under the Mitsuba variant set by the caller (:func:`references.choose_variant`).
+Everything here runs under the Mitsuba variant set by the caller (:func:`ldbench.references.choose_variant`).
 
-Scene (docs/design.md, "Scenes"): one ``mi.Mesh`` per :class:`harness.scene.Mesh` (the very same float32
+Scene (docs/design.md, "Scenes"): one ``mi.Mesh`` per :class:`ldbench.core.scene.Mesh` (the very same float32
 triangles, no vertex normals, so Mitsuba's shading normal is the geometric face normal), BSDF
 ``twosided(diffuse(albedo))``; a spot light is Mitsuba's ``spot`` (``to_world = look_at(position,
 target, up)``, ``intensity`` RGB in W/sr, ``cutoff_angle``, ``beam_width``), a point light
 (``cutoff_angle = 180``) Mitsuba's ``point``.
 
-Primary rays go through pixel centres (``harness.scene.Camera.primary_rays``), no pixel filter, and
+Primary rays go through pixel centres (``ldbench.core.scene.Camera.primary_rays``), no pixel filter, and
 are intersected with ``Scene.ray_intersect``; the mask is "the primary ray hit something".
 
 Estimators (all samples of a batch in one wavefront; ``x`` = primary hit, ``n`` = geometric normal
@@ -25,7 +25,7 @@ flipped to face the camera, ``ω`` cosine-distributed about ``n`` with pdf cos �
   where L_direct is the ``direct`` term above evaluated at x₂ with outgoing direction towards x₁
   (so n₂ is the normal facing x₁). Escaping samples give 0; background pixels are 0.
 
-Secondary rays start at :func:`spawn_origin` (:func:`harness.conventions.spawn_origin`): ε along the
+Secondary rays start at :func:`spawn_origin` (:func:`ldbench.core.conventions.spawn_origin`): ε along the
 facing normal, Mitsuba's own ``(1 + max|p|) · RayEpsilon`` (as in ``Interaction.spawn_ray``), from the
 hit's crease point (:func:`spawn_points`: the hit itself unless within a few ε of its triangle's edges).
 Random numbers: one PCG32 stream per (pixel, sample index, seed), seeded through TEA hashing, so results
@@ -37,8 +37,8 @@ import math
 
 import numpy as np
 
-from harness import conventions as conv
-from harness.errors import LdbenchError
+from ldbench.core import conventions as conv
+from ldbench.core.errors import LdbenchError
 
 RENDERABLE = ("ao", "direct", "indirect")
 
@@ -134,14 +134,14 @@ def np3(v) -> np.ndarray:
 
 
 def spawn_origin(mi, dr, p, n):
-    """:func:`harness.conventions.spawn_origin`: p + n · (1 + max|p|) · RayEpsilon (Mitsuba's spawn offset;
+    """:func:`ldbench.core.conventions.spawn_origin`: p + n · (1 + max|p|) · RayEpsilon (Mitsuba's spawn offset;
     n already on the ray's side)."""
     mag = (1.0 + dr.max(dr.abs(p))) * mi.math.RayEpsilon
     return p + n * mag
 
 
 def spawn_points(si) -> np.ndarray:
-    """(N, 3) float32 :func:`harness.conventions.crease_point` of Mitsuba's hits ``si`` (the triangle from
+    """(N, 3) float32 :func:`ldbench.core.conventions.crease_point` of Mitsuba's hits ``si`` (the triangle from
     ``si.uv`` = barycentrics, ``si.dp_du``, ``si.dp_dv`` = its edges: meshes without texture coordinates)."""
     x = np3(si.p).astype(np.float64)
     ok = np.isfinite(x).all(1) & np1(si.is_valid()).astype(bool)

@@ -1,4 +1,4 @@
-"""The exact reference of the ``oit`` effect (:mod:`harness.effects.oit`): every intersection along each
+"""The exact reference of the ``oit`` effect (:mod:`ldbench.core.effects.oit`): every intersection along each
 pixel-centre primary ray, composited front to back. No sampling noise.
 
 :func:`intersections` — for each mesh on its own (a Mitsuba scene holding only that mesh, so a surface
@@ -15,7 +15,7 @@ misses:
   origin found them; Mitsuba decides *which* triangles the ray crosses.
 
 :func:`render_oit` sorts each pixel's hits by (depth, mesh index) — the effect's tie rule — and
-composites them with :func:`harness.effects.oit.composite`'s formula in float64 (vectorised by layer
+composites them with :func:`ldbench.core.effects.oit.composite`'s formula in float64 (vectorised by layer
 rank). ``max_layers`` > 0 composites only the first n (the reference of yang2010's layer cap).
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 from .render import Reference
 from .variant import choose_variant, variant_active
@@ -129,7 +129,7 @@ def intersections(scene, width: int, height: int) -> Intersections:
 def composite_hits(scene, hits: Intersections, max_layers: int = 0, background=None) -> np.ndarray:
     """(H, W, 3) float64: each pixel's hits sorted by (depth, mesh) and composited front to back
     (``max_layers`` > 0: the first n only) over the background."""
-    from harness.effects.oit import BACKGROUND
+    from ldbench.core.effects.oit import BACKGROUND
 
     bg = np.asarray(BACKGROUND if background is None else background, np.float64)
     npix = hits.width * hits.height
@@ -154,7 +154,7 @@ def composite_hits(scene, hits: Intersections, max_layers: int = 0, background=N
 
 
 def render_oit(scene, width: int, height: int, max_layers: int = 0) -> Reference:
-    """The ``oit`` reference image: :class:`~references.render.Reference` with zero variance; ``mask`` =
+    """The ``oit`` reference image: :class:`~ldbench.references.render.Reference` with zero variance; ``mask`` =
     pixels whose ray crosses at least one surface; ``meta`` has ``fragments``, ``layers_max``,
     ``layers_mean`` (over covered pixels), ``launches``, ``seconds``, ``variant``."""
     for what, val in (("width", width), ("height", height)):
@@ -170,7 +170,7 @@ def render_oit(scene, width: int, height: int, max_layers: int = 0) -> Reference
     counts = hits.counts()
     mask = counts > 0
     seconds = time.perf_counter() - t0
-    from harness.effects import Effect
+    from ldbench.core.effects import Effect
 
     meta = {"variant": hits.variant, "spp": 1, "spp_requested": 1, "seconds": seconds, "key": None,
             "cached": False, "effect": Effect("oit").key(), "width": int(width), "height": int(height),

@@ -1,7 +1,7 @@
-"""The exact ray oracle of the ``rays`` effect (:mod:`harness.effects.rays`): Mitsuba 3 on the same triangles.
+"""The exact ray oracle of the ``rays`` effect (:mod:`ldbench.core.effects.rays`): Mitsuba 3 on the same triangles.
 
-:func:`harness.effects.rays.make_batch` builds the ray batch from Mitsuba's own primary hits
-(:func:`references.render.primary_hits`) and :func:`epsilons`; :func:`trace_oracle` answers it in one
+:func:`ldbench.core.effects.rays.make_batch` builds the ray batch from Mitsuba's own primary hits
+(:func:`ldbench.references.render.primary_hits`) and :func:`epsilons`; :func:`trace_oracle` answers it in one
 wavefront with ``ray_intersect_preliminary`` (closest hit, ``maxt`` = the ray's t_max) or ``ray_test``
 (shadow rays) and times itself:
 
@@ -16,24 +16,24 @@ import time
 
 import numpy as np
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 from . import integrators as _int
 from .variant import choose_variant, variant_active
 
 
 def epsilons():
-    """Mitsuba's (RayEpsilon, ShadowEpsilon) of the variant in use: ``harness.conventions``' values for the
+    """Mitsuba's (RayEpsilon, ShadowEpsilon) of the variant in use: ``ldbench.core.conventions``' values for the
     float32 variants."""
     with variant_active(choose_variant()) as mi:
         return float(mi.math.RayEpsilon), float(mi.math.ShadowEpsilon)
 
 
 def make_batch(scene, width: int, height: int, params, seed: int):
-    """:func:`harness.effects.rays.make_batch` from Mitsuba's exact primary hits (what the harness hands in)."""
+    """:func:`ldbench.core.effects.rays.make_batch` from Mitsuba's exact primary hits (what the harness hands in)."""
     from types import SimpleNamespace
 
-    from harness.effects import rays
+    from ldbench.core.effects import rays
 
     from .render import primary_hits
 
@@ -42,8 +42,8 @@ def make_batch(scene, width: int, height: int, params, seed: int):
 
 
 def trace_oracle(scene, batch):
-    """:class:`~harness.effects.rays.RaysReference`: exact answers and the oracle's time on ``batch``."""
-    from harness.effects.rays import RaysReference
+    """:class:`~ldbench.core.effects.rays.RaysReference`: exact answers and the oracle's time on ``batch``."""
+    from ldbench.core.effects.rays import RaysReference
     import drjit as dr
 
     variant = choose_variant()

@@ -1,6 +1,6 @@
 """``render_reference``: Mitsuba 3 ground truth of an effect, with per-pixel variance and a disk cache.
 
-See :mod:`references.integrators` for the exact estimators. Per-pixel statistics: with N = spp samples
+See :mod:`ldbench.references.integrators` for the exact estimators. Per-pixel statistics: with N = spp samples
 v₁…v_N of a pixel,
 
     mean      = S₁ / N                         (S₁ = Σ vᵢ, S₂ = Σ vᵢ², accumulated in float64)
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.effects import Effect
-from harness.errors import LdbenchError
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
 
 from . import cache as _cache
 from . import integrators as _int
@@ -54,7 +54,7 @@ def _check_args(scene, effect, width, height, spp, seed):
     if isinstance(effect, str):
         effect = Effect.parse(effect)
     if not isinstance(effect, Effect):
-        raise LdbenchError(f"effect must be a harness.effects.Effect, got {type(effect).__name__}")
+        raise LdbenchError(f"effect must be a ldbench.core.effects.Effect, got {type(effect).__name__}")
     if effect.name not in _int.RENDERABLE:
         raise LdbenchError(f"the Mitsuba reference does not render effect {effect.name}")
     for what, v in (("width", width), ("height", height), ("spp", spp)):
@@ -183,12 +183,12 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
                      batch_rays: int | None = None) -> Reference:
     """Render (or fetch from the cache) the Mitsuba 3 reference of ``effect`` on ``scene``.
 
-    ``effect``: a :class:`harness.effects.Effect` (``ao``, ``direct`` or ``indirect``; an effect name is
+    ``effect``: a :class:`ldbench.core.effects.Effect` (``ao``, ``direct`` or ``indirect``; an effect name is
     accepted too). Primary rays go through pixel centres of ``scene.camera`` at ``width × height``.
     ``spp`` samples per pixel for ``ao`` and ``indirect``; ``direct`` is exact with one evaluation.
     Deterministic for a given ``seed`` (independent of ``batch_rays``, the wavefront size; default
     :data:`BATCH_RAYS` of the variant).
-    With ``cache``, looks up / stores ``<cache_dir>/<key>.exr`` (see :mod:`references.cache`).
+    With ``cache``, looks up / stores ``<cache_dir>/<key>.exr`` (see :mod:`ldbench.references.cache`).
 
     Returns a :class:`Reference`; ``meta`` holds ``variant``, ``mitsuba_version``, ``spp``,
     ``spp_requested``, ``seconds`` (render time; that of the original render on a cache hit), ``key``,
@@ -213,7 +213,7 @@ def render_reference(scene, effect, *, width: int, height: int, spp: int = 1024,
 def cached_render(scene, effect, width: int, height: int, spp: int, spp_requested: int, seed: int, variant: str,
                   cache: bool, cache_dir, rays_per_sample: int, render) -> Reference:
     """The cache lookup, ``render()`` → (mean, var, mask) under ``variant`` on a miss, its checks, timing,
-    metadata and storing: what every reference renderer shares (this module and :mod:`references.wavefront`).
+    metadata and storing: what every reference renderer shares (this module and :mod:`ldbench.references.wavefront`).
     ``rays_per_sample``: rays per sample of a hit pixel, for ``rays_per_second`` (one primary ray per pixel
     besides)."""
     with variant_active(variant):
@@ -259,7 +259,7 @@ def primary_hits(scene, width: int, height: int) -> dict:
 
     Returns ``mask`` (H×W bool), ``position`` (H×W×3 float32, world space, 0 on background),
     ``spawn`` (where secondary rays start before their offset: ``position`` moved off triangle edges,
-    :func:`harness.conventions.crease_point`), ``normal`` (H×W×3, geometric normal facing the camera),
+    :func:`ldbench.core.conventions.crease_point`), ``normal`` (H×W×3, geometric normal facing the camera),
     ``distance`` (H×W, ray t; inf on background) and ``albedo`` (H×W×3).
     """
     variant = choose_variant()

@@ -1,8 +1,8 @@
-"""Reference of ``soft_shadows`` (:mod:`harness.effects.soft_shadows`), with Mitsuba 3 on the same triangles
-(:func:`references.wavefront.render_estimator`).
+"""Reference of ``soft_shadows`` (:mod:`ldbench.core.effects.soft_shadows`), with Mitsuba 3 on the same triangles
+(:func:`ldbench.references.wavefront.render_estimator`).
 
 Per pixel, at the camera's hit x₁: the unshadowed direct light of the scene's (first) spot light leaving
-x₁ towards the camera, a₁/π · I · falloff · cos / d² (:func:`references.integrators.direct_light` without
+x₁ towards the camera, a₁/π · I · falloff · cos / d² (:func:`ldbench.references.integrators.direct_light` without
 its shadow ray), times, per sample, the visibility of a point y uniform by area on the sphere of radius
 ``light_radius`` around the light's position (z = 1 − 2u₀, φ = 2π u₁): 1 if y is above x₁'s tangent plane
 and ``ray_test`` from o = ``spawn_origin`` (x₁ + ε n₁) towards y
@@ -34,7 +34,7 @@ def soft_shadow_sample(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed
 
 
 def render_soft_shadows(scene, effect, *, width, height, spp, seed=0, cache=True, progress=True, **kw):
-    """:class:`~references.render.Reference` of ``soft_shadows`` (module docstring)."""
+    """:class:`~ldbench.references.render.Reference` of ``soft_shadows`` (module docstring)."""
     one = dataclasses.replace(scene, lights=list(scene.lights[:1]))
     return render_estimator(one, effect, width=width, height=height, spp=spp, seed=seed,
                             estimator=soft_shadow_sample, rays_per_sample=1, needs_direct=True, cache=cache,

@@ -20,7 +20,7 @@ import re
 import sys
 from contextlib import contextmanager
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 MIN_LLVM = 17
 VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb")

@@ -1,17 +1,17 @@
-"""The ground truth of the ``vpl_range`` effect (:mod:`harness.effects.vpl_range`), with Mitsuba 3: the
+"""The ground truth of the ``vpl_range`` effect (:mod:`ldbench.core.effects.vpl_range`), with Mitsuba 3: the
 reflective shadow map's exact hits that give the VPLs (:func:`rsm_hits`, read by
-:func:`harness.effects.vpl_range.make_vpls`) and the exact ranges (:func:`exact_ranges`,
+:func:`ldbench.core.effects.vpl_range.make_vpls`) and the exact ranges (:func:`exact_ranges`,
 ``trace_oracle`` of the ``rays`` effect on the same rays, reduced as the effect defines).
 
 The RSM is Mitsuba's exact first hit of ``rsm²`` rays from the light through the texel centres of
-:func:`harness.effects.vpl_range.rsm_camera` (the same view the method rasterizes for ``indirect``):
+:func:`ldbench.core.effects.vpl_range.rsm_camera` (the same view the method rasterizes for ``indirect``):
 position, geometric normal flipped to face the light, albedo.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 from . import integrators as _int
 from .rays import epsilons, trace_oracle
@@ -22,7 +22,7 @@ def rsm_hits(scene, R: int) -> dict:
     """Mitsuba's first hits of the RSM rays: ``mask``, ``position``, ``spawn`` (its crease point, where the
     VPL's rays start before their offset), ``normal`` (facing the light),
     ``albedo``, ``direction`` (light → texel centre), each (R², ·), row-major, row 0 at the top."""
-    from harness.effects.vpl_range import rsm_camera
+    from ldbench.core.effects.vpl_range import rsm_camera
 
     if not scene.lights:
         raise LdbenchError(f"scene {scene.name!r} has no light: no reflective shadow map")
@@ -43,18 +43,18 @@ def rsm_hits(scene, R: int) -> dict:
 
 
 def make_vpls(scene, params, seed: int):
-    """:func:`harness.effects.vpl_range.make_vpls` from Mitsuba's exact RSM hits (what the harness hands in)."""
+    """:func:`ldbench.core.effects.vpl_range.make_vpls` from Mitsuba's exact RSM hits (what the harness hands in)."""
     from types import SimpleNamespace
 
-    from harness.effects import vpl_range
+    from ldbench.core.effects import vpl_range
 
     return vpl_range.make_vpls(scene, params, seed, SimpleNamespace(rsm_hits=rsm_hits, epsilons=epsilons))
 
 
 def exact_ranges(scene, batch):
-    """:class:`~harness.effects.vpl_range.VplRangeReference`: Mitsuba's distances on the batch's rays
+    """:class:`~ldbench.core.effects.vpl_range.VplRangeReference`: Mitsuba's distances on the batch's rays
     (``trace_oracle``, timed as for the ``rays`` effect) and the ranges they give."""
-    from harness.effects.vpl_range import VplRangeReference, reduce_ranges
+    from ldbench.core.effects.vpl_range import VplRangeReference, reduce_ranges
 
     ref = trace_oracle(scene, batch.rays)
     return VplRangeReference(range=reduce_ranges(ref.t, batch.cap, batch.mode), t=ref.t, seconds=ref.seconds,

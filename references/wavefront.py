@@ -1,23 +1,23 @@
 """Image references of effects that bring their own Monte Carlo estimator (``glossy_indirect``,
-``soft_shadows``): the wavefront loop, per-pixel statistics and cache of :func:`references.render_reference`,
+``soft_shadows``): the wavefront loop, per-pixel statistics and cache of :func:`ldbench.references.render_reference`,
 with the per-sample estimator given as a function.
 
 :func:`render_estimator` traces the pixel-centre primary rays, keeps the hit pixels and evaluates
 ``estimator(mi, dr, mscene, scene, effect, lanes, pixel, sample, seed_key) -> Color3f`` for all (pixel, sample)
 lanes of a wavefront, where ``lanes`` holds per-lane Dr.Jit arrays: ``p`` (the hit's crease point,
-:func:`references.integrators.spawn_points`; secondary rays start at
-:func:`references.integrators.spawn_origin` of it, as in render_reference), ``n`` (geometric normal facing the
+:func:`ldbench.references.integrators.spawn_points`; secondary rays start at
+:func:`ldbench.references.integrators.spawn_origin` of it, as in render_reference), ``n`` (geometric normal facing the
 camera), ``albedo``,
 ``d`` (the camera ray's direction) and ``direct`` (the unshadowed direct light leaving the hit towards
-the camera, when ``needs_direct``). Random numbers: :func:`references.integrators.rng2` (one PCG32
-stream per pixel, sample index and seed). Mean and variance of the mean as in :mod:`references.render`;
-cached under the same key scheme (:mod:`references.cache`).
+the camera, when ``needs_direct``). Random numbers: :func:`ldbench.references.integrators.rng2` (one PCG32
+stream per pixel, sample index and seed). Mean and variance of the mean as in :mod:`ldbench.references.render`;
+cached under the same key scheme (:mod:`ldbench.references.cache`).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from harness.errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 from . import integrators as _int
 from .render import BATCH_RAYS, Reference, cached_render, mix_seed, progress_bar
@@ -93,7 +93,7 @@ def render_estimator(scene, effect, *, width: int, height: int, spp: int, seed: 
                      needs_direct: bool = False, cache: bool = True, cache_dir=None, progress: bool = True,
                      batch_rays: int | None = None) -> Reference:
     """The reference image of ``effect`` from ``estimator`` (module docstring): a
-    :class:`~references.render.Reference` with mean, variance of the mean and mask; cached."""
+    :class:`~ldbench.references.render.Reference` with mean, variance of the mean and mask; cached."""
     effect.check_scene(scene)
     for what, v in (("width", width), ("height", height), ("spp", spp)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:

@@ -15,11 +15,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from testkit import wall_floor_scene  # noqa: E402
 
-from harness.effects import Effect  # noqa: E402
-from harness.gpu import Gpu  # noqa: E402
-from methods.base import View  # noqa: E402
-from methods.cdi_vpl import CdiVpl, CdiVplParams  # noqa: E402
-from references import render_reference  # noqa: E402
+from ldbench.core.effects import Effect  # noqa: E402
+from ldbench.core.gpu import Gpu  # noqa: E402
+from ldbench.methods.base import View  # noqa: E402
+from ldbench.methods.cdi_vpl import CdiVpl, CdiVplParams  # noqa: E402
+from ldbench.references import render_reference  # noqa: E402
 
 UNCUT = {"vpl.range": "random", "vpl.r_min": 10.0, "vpl.r_max": 10.0}  # every VPL reaches every point
 VARIANTS = (

@@ -11,7 +11,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from harness.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown  # noqa: E402
+from ldbench.reports.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown  # noqa: E402
 
 page = ROOT / "docs" / "claims.md"
 text = page.read_text(encoding="utf-8")

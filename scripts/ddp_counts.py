@@ -14,10 +14,10 @@ import argparse
 
 import numpy as np
 
-from harness.gpu import Gpu
-from harness.scenes import load_scene
-from harness.effects import Effect
-from methods.base import View, get_method
+from ldbench.core.gpu import Gpu
+from ldbench.core.scenes import load_scene
+from ldbench.core.effects import Effect
+from ldbench.methods.base import View, get_method
 
 
 def main():
@@ -39,7 +39,7 @@ def main():
             r = m.frame(View(scene.camera, w, h), Effect("oit")).resolve()
             out[name] = r.counters
             if name == "dual-depth-peeling":
-                from methods.oit import camera_transform
+                from ldbench.methods.oit import camera_transform
                 clip = camera_transform(m.geo, View(scene.camera, w, h))[0]
                 L = m._fragment_counts(clip, w, h).astype(np.int64)
         finally:

@@ -1,5 +1,5 @@
 """How much the old secondary-ray origin biased the Mitsuba references: ``ao`` and ``indirect`` rendered with
-the current origin (Mitsuba's spawn offset of the crease point, harness/conventions.py) and with the old
+the current origin (Mitsuba's spawn offset of the crease point, core/conventions.py) and with the old
 rule (x − 16 ε d_cam + ε n, reproduced here by patching the reference's primary hits), same seed, same
 random numbers.
 
@@ -37,11 +37,11 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from harness.effects import Effect  # noqa: E402
-from harness.errors import LdbenchError  # noqa: E402
-from harness.scenes import load_scene  # noqa: E402
-from references import integrators as _int  # noqa: E402
-from references import primary_hits, render_reference  # noqa: E402
+from ldbench.core.effects import Effect  # noqa: E402
+from ldbench.core.errors import LdbenchError  # noqa: E402
+from ldbench.core.scenes import load_scene  # noqa: E402
+from ldbench.references import integrators as _int  # noqa: E402
+from ldbench.references import primary_hits, render_reference  # noqa: E402
 
 
 @contextmanager

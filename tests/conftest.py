@@ -14,7 +14,7 @@ needs_shared_scenes = pytest.mark.skipif(not SHARED_SCENES.is_dir(), reason=f"{S
 @pytest.fixture(scope="session")
 def gpu():
     """One headless GL context for the whole test session (llvmpipe on CI)."""
-    from harness.gpu import Gpu
+    from ldbench.core.gpu import Gpu
 
     g = Gpu()
     yield g

@@ -1,13 +1,13 @@
-"""The binding table (harness/bindings.py): its invariants, the GLSL header, and the loader's check that
+"""The binding table (core/bindings.py): its invariants, the GLSL header, and the loader's check that
 refuses a program whose blocks disagree with it. Every program the harness compiles goes through that
 check, so the method tests (test_builds, test_ldm, test_ldi, ...) check every shader variant they build."""
 import numpy as np
 import pytest
 
-from harness import bindings
-from harness.bindings import TABLE, B
-from harness.errors import LdbenchError
-from harness.gpu import METHODS_DIR, check_bindings
+from ldbench.core import bindings
+from ldbench.core.bindings import TABLE, B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import METHODS_DIR, check_bindings
 
 
 def test_table_is_consistent():
@@ -85,7 +85,7 @@ def test_project_shaders_must_name_their_blocks(tmp_path, gpu):
     cs = gpu.compute(tmp_path / "k.glsl")
     check_bindings(cs, tmp_path / "k.glsl")
     assert bindings.program_mismatches(cs, strict=True) == [
-        "storage block Mystery is not in the binding table (harness/bindings.py)"]
+        "storage block Mystery is not in the binding table (core/bindings.py)"]
     with pytest.raises(LdbenchError, match="Mystery is not in the binding table"):
         check_bindings(gpu.ctx.compute_shader(
             "#version 430\nlayout(local_size_x = 1) in;\nlayout(std430, binding = 3) buffer Mystery { float m[]; };\n"
@@ -94,7 +94,7 @@ def test_project_shaders_must_name_their_blocks(tmp_path, gpu):
 
 def test_the_project_shaders_agree(gpu):
     """The shaders that compile alone, with their default defines, as their methods compile them."""
-    from harness.gpu import GLSL_DIR
+    from ldbench.core.gpu import GLSL_DIR
     progs = [gpu.program(GLSL_DIR / "gbuffer.glsl"), gpu.program(GLSL_DIR / "layered_build.glsl"),
              gpu.compute(GLSL_DIR / "linked_list_sort.glsl"), gpu.compute(GLSL_DIR / "pairs_scatter.glsl"),
              gpu.compute(GLSL_DIR / "scan.glsl"), gpu.compute(GLSL_DIR / "layered_peel_commit.glsl"),

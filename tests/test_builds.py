@@ -11,11 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, make_structure
-from methods.structures.splat import fill_rule, rule_from_probe
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, make_structure
+from ldbench.methods.structures.splat import fill_rule, rule_from_probe
 
 W = H = 32
 T = 2.0 / W  # one texel in NDC (= world units in layer 0)
@@ -167,7 +167,7 @@ def test_interpolation_rule_is_measured(gpu):
 
 
 def test_interpolation_probe_is_decoded_and_checked():
-    from methods.structures.splat import _IPROBE_POS, _IPROBE_VAL, plane_from_probe
+    from ldbench.methods.structures.splat import _IPROBE_POS, _IPROBE_VAL, plane_from_probe
 
     y, x = np.mgrid[0:4, 0:4] + 0.5
     for snapped in (False, True):
@@ -326,9 +326,9 @@ def test_build_arguments(scene_geo):
 
 
 def test_ldm_ao_is_the_same_image_with_every_build(gpu):
-    from harness.effects import Effect
-    from methods.base import View
-    from methods.ldm import Ldm, LdmParams
+    from ldbench.core.effects import Effect
+    from ldbench.methods.base import View
+    from ldbench.methods.ldm import Ldm, LdmParams
     from testkit import cornell_like
 
     sc = cornell_like(light=False)
@@ -358,9 +358,9 @@ def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
     triangle's dominant-axis samples at density 1/cos θ, ~2× the raster's fragments, at the raster's sample
     positions). Through the adapter: every invariant holds, the lists hold at least the raster's fragments
     (measured 116,976 vs 58,520: 2.0×) and the AO image is darker (0.170 vs 0.269 mean)."""
-    from harness.effects import Effect
-    from methods.base import View
-    from methods.ldm import Ldm, LdmParams
+    from ldbench.core.effects import Effect
+    from ldbench.methods.base import View
+    from ldbench.methods.ldm import Ldm, LdmParams
     from testkit import cornell_like
 
     sc = cornell_like(light=False)

@@ -16,12 +16,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
-from methods.directions import stacks_slices
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
-from methods.scan import Scan
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.methods.directions import stacks_slices
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
+from ldbench.methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, cornell_like, expected_lists, layer_transforms
 
 # A permutation of the world axes that turns the test quads (facing z) into quads facing x or y; the layer

@@ -1,12 +1,12 @@
-"""The ``city`` scene (harness/scenes.py build_city): archer2019's Rungholt stand-in, a procedural town of
+"""The ``city`` scene (core/scenes.py build_city): archer2019's Rungholt stand-in, a procedural town of
 gabled houses whose size follows ``triangles``."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.scenes import load_scene
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scenes import load_scene
 from test_scenes import lit_fraction
 
 

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.effects import Effect
-from references import render_reference
+from ldbench.core.effects import Effect
+from ldbench.references import render_reference
 from testkit import wall_floor_scene
 
 SIZE, RSM = 48, 64

@@ -21,13 +21,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness import metrics
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scenes import load_scene
-from methods.base import View, get_method
-from methods.cdi_vpl import CdiVpl, CdiVplParams
-from references import EXACT, render_effect, render_reference, trace
+from ldbench.core import metrics
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import View, get_method
+from ldbench.methods.cdi_vpl import CdiVpl, CdiVplParams
+from ldbench.references import EXACT, render_effect, render_reference, trace
 
 SIZE = 64
 
@@ -235,7 +235,7 @@ def test_static_cdi_releases_the_triangles(gpu, cornell):
 def test_dispatches_beyond_the_group_limit(gpu, cornell, monkeypatch):
     """Batches larger than one dispatch can hold (65535 groups) are covered by grid-stride loops: with the
     limit lowered to 2 groups the raycast and the random ranges give the same answers."""
-    import methods.cdi_vpl as cdi
+    import ldbench.methods.cdi_vpl as cdi
 
     e = Effect("vpl_range", rsm=32)
     batch = e.spec.inputs(cornell, 8, 8, e.params, 0, exact=EXACT)

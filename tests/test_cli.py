@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.cli import main
-from harness.errors import LdbenchError
+from ldbench.harness.cli import main
+from ldbench.core.errors import LdbenchError
 from testkit import read_only_parent
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def run_cli(*args, env=None):
     e = dict(os.environ, **(env or {}))
-    p = subprocess.run([sys.executable, "-m", "harness.cli", *args], cwd=ROOT, capture_output=True, text=True,
+    p = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", *args], cwd=ROOT, capture_output=True, text=True,
                        env=e, timeout=300)
     return p.returncode, p.stdout, p.stderr
 
@@ -119,7 +119,7 @@ def test_no_gl43_is_one_line(tmp_path):
 
 
 def test_set_overrides_suite_params(tmp_path):
-    from harness.cli import build_parser, suite_from_args
+    from ldbench.harness.cli import build_parser, suite_from_args
 
     suite = tmp_path / "s.toml"
     suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "ao"\n'
@@ -127,7 +127,7 @@ def test_set_overrides_suite_params(tmp_path):
     args = build_parser().parse_args(["run", str(suite), "--set", "ldm-ao.directions=8",
                                       "--set", "ldm-ao.resolution=16"])
     jobs = {j.method: dict(j.params) for j in suite_from_args(args).jobs}
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
     ldm = get_method("ldm-ao").name  # the adapter's name (ldm-ao may be an alias of it)
     assert jobs == {ldm: {"directions": 8, "resolution": 16}, "hbao": {}}
     rc, _, se = run_cli("run", str(suite), "--set", "direct-raster.shadow_size=64")
@@ -159,7 +159,7 @@ def test_out_never_deletes_a_foreign_folder(tmp_path):
 
 def test_out_dot_is_refused(tmp_path):
     (tmp_path / "mine.txt").write_text("x")
-    p = subprocess.run([sys.executable, "-m", "harness.cli", "run", "--scene", "cornell", "--method", "hbao",
+    p = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", "run", "--scene", "cornell", "--method", "hbao",
                         "--effect", "ao", "--size", "16x16", *TINY, "--out", "."], cwd=tmp_path,
                        capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=300)
     assert_one_line_error(p.returncode, p.stderr, "current directory")
@@ -194,7 +194,7 @@ def test_suite_name_cannot_escape_runs(tmp_path):
     s = work / "s.toml"
     s.write_text('[suite]\nname = "../../escape"\nsize = "16x16"\nspp = 4\nframes = 1\nwarmup = 0\n'
                  '[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["hbao"]\n')
-    p = subprocess.run([sys.executable, "-m", "harness.cli", "run", str(s), "--no-progress", "--no-report"],
+    p = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", "run", str(s), "--no-progress", "--no-report"],
                        cwd=work, capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT)),
                        timeout=300)
     assert p.returncode == 0, p.stderr
@@ -242,7 +242,7 @@ def test_gpu_size_limits(gpu):
     gpu.check_image_size(64, 48)
     with pytest.raises(LdbenchError, match="GL_MAX"):
         gpu.check_image_size(lim + 1, 16)
-    from harness.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
+    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
     side = int((_host_available_bytes() / HOST_BYTES_PER_PIXEL) ** 0.5) + 1
     if side <= lim:
         with pytest.raises(LdbenchError, match="memory"):
@@ -259,7 +259,7 @@ def test_same_named_scene_files_get_distinct_labels_and_film_size(tmp_path):
     out = tmp_path / "r"
     rc, so, se = run_cli("run", str(s), "--out", str(out), "--no-progress", "--no-report")
     assert rc == 0, se
-    from harness.records import read_results
+    from ldbench.harness.records import read_results
     df = read_results(out)
     assert len(set(df["scene"])) == 2 and all(n.startswith("scene-") for n in df["scene"])
     assert set(zip(df["width"], df["height"])) == {(20, 15)}
@@ -295,7 +295,7 @@ def test_compare_checks_the_schema(tmp_path):
 def test_reference_of_every_image_effect(tmp_path, capsys):
     """`ldbench reference` goes through the effect's own reference (oit has no Mitsuba image integrator
     of the usual kind); per-ray effects are refused with one line."""
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     assert main(["reference", "teapot", "--effect", "oit", "--size", "16x16", "--out", str(tmp_path / "o.exr")]) == 0
     assert (tmp_path / "o.exr").exists()
@@ -306,7 +306,7 @@ def test_reference_of_every_image_effect(tmp_path, capsys):
 # ---- faults that lose rows or hang ------------------------------------------------------------------
 def _tiny_suite():
     """hbao and ldm, AO on the Cornell box at 16x16: two cheap rows."""
-    from harness.suite import suite_from_dict
+    from ldbench.harness.suite import suite_from_dict
 
     return suite_from_dict({"suite": {"name": "t", "size": "16x16", "spp": 4, "warmup": 0, "frames": 1},
                             "run": [{"scene": "cornell", "effect": "ao", "methods": ["hbao", "ldm"],
@@ -316,8 +316,8 @@ def _tiny_suite():
 def test_an_unexpected_exception_is_one_row_and_the_run_completes(tmp_path, monkeypatch):
     """A job raising something other than LdbenchError (a bug, a driver fault) marks its own row
     ``error: TYPE: message``; the other rows are kept and the run directory is committed."""
-    from methods.hbao import HBAO
-    from harness.executors import run_jobs
+    from ldbench.methods.hbao import HBAO
+    from ldbench.harness.executors import run_jobs
 
     def broken(self, *a, **k):
         raise RuntimeError("simulated driver fault\nsecond line")
@@ -344,7 +344,7 @@ def test_partial_run_folder_is_refused_by_every_reader(tmp_path, finished_run):
     compare and reproduce --from-run refuse it in one line (its rows are not a finished run)."""
     import shutil
 
-    from harness.rundir import MARKER
+    from ldbench.harness.rundir import MARKER
 
     partial = tmp_path / ".run.partial-12345"
     shutil.copytree(finished_run, partial)
@@ -376,8 +376,8 @@ def test_foreign_results_columns_are_one_line_for_every_reader(tmp_path):
 def test_reference_out_writes_only_the_exr(tmp_path, capsys):
     """`reference --out photo.exr` leaves the user's photo.png beside it alone; a name that is not an
     .exr file is refused before rendering."""
-    from harness.cli import main
-    from references.exr import read_exr
+    from ldbench.harness.cli import main
+    from ldbench.core.exr import read_exr
 
     (tmp_path / "photo.png").write_bytes(b"my holiday")
     assert main(["reference", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
@@ -398,7 +398,7 @@ def test_ctrl_c_during_the_report_never_commits(tmp_path, monkeypatch, capsys):
     handler, as once happened after a Ray run)."""
     import signal
 
-    import harness.report
+    import ldbench.reports.report
 
     def swallowing_report(*a, **k):
         try:
@@ -406,7 +406,7 @@ def test_ctrl_c_during_the_report_never_commits(tmp_path, monkeypatch, capsys):
         except KeyboardInterrupt:
             pass  # caught by someone else's code
 
-    monkeypatch.setattr(harness.report, "build_report", swallowing_report)
+    monkeypatch.setattr(ldbench.reports.report, "build_report", swallowing_report)
     out = tmp_path / "run"
     rc = main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--size", "16x16", *TINY[:-1],
                "--out", str(out)])
@@ -419,7 +419,7 @@ def test_unreachable_ray_address_is_one_line_within_the_stated_time(tmp_path):
     pytest.importorskip("ray")
     import time
 
-    from harness.executors.ray import CONNECT_TIMEOUT_S
+    from ldbench.harness.executors.ray import CONNECT_TIMEOUT_S
 
     t0 = time.monotonic()
     rc, _, se = tiny_run(tmp_path / "run", "--executor", "ray", "--address", "127.0.0.1:1")
@@ -451,8 +451,8 @@ def test_undecodable_input_files_are_one_line(tmp_path, kind, request):
         (hist / "machine.parquet").write_bytes(UNDECODABLE)
         args = ["history", "plot", "--history-dir", str(hist)]
     else:  # the history file a run is added to
-        from harness.history import row_machine_key
-        from harness.records import read_results
+        from ldbench.harness.history import row_machine_key
+        from ldbench.harness.records import read_results
 
         run = request.getfixturevalue("finished_run")
         hist.mkdir()
@@ -484,9 +484,9 @@ def test_xml_scene_with_a_negative_intensity_is_one_line(tmp_path):
 def test_an_unexpected_reference_failure_marks_its_jobs_and_the_run_completes(tmp_path, monkeypatch):
     """As on the Ray executor: a reference raising something other than LdbenchError marks the rows of
     its jobs; the jobs of other references still run."""
-    import references as refs
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    import ldbench.references as refs
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     real = refs.render_reference
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from harness import records as R
-from harness.cli import build_parser, main
-from harness.resources import bundled_suites
+from ldbench.harness import records as R
+from ldbench.harness.cli import build_parser, main
+from ldbench.harness.resources import bundled_suites
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,7 +57,7 @@ def test_unknown_suite_lists_the_bundled_ones(capsys):
 
 def _run(tmp_path, *extra, env=None):
     out = tmp_path / "run"
-    p = subprocess.run([sys.executable, "-m", "harness.cli", *extra, "run", "--scene", "cornell", "--method",
+    p = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", *extra, "run", "--scene", "cornell", "--method",
                         "hbao", "--effect", "ao", "--size", "16x16", "--spp", "2", "--frames", "1", "--warmup",
                         "0", "--no-report", "--out", str(out)], cwd=ROOT, capture_output=True, text=True,
                        timeout=300, env={**os.environ, **(env or {})})
@@ -78,7 +78,7 @@ def test_adhoc_ao_gets_a_finite_d_max_said_on_stderr_and_no_progress_bar_off_a_t
 
 
 def test_given_d_max_and_suites_are_left_alone(tmp_path, capsys):
-    from harness.cli import suite_from_args
+    from ldbench.harness.cli import suite_from_args
 
     args = build_parser().parse_args(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao",
                                       "--d-max", "inf"])
@@ -93,7 +93,7 @@ def test_given_d_max_and_suites_are_left_alone(tmp_path, capsys):
 def test_registered_d_max_wins_over_the_fraction(monkeypatch):
     import dataclasses
 
-    from harness import scene_registry, scenes
+    from ldbench.core import scene_registry, scenes
 
     reg = dict(scene_registry.registry())
     name = next(iter(reg))
@@ -114,7 +114,7 @@ def test_scene_descriptions_are_whole_sentences(capsys):
     out = capsys.readouterr().out
     city = next(l for l in out.splitlines() if l.strip().startswith("city "))
     assert city.rstrip().endswith("sets the size.") and "Rungholt" in city and "``" not in city
-    from harness.scenes import doc_summary, list_scenes
+    from ldbench.core.scenes import doc_summary, list_scenes
 
     assert all(s["description"].endswith((".", ")")) for s in list_scenes())
     assert doc_summary("One (Fig. 2) thing\nwrapped here. Second sentence.\n\nMore.") == \
@@ -127,10 +127,10 @@ def test_scene_descriptions_are_whole_sentences(capsys):
 def test_log_levels_reach_stderr_as_asked(verbose, quiet, shown, capsys):
     import logging
 
-    from harness.cli import setup_logging
+    from ldbench.harness.cli import setup_logging
 
     setup_logging(verbose, quiet)
-    log = logging.getLogger("harness.runner")
+    log = logging.getLogger("ldbench.harness.runner")
     for level in ("debug", "info", "warning", "error"):
         getattr(log, level)(f"a {level} message")
     captured = capsys.readouterr()
@@ -144,7 +144,7 @@ def test_log_levels_reach_stderr_as_asked(verbose, quiet, shown, capsys):
 
 
 def test_module_warnings_are_prefixed_under_python_dash_m(tmp_path):
-    # `python -m harness.cli` runs cli.py as __main__: the runner's warnings (an ignored emitter of an XML
+    # `python -m ldbench.harness.cli` runs cli.py as __main__: the runner's warnings (an ignored emitter of an XML
     # scene) must still reach the handler and read "ldbench: warning: ...", as -q/-qq must still apply.
     xml = tmp_path / "s.xml"
     xml.write_text("""<scene version="3.0.0">
@@ -155,7 +155,7 @@ def test_module_warnings_are_prefixed_under_python_dash_m(tmp_path):
 <emitter type="constant"><rgb name="radiance" value="1"/></emitter>
 </scene>
 """)
-    args = [sys.executable, "-m", "harness.cli", "run", "--scene", str(xml), "--method", "direct-raster",
+    args = [sys.executable, "-m", "ldbench.harness.cli", "run", "--scene", str(xml), "--method", "direct-raster",
             "--effect", "direct", "--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0",
             "--no-report", "--out", str(tmp_path / "run")]
     p = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=300)

@@ -5,9 +5,9 @@ import zlib
 import numpy as np
 import pytest
 
-from harness import compare as C
-from harness import records as R
-from harness.cli import main
+from ldbench.harness import compare as C
+from ldbench.harness import records as R
+from ldbench.harness.cli import main
 
 GPU = {"device": "nvidia", "gl_renderer": "NVIDIA H100 80GB HBM3/PCIe/SSE2",
        "gl_version": "4.6.0 NVIDIA 550.54.15", "driver": "550.54.15", "cpu": "Xeon", "gpu_name": "NVIDIA H100"}
@@ -362,7 +362,7 @@ def test_improved_needs_the_minimum_effect_too(tmp_path):
 
 
 def _full_params(method):
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
     return get_method(method).Params().to_dict()
 
 
@@ -371,7 +371,7 @@ def test_a_new_parameter_with_its_default_orphans_no_baseline_row(tmp_path, caps
     params lack it) still matches a run that records it at its default; so does one that recorded a
     parameter under its old name (``Params.renamed``); a parameter the adapter no longer has leaves the
     baseline row missing."""
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
 
     full = {m: _full_params(m) for _, m, _ in BENCH}
     older = {m: {k: v for k, v in p.items() if k != sorted(p)[0]} for m, p in full.items()}  # one dropped

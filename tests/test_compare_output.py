@@ -3,7 +3,7 @@ for CI (per check the key, metric, values, verdict and thresholds; the exit stat
 import json
 import math
 
-from harness import compare as C
+from ldbench.harness import compare as C
 from test_compare import _cli, _run
 
 

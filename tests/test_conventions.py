@@ -1,8 +1,8 @@
-"""harness/conventions.py and its GLSL twin methods/glsl/conventions.glsl agree on random inputs (a compute
+"""core/conventions.py and its GLSL twin methods/glsl/conventions.glsl agree on random inputs (a compute
 shader on the test GPU), and the epsilons are Mitsuba's."""
 import numpy as np
 
-from harness import conventions as conv
+from ldbench.core import conventions as conv
 
 N = 4096
 SHADER = """
@@ -131,6 +131,6 @@ def test_python_and_glsl_conventions_agree(gpu, tmp_path):
         ref = np.concatenate([conv.reduce_range(t[i], float(cap[i]), mode) for i in range(N)])
         np.testing.assert_allclose(got, ref, rtol=1e-6)
 
-    from references.rays import _epsilons
+    from ldbench.references.rays import _epsilons
     assert _epsilons() == (np.float32(conv.RAY_EPSILON), np.float32(conv.SHADOW_EPSILON))
 

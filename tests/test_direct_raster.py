@@ -4,9 +4,9 @@ fall-off, albedo and shadows are all checked."""
 import numpy as np
 import pytest
 
-from harness.effects import Effect
-from harness.scene import Camera, Mesh, Scene, SpotLight
-from methods.base import View, get_method
+from ldbench.core.effects import Effect
+from ldbench.core.scene import Camera, Mesh, Scene, SpotLight
+from ldbench.methods.base import View, get_method
 
 
 def quad(name, y, half, albedo, flip=False):
@@ -72,9 +72,9 @@ def test_direct_raster_matches_closed_form(gpu, occluder_first):
 def test_direct_raster_matches_mitsuba_on_cornell(gpu):
     """The calibration of docs/results-nvidia.md: cornell at 256², PSNR ≥ 30 dB and SSIM ≥ 0.95 against
     Mitsuba's `direct` (linear values, data range = reference maximum over unmasked pixels)."""
-    from harness import metrics
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core import metrics
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     sc = load_scene("cornell")
     ref = render_reference(sc, Effect("direct"), width=256, height=256, spp=1, progress=False)

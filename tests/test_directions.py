@@ -6,10 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from methods.directions import (
-    eq_point_set, eq_zones, hemisphere_weights_check, hemisphere_zones, ldm_axes, orthonormal_basis,
-    signed_directions,
-)
+from ldbench.methods.directions import (eq_point_set, eq_zones, hemisphere_weights_check, hemisphere_zones,
+                                        ldm_axes, orthonormal_basis, signed_directions)
 
 
 def _min_angle(p: np.ndarray) -> float:
@@ -95,7 +93,7 @@ def test_nearest_axis_table(n):
     """The best candidate of a direction's cube cell is its nearest axis by |d·v| for all but a sliver of
     directions (measured mismatch over 200 000 directions: 0, 0, 1.5e-5, 5e-5), and then an almost as
     near one. 50 000 directions here."""
-    from methods.directions import cube_cell, ldm_axes, nearest_axis_table
+    from ldbench.methods.directions import cube_cell, ldm_axes, nearest_axis_table
 
     ax = ldm_axes(n)
     lut = nearest_axis_table(ax, 128)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.reproduce import registry
+from ldbench.reports.reproduce import registry
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
@@ -88,7 +88,7 @@ def test_the_checks_bite(tmp_path):
     (tmp_path / "there.md").write_text("x")
     doc = tmp_path / "doc.md"
     doc.write_text("[ok](there.md) [web](https://example.org/x.md) [anchor](#top) [gone](missing.md#a)\n"
-                   "`harness/gpu.py` `tests/test_docs.py::test_the_checks_bite` `methods/glsl/*.glsl` "
+                   "`core/gpu.py` `tests/test_docs.py::test_the_checks_bite` `methods/glsl/*.glsl` "
                    "`scripts/gpu/no-such-script.sh` `methods/<name>.py` `methods/ldi/`\n"
                    "    python scripts/gpu/gone.py OUT   # tests/test_docs.py::test_gone\n")
     assert broken_links(doc) == ["link missing.md#a", "path scripts/gpu/no-such-script.sh",

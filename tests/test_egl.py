@@ -1,4 +1,4 @@
-"""EGL device selection (harness/egl.py): the CUDA_VISIBLE_DEVICES GPU found through EGL_NV_device_cuda.
+"""EGL device selection (core/egl.py): the CUDA_VISIBLE_DEVICES GPU found through EGL_NV_device_cuda.
 
 CI has no NVIDIA GPU: the selection rules are checked on fake device lists shaped like what the NVIDIA
 driver reports (EGL order differing from CUDA's and from nvidia-smi's), and the ctypes query and the
@@ -7,8 +7,8 @@ import os
 
 import pytest
 
-from harness import egl
-from harness.egl import EglDevice, Selection, normalize_pci, select
+from ldbench.core import egl
+from ldbench.core.egl import EglDevice, Selection, normalize_pci, select
 
 NV_EXT = "EGL_NV_device_cuda EGL_EXT_device_drm EGL_EXT_device_persistent_id"
 SMI = [  # nvidia-smi order (PCI); CUDA's order here differs, as does EGL's
@@ -88,7 +88,7 @@ def test_this_machine_query_and_context(monkeypatch):
     assert [d.index for d in devices] == list(range(len(devices)))
     import moderngl
 
-    from harness import gpu as gpu_mod
+    from ldbench.core import gpu as gpu_mod
 
     calls = []
     real = moderngl.create_standalone_context

@@ -18,10 +18,10 @@ import pytest
 
 ray = pytest.importorskip("ray", reason="the test extra installs ray (pip install -e '.[test]')")
 
-from harness.executors.check import TIMED, differences, image_files  # noqa: E402
-from harness.executors.ray import RayExecutor, cpus_per_gpu, group_jobs  # noqa: E402
-from harness.executors import run_jobs  # noqa: E402
-from harness.suite import suite_from_dict  # noqa: E402
+from ldbench.harness.executors.check import TIMED, differences, image_files  # noqa: E402
+from ldbench.harness.executors.ray import RayExecutor, cpus_per_gpu, group_jobs  # noqa: E402
+from ldbench.harness.executors import run_jobs  # noqa: E402
+from ldbench.harness.suite import suite_from_dict  # noqa: E402
 
 def _suite(d_max=(0.5, "inf"), methods=("hbao", "ldm")):
     return suite_from_dict({"suite": {"name": "ray-test", "size": "24x24", "spp": 8, "warmup": 0, "frames": 1},
@@ -55,7 +55,7 @@ def test_differences_bite(serial, tmp_path):
     """The comparison the Ray tests rely on sees a changed metric and a changed image byte."""
     import shutil
 
-    from harness import records
+    from ldbench.harness import records
 
     copy = tmp_path / "copy"
     shutil.copytree(serial[0], copy)
@@ -183,7 +183,7 @@ def test_ctrl_c_cancels_every_task_and_leaves_no_run_directory(cluster, tmp_path
 
 
 def test_without_ray_one_line_exit_2(tmp_path, monkeypatch, capsys):
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
     out = tmp_path / "run"
@@ -195,7 +195,7 @@ def test_without_ray_one_line_exit_2(tmp_path, monkeypatch, capsys):
 
 
 def test_cli_flags_checked(tmp_path, capsys):
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     base = ["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--out", str(tmp_path / "r")]
     assert main(base + ["--retries", "2"]) == 2
@@ -207,13 +207,13 @@ def test_cli_flags_checked(tmp_path, capsys):
 
 def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
     """What the Ctrl-C test above raises becomes exit 130 and one line at the command line."""
-    import harness.executors
-    from harness.cli import main
+    import ldbench.harness.executors
+    from ldbench.harness.cli import main
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(harness.executors, "run_jobs", interrupted)
+    monkeypatch.setattr(ldbench.harness.executors, "run_jobs", interrupted)
     assert main(["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--d-max", "0.1", "--executor", "ray",
                  "--out", str(tmp_path / "r")]) == 130
     assert capsys.readouterr().err == "ldbench: interrupted\n"
@@ -222,7 +222,7 @@ def test_cli_ctrl_c_is_exit_130(tmp_path, monkeypatch, capsys):
 def test_ctrl_c_during_the_report_of_a_ray_run_never_commits(cluster, tmp_path, monkeypatch):
     """SIGINT while the report of a finished Ray run is written, its KeyboardInterrupt caught by the
     code it interrupted: the run is still not committed (KeyboardInterrupt, exit 130 at the CLI)."""
-    import harness.report
+    import ldbench.reports.report
 
     def swallowing_report(*a, **k):
         try:
@@ -230,7 +230,7 @@ def test_ctrl_c_during_the_report_of_a_ray_run_never_commits(cluster, tmp_path, 
         except KeyboardInterrupt:
             pass
 
-    monkeypatch.setattr(harness.report, "build_report", swallowing_report)
+    monkeypatch.setattr(ldbench.reports.report, "build_report", swallowing_report)
     out = tmp_path / "run"
     with pytest.raises(KeyboardInterrupt):
         run_jobs(_suite(d_max=("inf",)), out, progress=False, report=True,

@@ -2,9 +2,10 @@
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.gpu import classify_device, expand_includes, read_texture
-from methods.base import ParamsBase, param, registry, get_method
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import classify_device, expand_includes, read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.base import registry, get_method
 from dataclasses import dataclass
 
 
@@ -99,7 +100,7 @@ def test_registry_discovers_adapters():
 def test_a_second_context_released_leaves_the_first_usable(gpu):
     """A run started from inside a process that holds a context (a test session, a notebook) creates and
     releases its own; the first context must still compute afterwards (EGL leaves none current)."""
-    from harness.gpu import GLSL_DIR, Gpu
+    from ldbench.core.gpu import GLSL_DIR, Gpu
 
     buf = gpu.ctx.buffer(reserve=64)
     cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
@@ -116,7 +117,7 @@ def test_a_second_context_released_leaves_the_first_usable(gpu):
 
 def test_read_goes_through_staging(gpu):
     """gpu.read returns the bytes asked for (offset, size, growing staging) and never reads the buffer
-    itself: NVIDIA moves a buffer the CPU reads to host memory (harness/gpu.py Gpu.read)."""
+    itself: NVIDIA moves a buffer the CPU reads to host memory (core/gpu.py Gpu.read)."""
     data = np.arange(5000, dtype=np.uint32)
     buf = gpu.ctx.buffer(data.tobytes())
     direct = []
@@ -126,7 +127,7 @@ def test_read_goes_through_staging(gpu):
         assert np.array_equal(np.frombuffer(gpu.read(buf, 8, offset=4 * 17), np.uint32), [17, 18])
         assert np.array_equal(np.frombuffer(gpu.read(buf), np.uint32), data)  # staging grows past 4 KiB
         assert gpu.read(buf, 0) == b"" and not direct
-        import harness.gpu as G
+        import ldbench.core.gpu as G
 
         keep, G.STAGING_KEEP = G.STAGING_KEEP, 1024  # a read above the kept size: its own staging buffer
         try:

@@ -9,17 +9,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import methods.gtao
-from harness import metrics as M
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene
-from methods.base import View, get_method, registry
-from methods.gtao import GTAO, GTAOParams
+import ldbench.methods.gtao
+from ldbench.core import metrics as M
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene
+from ldbench.methods.base import View, get_method, registry
+from ldbench.methods.gtao import GTAO, GTAOParams
 from test_hbao import LOW_OVER_FLOOR, floor_profile, floor_wall_scene
 import testkit
 
-GTAO_DIR = Path(methods.gtao.__file__).resolve().parent
+GTAO_DIR = Path(ldbench.methods.gtao.__file__).resolve().parent
 # converged sampling and no fade, denoise or noise pattern, so that what remains is the integral
 FINE = dict(slices=9, steps=32, falloff_range=0.0, denoise_passes=0)
 
@@ -203,8 +203,8 @@ def test_cornell_small_dmax_against_reference(gpu):
     """cornell, d_max = 5 % of the diagonal, 256², against Mitsuba (256 spp): the published "High" preset
     (3 × 3 samples per side, fade, one denoise) 20.66 dB; without the fade 24.30 dB; 9 slices × 32 steps
     without the fade 34.00 dB (measured on llvmpipe): sampling, not the integral, limits the preset."""
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     sc = load_scene("cornell")
     eff = Effect("ao", round(0.05 * sc.diagonal(), 4), "step")

@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness import metrics as M
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
-from methods.base import View, get_method, registry
-import methods.hbao
-from methods.hbao import HBAO, HBAOParams
+from ldbench.core import metrics as M
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.methods.base import View, get_method, registry
+import ldbench.methods.hbao
+from ldbench.methods.hbao import HBAO, HBAOParams
 
 REF_SPP = 256
 HBAO_DIR = Path(methods.hbao.__file__).resolve().parent
@@ -137,8 +137,8 @@ def test_cornell_small_dmax_cosine_matches_reference(gpu):
     """cornell, d_max = 5 % of the scene diagonal, 256², against Mitsuba (data range 1). Thresholds just
     below what llvmpipe measures: cosine integral 32.35 dB / SSIM 0.9733, 2008 integral 28.28 dB /
     SSIM 0.9577 (part of the error sits on reference pixels exactly on the box's creases)."""
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     sc = load_scene("cornell")
     eff = Effect("ao", round(0.05 * sc.diagonal(), 4), "step")
@@ -165,7 +165,7 @@ def test_cornell_small_dmax_cosine_matches_reference(gpu):
 
 
 def test_floor_near_wall_cosine_matches_closed_form_and_reference(gpu):
-    from references import render_reference
+    from ldbench.references import render_reference
 
     sc = floor_wall_scene()
     eff = Effect("ao", 1.0, "step")
@@ -309,7 +309,7 @@ def test_rejects_other_effects(gpu):
 
 
 def test_suite_file_parses():
-    from harness.suite import load_suite
+    from ldbench.harness.suite import load_suite
 
     s = load_suite(Path(__file__).resolve().parents[1] / "suites" / "aalund2015-ao.toml")
     methods = {get_method(j.method).name for j in s.jobs}  # registered names (the suite may use aliases)

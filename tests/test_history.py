@@ -3,10 +3,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import history as H
-from harness import history_plots as HP
-from harness import records as R
-from harness.cli import main
+from ldbench.harness import history as H
+from ldbench.reports import history_plots as HP
+from ldbench.harness import records as R
+from ldbench.harness.cli import main
 
 GPU = {"device": "nvidia", "gl_renderer": "NVIDIA H100 80GB HBM3/PCIe/SSE2",
        "gl_version": "4.6.0 NVIDIA 550.54.15", "driver": "550.54.15", "cpu": "Xeon", "gpu_name": "NVIDIA H100"}
@@ -151,7 +151,7 @@ def test_concurrent_adds_keep_every_run(tmp_path):
     hist, go = tmp_path / "hist", tmp_path / "go"
     runs = [_write_run(tmp_path / f"r{i}", f"run-{i}", day=i + 1) for i in range(4)]
     script = ("import os, sys, time\n"
-              "from harness.cli import main\n"
+              "from ldbench.harness.cli import main\n"
               "while not os.path.exists(sys.argv[2]): time.sleep(0.005)\n"
               "sys.exit(main(['history', 'add', sys.argv[1], '--history-dir', sys.argv[3]]))\n")
     env = dict(os.environ, PYTHONPATH=str(root))

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from harness import history as H
-from harness import records as R
-from harness.cli import main
+from ldbench.harness import history as H
+from ldbench.harness import records as R
+from ldbench.harness.cli import main
 from test_history import GPU, LLVMPIPE, _write_run
 
 

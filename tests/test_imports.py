@@ -31,14 +31,14 @@ FOLDER_LAYER = {"core": "foundation", "methods": "methods", "references": "refer
 #: Files and folders of the layer they will move to while they still lie elsewhere (a path ending in "/"
 #: is a folder); once moved, their folder says it.
 MOVING = {
-    "foundation": ("harness/errors.py", "harness/params.py", "harness/conventions.py", "harness/bindings.py",
-                   "harness/gpu.py",
-                   "harness/egl.py", "harness/device.py", "harness/scene.py", "harness/meshio.py",
-                   "harness/scenes.py", "harness/scene_registry.py", "harness/mitsuba_xml.py",
-                   "harness/metrics.py", "harness/imageio.py", "harness/plugins.py", "harness/effects/",
-                   "references/exr.py"),
-    "reports": ("harness/report.py", "harness/figures.py", "harness/reproduce.py", "harness/history_plots.py",
-                "harness/reproductions/"),
+    "foundation": ("core/errors.py", "core/params.py", "core/conventions.py", "core/bindings.py",
+                   "core/gpu.py",
+                   "core/egl.py", "core/device.py", "core/scene.py", "core/meshio.py",
+                   "core/scenes.py", "core/scene_registry.py", "core/mitsuba_xml.py",
+                   "core/metrics.py", "core/imageio.py", "core/plugins.py", "core/effects/",
+                   "core/exr.py"),
+    "reports": ("reports/report.py", "reports/figures.py", "reports/reproduce.py", "reports/history_plots.py",
+                "reports/reproductions/"),
 }
 
 #: Names that will move out of a module into the foundation ({file: names}): the validated-parameter

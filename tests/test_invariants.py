@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import pytest
 
-from harness.effects import Effect
-from methods.base import View, get_method
+from ldbench.core.effects import Effect
+from ldbench.methods.base import View, get_method
 from testkit import cornell_like
 
 
@@ -53,8 +53,8 @@ def test_overflow_of_a_fixed_pool_is_a_violated_invariant(gpu, case):
 
 def test_a_fixed_pool_that_overflows_degrades_the_row(tmp_path):
     """The case that passed as ``ok`` before: ldm with a fixed pool keeping 10 fragments."""
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "16x16", "warmup": 0, "frames": 1},
                              "run": [{"scene": "cornell", "effect": "ao", "methods": ["ldm"],

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from methods.gbuffer import SceneGeometry, face_normals
-from methods.structures import StructureSpec, fill_uint, make_structure
-from methods.structures.core import LAYOUT_CODES
-from methods.scan import Scan
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.methods.gbuffer import SceneGeometry, face_normals
+from ldbench.methods.structures import StructureSpec, fill_uint, make_structure
+from ldbench.methods.structures.core import LAYOUT_CODES
+from ldbench.methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, expected_lists, layer_transforms, quads_scene
 
 STRESS = Path(__file__).parent / "glsl" / "ll_stress.glsl"
@@ -125,7 +125,7 @@ def test_walks_are_bounded_and_a_cycle_is_a_violated_invariant(setup):
 
 
 def test_invariants_name_every_violation():
-    from methods.structures import LayeredStructure
+    from ldbench.methods.structures import LayeredStructure
 
     s = object.__new__(LayeredStructure)
     s.overflow_allowed, s.source = False, None
@@ -196,7 +196,7 @@ def test_structure_arguments(setup):
 
 
 def test_groups_2d_cover_any_count():
-    from methods.scan import groups_2d
+    from ldbench.methods.scan import groups_2d
 
     for nb in (1, 65535, 65536, 70493, 10 ** 7):
         gx, gy = groups_2d(nb)

@@ -9,16 +9,16 @@ import numpy as np
 import pytest
 
 from testkit import LAYER_H, LAYER_W, box, expected_lists, layer_transforms, plane, quad, quads_scene
-from harness.bindings import B
-from harness.effects import Effect
-from harness.effects.rays import RayBatch
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene
-from methods.base import View, get_method
-from methods.directions import cube_cell, cube_directions, cube_k
-from methods.ldi import Ldi, LdiParams
-from methods.scan import Scan
-from references import EXACT
+from ldbench.core.bindings import B
+from ldbench.core.effects import Effect
+from ldbench.core.effects.rays import RayBatch
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.methods.base import View, get_method
+from ldbench.methods.directions import cube_cell, cube_directions, cube_k
+from ldbench.methods.ldi import Ldi, LdiParams
+from ldbench.methods.scan import Scan
+from ldbench.references import EXACT
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -67,8 +67,8 @@ def test_registered_and_params():
 # structure: depth peeling, compaction, the one-pass build
 
 def _quads_structure(gpu, build, **kw):
-    from methods.gbuffer import SceneGeometry
-    from methods.structures import make_structure
+    from ldbench.methods.gbuffer import SceneGeometry
+    from ldbench.methods.structures import make_structure
 
     res = gpu.resources()
     geo = SceneGeometry(gpu, quads_scene(), res)
@@ -101,7 +101,7 @@ def test_structure_matches_cpu_raster(gpu, build):
 def test_compaction_against_cumsum(gpu):
     """The peel's per-texel layer counts → GPU scan → list ends equal numpy's cumsum (most lists are empty),
     and the compaction of random counts with runs of zeros equals it too."""
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=32)
     try:
@@ -154,7 +154,7 @@ def test_peel_and_single_pass_identical(gpu):
     both builds must order ties by payload (canon), not by triangle id or by the order of the atomics."""
     import dataclasses
 
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     base = load_scene("cornell")
     floor = next(m for m in base.meshes if m.name == "floor")
@@ -191,7 +191,7 @@ def test_peel_and_single_pass_identical(gpu):
 
 
 def test_fast_build_parameters_need_the_single_pass():
-    from methods.ldi import LdiParams
+    from ldbench.methods.ldi import LdiParams
 
     with pytest.raises(LdbenchError, match="single_pass"):
         LdiParams.from_dict({"raster": "splat"})
@@ -203,7 +203,7 @@ def test_fast_build_parameters_need_the_single_pass():
 
 
 def test_peel_invariants_report_truncation(gpu):
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=16, max_layers=2)
     try:
@@ -567,7 +567,7 @@ def _tie_room(X, ppu):
 def test_prebuilt_ldis_answer_as_the_per_frame_build(gpu):
     """``prebuild``: the LDIs built once in setup (untimed); a frame is the trace alone and answers as the
     per-frame build does, frame after frame."""
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     sc = load_scene("cornell")
     e = Effect("rays", rays_per_pixel=1)

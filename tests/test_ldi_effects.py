@@ -6,17 +6,17 @@ import numpy as np
 import pytest
 
 from testkit import plane, quad
-from harness.effects import Effect, get_spec
-from references import render_effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene, SpotLight
-from methods.base import View
-from methods.ldi import Ldi, LdiParams
+from ldbench.core.effects import Effect, get_spec
+from ldbench.references import render_effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene, SpotLight
+from ldbench.methods.base import View
+from ldbench.methods.ldi import Ldi, LdiParams
 
 
 @pytest.fixture(scope="module")
 def mitsuba():
-    refs = pytest.importorskip("references")
+    refs = pytest.importorskip("ldbench.references")
     try:
         refs.choose_variant()
     except LdbenchError as e:  # pragma: no cover - no usable Mitsuba backend
@@ -45,8 +45,8 @@ def _half_light_scene(c=0.05):
 
 def _origin_height(scene, width, height, mitsuba):
     """Height of the secondary-ray origin over the plane y = 0 per pixel: the references' and the rays
-    batch's (harness.conventions.spawn_origin of the hit's crease point)."""
-    from harness.conventions import spawn_origin
+    batch's (ldbench.core.conventions.spawn_origin of the hit's crease point)."""
+    from ldbench.core.conventions import spawn_origin
 
     hits = mitsuba.primary_hits(scene, width, height)
     return spawn_origin(hits["spawn"].astype(np.float64), hits["normal"].astype(np.float64))[..., 1]
@@ -57,7 +57,7 @@ def test_soft_shadows_closed_form(gpu, mitsuba):
     height h is (1 + (c − h)/r)/2 (≈ 3/4; h ≈ 0.1–0.3 mm here). The reference (1024 samples) and the LDI method
     (1024 rays per pixel) give that fraction of the unshadowed direct light (Mitsuba's ``direct`` reference);
     r = 0 is the ``direct`` effect itself."""
-    from references.soft_shadows import render_soft_shadows
+    from ldbench.references.soft_shadows import render_soft_shadows
 
     scene = _half_light_scene()
     direct = mitsuba.render_reference(scene, Effect("direct"), width=24, height=24, spp=1, progress=False)
@@ -110,7 +110,7 @@ def test_glossy_matches_reference(gpu, mitsuba, exponent, bias, psnr):
     """The normalized Phong lobe, its weight and the shading at the hit are the reference's: on the floor and
     wall (96 LDIs of 128², 512 rays per pixel) the mean is within 2 % of Mitsuba's (2048 samples) and the
     PSNR just below the measured one (a lobe weight without the cosine loses ~4 dB)."""
-    from harness import metrics
+    from ldbench.core import metrics
 
     scene, eff = _floor_wall(), Effect("glossy_indirect", exponent=exponent)
     ref = render_effect(scene, eff, width=32, height=32, spp=2048, seed=0, inputs=None, progress=False)
@@ -127,8 +127,8 @@ def test_indirect_on_cornell(gpu, mitsuba):
     llvmpipe: the paper's 8 rays per pixel with the 11×11 Gaussian 25.22 dB; without the filter 15.13 dB;
     256 rays per pixel unfiltered 28.48 dB at 0.962 of the reference's mean (the LDIs' bias: rays that
     slip through steep surfaces between pixel samples, creases)."""
-    from harness import metrics
-    from harness.scenes import load_scene
+    from ldbench.core import metrics
+    from ldbench.core.scenes import load_scene
 
     scene, eff = load_scene("cornell"), Effect("indirect")
     ref = mitsuba.render_reference(scene, eff, width=64, height=64, spp=1024, progress=False)
@@ -147,8 +147,8 @@ def test_soft_shadows_on_cornell(gpu, mitsuba):
     """Soft shadows of the blocks (light radius 5 cm) against Mitsuba (1024 samples, 48²): the paper's
     16 shadow rays per pixel through 96 LDIs of 128²; measured 35.53 dB, mean 0.975 of the reference's
     (rays grazing the block tops count a few false hits)."""
-    from harness import metrics
-    from harness.scenes import load_scene
+    from ldbench.core import metrics
+    from ldbench.core.scenes import load_scene
 
     scene, eff = load_scene("cornell"), Effect("soft_shadows", light_radius=0.05)
     ref = render_effect(scene, eff, width=48, height=48, spp=1024, seed=0, inputs=None, progress=False)

@@ -14,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness import metrics
-from harness.effects import Effect
-from methods.base import View
-from methods.ldi import Ldi, LdiParams
-from references import render_reference
+from ldbench.core import metrics
+from ldbench.core.effects import Effect
+from ldbench.methods.base import View
+from ldbench.methods.ldi import Ldi, LdiParams
+from ldbench.references import render_reference
 from testkit import wall_floor_scene
 
 S = 64
@@ -71,7 +71,7 @@ def test_bilateral_filter_does_not_mix_light_across_the_crease(gpu, case):
 
 
 def test_filter_kind_is_validated():
-    from harness.errors import LdbenchError
+    from ldbench.core.errors import LdbenchError
 
     with pytest.raises(LdbenchError):
         LdiParams.from_dict({"indirect.filter_kind": "median"})
@@ -81,7 +81,7 @@ def _step_scene():
     """A grey block (top at 0.8 m) on a grey floor before a red wall lit by a spot: in the image the block's
     top borders the floor behind it (parallel planes, 0.8 m apart: only the plane-distance term stops the
     filter there)."""
-    from harness.scene import Camera, Scene, SpotLight
+    from ldbench.core.scene import Camera, Scene, SpotLight
     from testkit import box, quad
 
     floor = quad((-2, 0, -2), (-2, 0, 2), (2, 0, 2), (2, 0, -2), "floor", (0.8, 0.8, 0.8))

@@ -1,12 +1,13 @@
-"""niessner2010-table1 (harness/reproductions/niessner2010.py): rows find their jobs at both scales, the claims
+"""niessner2010-table1 (reports/reproductions/niessner2010.py): rows find their jobs at both scales, the claims
 compare the right rows, and :func:`premise` judges what the engine's two-row claims cannot (LDI rays vs the
 oracle in one row, the published absolute build times and memory) — on synthetic result rows."""
 from __future__ import annotations
 
-from harness import records
-from harness.reproduce import FAILS, HOLDS, NOT_MEASURABLE, NOT_MEASURED, evaluate, get_entry, scale_suite, suite_file
-from harness.reproductions.niessner2010 import premise
-from harness.suite import load_suite
+from ldbench.harness import records
+from ldbench.reports.reproduce import (FAILS, HOLDS, NOT_MEASURABLE, NOT_MEASURED, evaluate, get_entry,
+                                       scale_suite, suite_file)
+from ldbench.reports.reproductions.niessner2010 import premise
+from ldbench.harness.suite import load_suite
 
 ENTRY = get_entry("niessner2010-table1")
 

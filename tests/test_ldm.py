@@ -11,11 +11,11 @@ import pytest
 from testkit import disk, disk_occlusion, plane
 from testkit import cornell_like as _cornell_like
 from testkit import disk_ao_formula as disk_ao
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene
-from methods.base import View, get_method, registry
-from methods.ldm import Ldm as LdmAO, LdmParams as LdmAOParams
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene
+from ldbench.methods.base import View, get_method, registry
+from ldbench.methods.ldm import Ldm as LdmAO, LdmParams as LdmAOParams
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -186,8 +186,8 @@ def test_paper_estimator_close_to_ratio(gpu):
 
 @pytest.fixture(scope="module")
 def references():
-    refs = pytest.importorskip("references")
-    from harness.errors import LdbenchError as _E
+    refs = pytest.importorskip("ldbench.references")
+    from ldbench.core.errors import LdbenchError as _E
     try:
         refs.choose_variant()
     except _E as e:  # pragma: no cover - no usable Mitsuba backend
@@ -216,9 +216,9 @@ def test_error_falls_with_directions(gpu, references, effect):
 def test_cornell_against_mitsuba(gpu):
     """LDM AO on the built-in `cornell` against a 1024-spp reference (classic AO): PSNR rises with the
     number of directions, and 512 directions with 256² LDMs reach ≥ 31.5 dB at 256² (31.78 dB measured)."""
-    from harness import metrics
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core import metrics
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     scene, eff = load_scene("cornell"), Effect("ao")
     ref = render_reference(scene, eff, width=128, height=128, spp=1024, progress=False)
@@ -239,8 +239,8 @@ def test_creases_are_not_bright(gpu):
     Classic AO at 128² with 128 LDMs of 128² against a 256-spp reference, pixels with |error| > 0.3
     (measured on llvmpipe): 53 with the default window of 0.5 texels, 150 with crease = 0 (the plain
     skip rule)."""
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     scene, eff = load_scene("cornell"), Effect("ao")
     ref = render_reference(scene, eff, width=128, height=128, spp=256, progress=False)
@@ -268,8 +268,8 @@ def ldm_rays(gpu, scene, batch, size, **params):
 
 
 def test_rays_identical_over_layouts_and_inserts(gpu):
-    from harness.effects.rays import RaysParams
-    from references.rays import make_batch, trace_oracle
+    from ldbench.core.effects.rays import RaysParams
+    from ldbench.references.rays import make_batch, trace_oracle
 
     scene = cornell_like()
     batch = make_batch(scene, 24, 24, RaysParams(rays_per_pixel=2), 0)
@@ -289,8 +289,8 @@ def test_rays_accuracy_cli(tmp_path):
     diagonal, self-hit rate 0.28 % (0.9767, 5.35 %, 0.26 % with the old ray origin, 16 ε towards the camera).
     The direction snap alone costs most of it: Mitsuba tracing the same rays along their maps' axes instead
     gets 0.9824 and 5.04 % against the exact answers (docs/rays.md)."""
-    from harness.cli import main
-    from harness.records import read_results
+    from ldbench.harness.cli import main
+    from ldbench.harness.records import read_results
 
     out = tmp_path / "run"
     rc = main(["run", "--scene", "cornell", "--method", "ldm", "--effect", "rays", "--ray-kind", "diffuse",
@@ -310,9 +310,9 @@ def test_rays_accuracy_cli(tmp_path):
 def test_map_table_finds_the_nearest_map(gpu):
     """The cube table of candidate maps answers like the scan of all N axes (measured: identical on all
     30 752 rays of this batch; the table can pick the second-nearest map for ~1e-5 of directions)."""
-    from harness.effects.rays import RaysParams
-    from harness.scenes import load_scene
-    from references.rays import make_batch
+    from ldbench.core.effects.rays import RaysParams
+    from ldbench.core.scenes import load_scene
+    from ldbench.references.rays import make_batch
 
     scene = load_scene("cornell")
     batch = make_batch(scene, 64, 64, RaysParams(rays_per_pixel=8), 0)

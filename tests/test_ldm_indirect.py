@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 
 from testkit import quad
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene, SpotLight
-from methods.base import View
-from methods.ldm import Ldm, LdmParams
-from methods.ldm.indirect import light_camera
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene, SpotLight
+from ldbench.methods.base import View
+from ldbench.methods.ldm import Ldm, LdmParams
+from ldbench.methods.ldm.indirect import light_camera
 
 IND = Effect("indirect")
 
@@ -238,7 +238,7 @@ def test_photon_differentials_follow_the_reflected_rays(gpu, rotation):
     rotation at all by more than 50 % on every photon of the propagation reading and, for the incident
     one (a mirror, so near-mirror bounces barely turn the differential), by a median of 15 % and more
     than 5 % on 80 % of the photons: a broken rotation fails this test."""
-    from methods.directions import ldm_axes
+    from ldbench.methods.directions import ldm_axes
 
     scene = plates(light_pos=(-0.5, 0.6, 0.2), light_target=(0.1, 0.0, 0.0), cutoff=20.0, beam=15.0)
     R, N = 16, 16
@@ -267,8 +267,8 @@ def test_photon_differentials_follow_the_reflected_rays(gpu, rotation):
 
 @pytest.fixture(scope="module")
 def cornell_runs(gpu):
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     scene = load_scene("cornell")
     ref = render_reference(scene, IND, width=48, height=48, spp=1024, progress=False)
@@ -318,7 +318,7 @@ def test_counters_invariants_and_growth(cornell_runs):
 
 
 def test_overflow_is_reported(gpu):
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     scene = load_scene("cornell")
     m = Ldm(LdmParams.from_dict({"directions": 16, "resolution": 32, "indirect.photons": 16}))
@@ -335,12 +335,12 @@ def test_overflow_is_reported(gpu):
 
 
 # ---------------------------------------------------------------------------------------------------
-# Figure 10 (harness/reproductions/aalund2015.py, suites/aalund2015-fig10.toml)
+# Figure 10 (reports/reproductions/aalund2015.py, suites/aalund2015-fig10.toml)
 
 def test_fig10_published_numbers_and_ci_run(tmp_path):
     """The caption's numbers as data, and `ldbench reproduce aalund2015-fig10 --scale ci` end to end: every
     row finds its run, every claim gets a verdict (times: 'not measurable here' on llvmpipe, or one)."""
-    from harness.reproduce import NOT_MEASURED, registry, reproduce
+    from ldbench.reports.reproduce import NOT_MEASURED, registry, reproduce
 
     e = registry()["aalund2015-fig10"]
     rows = {r["id"]: r for r in e.rows}

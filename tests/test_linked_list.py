@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, make_structure
-from methods.structures.linked import EOL
+from ldbench.core.errors import LdbenchError
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, make_structure
+from ldbench.methods.structures.linked import EOL
 from testkit import LAYER_H as H, LAYER_W as W, expected_lists, layer_transforms, quads_scene as scene
 
 

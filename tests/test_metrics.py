@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from harness import metrics as M
-from harness.errors import LdbenchError
+from ldbench.core import metrics as M
+from ldbench.core.errors import LdbenchError
 
 
 def _smooth(h=48, w=64, c=3, seed=0):

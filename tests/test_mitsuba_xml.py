@@ -1,13 +1,13 @@
-"""Mitsuba 3 XML loader (harness/mitsuba_xml.py, on Mitsuba's parser), checked against Mitsuba itself where it
+"""Mitsuba 3 XML loader (core/mitsuba_xml.py, on Mitsuba's parser), checked against Mitsuba itself where it
 matters. Content hashes pinned below are those the earlier hand-written parser gave the same files: cached
 references are keyed on them."""
 
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.mitsuba_xml import load_mitsuba_xml, mitsuba_message
-from harness.scenes import load_scene
+from ldbench.core.errors import LdbenchError
+from ldbench.core.mitsuba_xml import load_mitsuba_xml, mitsuba_message
+from ldbench.core.scenes import load_scene
 
 from conftest import SHARED_SCENES as SHARED
 
@@ -367,7 +367,7 @@ def test_include(tmp_path):
 @needs_cbox
 @pytest.mark.parametrize("name,hash_", [("cornell-mitsuba", "fbe6a3f2bc635552"), ("cornell-bitterli", "e6176e6dbf3f2321")])
 def test_registered_xml_scenes_keep_their_hashes(name, hash_):
-    from harness.scenes import build_registered
+    from ldbench.core.scenes import build_registered
 
     assert build_registered(name, SHARED).content_hash() == hash_
 

@@ -18,12 +18,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from harness.effects import Effect
-from harness.effects.oit import BACKGROUND, composite
-from harness.scene import Camera, Mesh, Scene
-from harness.scenes import load_scene
-from methods.base import View, get_method
-from references.oit import intersections, render_oit
+from ldbench.core.effects import Effect
+from ldbench.core.effects.oit import BACKGROUND, composite
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import View, get_method
+from ldbench.references.oit import intersections, render_oit
 
 METHODS = ("ll-oit", "depth-peeling", "dual-depth-peeling")
 TOL = 1e-5  # float precision: measured ≤ 1.2e-7 on llvmpipe for every method and scene here
@@ -236,8 +236,8 @@ def test_ll_oit_pool_policies_and_aggregated_counter(gpu, scenes, refs, params):
 
 def test_overflow_is_a_degraded_row(tmp_path):
     """A pool too small for the fragments: the row is degraded (the image lacks fragments)."""
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "24x24", "warmup": 0, "frames": 1},
                              "run": [{"scene": "teapot", "scene_params": {"segments": 8}, "effect": "oit",
@@ -274,7 +274,7 @@ def test_duplicate_triangles_are_removed_once_for_every_method(gpu):
     """As listed, ll-oit composites the quad 3 times where the reference (one hit per surface along a ray)
     counts it once; without the duplicates every method equals the reference, and the scene says how
     many it dropped."""
-    from harness.scene import duplicate_faces, without_duplicate_triangles
+    from ldbench.core.scene import duplicate_faces, without_duplicate_triangles
 
     sc = duplicates_scene()
     assert duplicate_faces(sc.meshes[1].vertices, sc.meshes[1].faces).tolist() == [False, False, True, True, True,
@@ -293,7 +293,7 @@ def test_duplicate_triangles_are_removed_once_for_every_method(gpu):
 
 def test_a_loaded_mesh_with_duplicates_says_so_once(tmp_path, capsys):
     """A mesh file listing a triangle twice: loading removes the copy, the run prints one line on stderr."""
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     obj = tmp_path / "twice.obj"
     obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 3 1 2\nf 1 3 2\n")
@@ -309,7 +309,7 @@ def test_a_loaded_mesh_with_duplicates_says_so_once(tmp_path, capsys):
 def test_duplicate_faces_against_a_set_of_sorted_triangles():
     """The vectorised rule against the plain one: a face repeats an earlier one when the set of its three
     vertex positions was seen before (−0 and +0 being one position)."""
-    from harness.scene import duplicate_faces
+    from ldbench.core.scene import duplicate_faces
 
     rng = np.random.default_rng(3)
     for _ in range(3):

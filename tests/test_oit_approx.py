@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import methods.mlab
-import methods.wboit
-from harness.effects.oit import BACKGROUND
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene
-from harness.scenes import load_scene
-from methods.base import registry
-from references.oit import intersections, render_oit
+import ldbench.methods.mlab
+import ldbench.methods.wboit
+from ldbench.core.effects.oit import BACKGROUND
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import registry
+from ldbench.references.oit import intersections, render_oit
 from test_oit import W, H, intersecting_scene, quad, run, stack_scene, tie_scene
 
 EXACT = 1e-5  # float precision (measured ≤ 1.2e-7)
@@ -48,8 +48,8 @@ def broken(cls, folder: Path, tmp_path: Path, file: str, old: str, new: str):
     return Broken
 
 
-WB_DIR = Path(methods.wboit.__file__).resolve().parent
-ML_DIR = Path(methods.mlab.__file__).resolve().parent
+WB_DIR = Path(ldbench.methods.wboit.__file__).resolve().parent
+ML_DIR = Path(ldbench.methods.mlab.__file__).resolve().parent
 
 
 def test_registered():
@@ -77,7 +77,7 @@ def check_wboit_bound(gpu, method_cls=None):
     """Distinct colours and opacities: the weights stand in for the order, within the error measured on
     llvmpipe (max abs error: intersecting 0.260, stack 0.167; PSNR 19.10 / 25.05 dB for eq7) — and not
     exactly: the weights do matter (eq7 and constant differ)."""
-    from harness import metrics as M
+    from ldbench.core import metrics as M
 
     got = {}
     for name, sc, bound, db in (("intersecting", intersecting_scene(), 0.27, 19.0),
@@ -135,14 +135,14 @@ def test_wboit_equals_the_model(gpu):
     ("pow(z / 5.0, 2.0)", "pow(z / 5.0, 3.0)"),                                      # eq. 7 mistyped
 ])
 def test_wboit_broken_accumulation_fails(gpu, tmp_path, old, new):
-    from methods.wboit import WBOIT
+    from ldbench.methods.wboit import WBOIT
 
     with pytest.raises(AssertionError, match="model"):
         check_wboit_model(gpu, broken(WBOIT, WB_DIR, tmp_path, "accumulate.glsl", old, new))
 
 
 def test_wboit_broken_resolve_fails(gpu, tmp_path):
-    from methods.wboit import WBOIT
+    from ldbench.methods.wboit import WBOIT
 
     Broken = broken(WBOIT, WB_DIR, tmp_path, "resolve.glsl", "float R = exp(-rv.r);", "float R = exp(-0.5 * rv.r);")
     ref = render_oit(uniform_stack(), W, H)
@@ -216,7 +216,7 @@ def test_mlab_compression_follows_the_merge_rule(gpu):
     ("while (j > 0u && oit_before(", "while (false && oit_before("),
 ])
 def test_mlab_broken_insert_fails(gpu, tmp_path, old, new):
-    from methods.mlab import MLAB
+    from ldbench.methods.mlab import MLAB
 
     Broken = broken(MLAB, ML_DIR, tmp_path, "insert.glsl", old, new)
     with pytest.raises(AssertionError):
@@ -242,13 +242,13 @@ def test_mlab_sync_modes(gpu):
 
 def test_mlab_lost_fragments_degrade(gpu, tmp_path):
     """A lock that is never released (the spin bound reached) loses fragments: counted, an invariant."""
-    from methods.mlab import MLAB
+    from ldbench.methods.mlab import MLAB
 
     Broken = broken(MLAB, ML_DIR, tmp_path, "insert.glsl", "atomicExchange(lock_word[px], 0u);", "")
     m = Broken(Broken.Params(k=4, sync="spinlock"))
     sc = intersecting_scene()
-    from harness.effects import Effect
-    from methods.base import View
+    from ldbench.core.effects import Effect
+    from ldbench.methods.base import View
 
     m.setup(gpu, sc)
     try:

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_SCENES, SHARED_SKIP
-from harness.errors import LdbenchError
-from harness.mitsuba_xml import load_mitsuba_xml
-from harness.scene import Mesh
-from harness.scenes import load_scene
+from ldbench.core.errors import LdbenchError
+from ldbench.core.mitsuba_xml import load_mitsuba_xml
+from ldbench.core.scene import Mesh
+from ldbench.core.scenes import load_scene
 from testkit import cornell_like
 
 TRI = (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]]))
@@ -118,8 +118,8 @@ def test_transparent_dragon_not_fetched_is_one_line(tmp_path, monkeypatch):
 
 def test_yang2010_published_numbers_and_rows():
     """Table 1 and §4.1.3 of yang2010 (docs/oit.md); every row is produced by the suite at both scales."""
-    from harness.reproduce import registry, scale_match, scale_suite, suite_file
-    from harness.suite import load_suite
+    from ldbench.reports.reproduce import registry, scale_match, scale_suite, suite_file
+    from ldbench.harness.suite import load_suite
 
     e = registry()["yang2010-table1"]
     rows = {r["id"]: r for r in e.rows}

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import records
+from ldbench.harness import records
 from layout import ROOT, import_prefix, installed_path, packages
 
 PACKAGES = tuple(packages())
@@ -112,7 +112,7 @@ def test_installed_ldbench_runs_outside_the_source_tree(installed):
     where = _run(installed, installed["py"], "-c", f"import importlib; print(*(importlib.import_module('{PREFIX}' + p)"
                  f".__file__ for p in {PACKAGES!r}))")
     assert all(Path(p).is_relative_to(installed["purelib"]) for p in where.split()), where
-    from methods.base import registry
+    from ldbench.methods.base import registry
 
     out = _run(installed, installed["ldbench"], "methods")
     listed = {line.split()[0] for line in out.splitlines() if line and not line[0].isspace()}
@@ -129,10 +129,10 @@ def test_installed_ldbench_runs_outside_the_source_tree(installed):
 
 
 def test_bundled_suite_by_name(installed):
-    path = _run(installed, installed["py"], "-c", "from harness.resources import suite_path; print(suite_path('default'))")
+    path = _run(installed, installed["py"], "-c", "from ldbench.harness.resources import suite_path; print(suite_path('default'))")
     path = Path(path.strip())
     assert path.is_file() and path.is_relative_to(installed["purelib"]), path
-    assert _run(installed, installed["py"], "-c", "from harness.resources import suite_path; "
+    assert _run(installed, installed["py"], "-c", "from ldbench.harness.resources import suite_path; "
                 "print(suite_path('suites/default.toml'))").strip() == str(path)
     _run(installed, installed["ldbench"], "run", path, "--out", "s", *TINY)
     assert (installed["work"] / "s" / "results.parquet").is_file()

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import pytest
 
-from harness.errors import LdbenchError
-from harness.suite import suite_from_dict
-from methods.base import registry
-from methods.structures import StructureSpec
+from ldbench.core.errors import LdbenchError
+from ldbench.harness.suite import suite_from_dict
+from ldbench.methods.base import registry
+from ldbench.methods.structures import StructureSpec
 
 
 @pytest.mark.parametrize("name", sorted(registry()))
@@ -34,7 +34,7 @@ def test_every_earlier_name_leads_to_a_current_one(name):
 
 
 def test_grouped_values_and_errors():
-    from methods.ldm import LdmParams
+    from ldbench.methods.ldm import LdmParams
 
     p = LdmParams.from_dict({"structure.layout": "linear", "structure.source": "splat", "indirect.photons": 64,
                              "trace.bias": "0.5"})
@@ -50,7 +50,7 @@ def test_grouped_values_and_errors():
     with pytest.raises(LdbenchError, match="structure.source='peel' not one of"):  # a spec given whole, too
         LdmParams(structure=StructureSpec(layout="linear", source="peel"))
     # a method's fixed structure fields stay fixed
-    from methods.ll_oit import LLOITParams
+    from ldbench.methods.ll_oit import LLOITParams
 
     s = LLOITParams.from_dict({"pool": "count"}).structure
     assert (s.layout, s.payload, s.sorted_insert, s.pool) == ("linked", ("material",), False, "count")
@@ -62,7 +62,7 @@ def test_suites_take_dotted_nested_and_earlier_names():
     runs = [{"scene": "cornell", "effect": "ao", "methods": ["ldm"], "params": {"ldm": p}} for p in (
         {"structure": {"source": ["raster", "splat"]}, "indirect.photons": 64},
         {"build": ["raster", "splat"], "photons": 64})]
-    from methods.ldm import LdmParams
+    from ldbench.methods.ldm import LdmParams
 
     got = [[LdmParams.from_dict(dict(j.params)) for j in suite_from_dict({"suite": {"size": "16x16"}, "run": [r]},
                                                                          name="t").jobs] for r in runs]
@@ -74,8 +74,8 @@ def test_suites_take_dotted_nested_and_earlier_names():
     ('structure.source = "raster"', ["ldm.build=splat"], ("splat", "linked")),   # the --set's earlier name
     ('layout = "linked"', ["ldm.structure.layout=linear", "ldm.assembly=sort"], ("raster", "linear"))])
 def test_set_overrides_a_suite_parameter_under_either_name(tmp_path, in_suite, sets, want):
-    from harness.cli import build_parser, suite_from_args
-    from methods.ldm import LdmParams
+    from ldbench.harness.cli import build_parser, suite_from_args
+    from ldbench.methods.ldm import LdmParams
 
     suite = tmp_path / "s.toml"
     suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["ldm"]\n'
@@ -88,8 +88,8 @@ def test_set_overrides_a_suite_parameter_under_either_name(tmp_path, in_suite, s
 
 def test_set_completes_an_earlier_ldi_build(tmp_path):
     """``raster`` applied to the suite's ``build = single_pass`` (the two earlier names of one source)."""
-    from harness.cli import build_parser, suite_from_args
-    from methods.ldi import LdiParams
+    from ldbench.harness.cli import build_parser, suite_from_args
+    from ldbench.methods.ldi import LdiParams
 
     suite = tmp_path / "s.toml"
     suite.write_text('[suite]\nsize = "16x16"\n[[run]]\nscene = "cornell"\neffect = "rays"\nmethods = ["ldi"]\n'

@@ -1,4 +1,4 @@
-"""Methods and effects from outside ldbench (harness/plugins.py): entry points, ``package.module:Class``
+"""Methods and effects from outside ldbench (core/plugins.py): entry points, ``package.module:Class``
 names, one error for two classes with one name, provenance columns, and the example plugin of
 examples/example-ao installed into a fresh virtual environment and run from outside the source tree,
 under the local and the Ray executor. Nothing here is marked slow: `make test` (CI) runs all of it
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from harness import plugins
-from harness.cli import main
+from ldbench.core import plugins
+from ldbench.harness.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "example-ao"
@@ -27,7 +27,7 @@ TINY = ["--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0", "--no
 def clean_plugins(monkeypatch):
     """No development plugin registered before or after (register_reference writes os.environ)."""
     monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
-    from harness.effects import base as effects_base
+    from ldbench.core.effects import base as effects_base
 
     monkeypatch.setattr(effects_base, "_REGISTRY", None)
     yield
@@ -48,7 +48,7 @@ def _fake_dist(folder: Path, dist: str, version: str, entry_points: str) -> None
 
 
 DUP_METHOD = """
-    from methods.hbao import HBAO
+    from ldbench.methods.hbao import HBAO
 
     class Dup(HBAO):
         name = "hbao"
@@ -61,17 +61,17 @@ def test_module_class_name_with_a_taken_name_is_one_line(tmp_path, monkeypatch, 
                str(tmp_path / "r"), *TINY])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1, err
-    assert "two methods are named 'hbao'" in err and "methods.hbao.HBAO (ldbench)" in err and "dupmod:Dup" in err
+    assert "two methods are named 'hbao'" in err and "ldbench.methods.hbao.HBAO (ldbench)" in err and "dupmod:Dup" in err
     assert not (tmp_path / "r").exists()
 
 
 def test_entry_point_duplicates_name_both_sources(tmp_path, monkeypatch, clean_plugins):
-    from harness.effects.base import registry as effects
-    from harness.errors import LdbenchError
-    from methods.base import registry
+    from ldbench.core.effects.base import registry as effects
+    from ldbench.core.errors import LdbenchError
+    from ldbench.methods.base import registry
 
     src = _module(tmp_path / "site", "dupmod_ep", DUP_METHOD + """
-    from harness.effects.ao import AO
+    from ldbench.core.effects.ao import AO
 
     class DupAO(AO):
         pass
@@ -86,7 +86,7 @@ def test_entry_point_duplicates_name_both_sources(tmp_path, monkeypatch, clean_p
     with pytest.raises(LdbenchError) as e:
         registry()
     msg = str(e.value)
-    assert "\n" not in msg and "methods.hbao.HBAO (ldbench)" in msg
+    assert "\n" not in msg and "ldbench.methods.hbao.HBAO (ldbench)" in msg
     assert "dupmod_ep.Dup (distribution dup-plugin 2.5, entry point twin)" in msg, msg
     with pytest.raises(LdbenchError) as e:
         effects()
@@ -94,12 +94,12 @@ def test_entry_point_duplicates_name_both_sources(tmp_path, monkeypatch, clean_p
 
 
 def test_entry_point_method_and_effect_are_registered(tmp_path, monkeypatch, clean_plugins):
-    from harness.effects.base import registry as effects
-    from methods.base import registry
+    from ldbench.core.effects.base import registry as effects
+    from ldbench.methods.base import registry
 
     src = _module(tmp_path / "site", "newmod", """
-    from harness.effects.ao import AO
-    from methods.hbao import HBAO
+    from ldbench.core.effects.ao import AO
+    from ldbench.methods.hbao import HBAO
 
     class New(HBAO):
         name = "new-hbao"
@@ -144,8 +144,8 @@ def _git(cwd, *args):
 
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory):
-    """A venv that sees this environment's dependencies (a .pth line: no network), ldbench from this tree
-    (PYTHONPATH), and the example plugin installed from its own git repository (``pip install
+    """A venv that sees this environment's dependencies (a .pth line: no network), ldbench as installed here
+    (``pip install -e .``: this tree), and the example plugin installed from its own git repository (``pip install
     git+file://``, as one would from GitHub): the plugin's commit is that repository's."""
     if shutil.which("git") is None:
         pytest.skip("git not installed")
@@ -162,7 +162,10 @@ def venv(tmp_path_factory):
     purelib = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
                                   check=True, capture_output=True, text=True).stdout.strip())
     deps = {sysconfig.get_path("purelib"), sysconfig.get_path("platlib")}
-    (purelib / "ldbench-test-deps.pth").write_text("".join(f"{d}\n" for d in sorted(deps)))
+    # site directories (their .pth files run): this environment's ldbench install (editable or not) and
+    # its dependencies
+    (purelib / "ldbench-test-deps.pth").write_text(
+        "import site; " + "; ".join(f"site.addsitedir({d!r})" for d in sorted(deps)) + "\n")
     p = subprocess.run([sys.executable, "-m", "pip", "--python", str(py), "install", "-q", "--no-deps",
                         "--no-build-isolation", "--no-index", f"git+file://{repo}"],
                        capture_output=True, text=True, timeout=300)
@@ -170,12 +173,13 @@ def venv(tmp_path_factory):
     work = tmp / "work"
     work.mkdir()
     env = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
-    env.update(PYTHONPATH=str(ROOT), PYTHONNOUSERSITE="1", LDBENCH_CACHE=str(tmp / "ref-cache"))
+    env.pop("PYTHONPATH", None)
+    env.update(PYTHONNOUSERSITE="1", LDBENCH_CACHE=str(tmp / "ref-cache"))
     return {"py": py, "work": work, "env": env, "commit": commit, "purelib": purelib}
 
 
 def _ldbench(v, *args, timeout=300):
-    p = subprocess.run([str(v["py"]), "-m", "harness.cli", *map(str, args)], cwd=v["work"], env=v["env"],
+    p = subprocess.run([str(v["py"]), "-m", "ldbench.harness.cli", *map(str, args)], cwd=v["work"], env=v["env"],
                        capture_output=True, text=True, timeout=timeout)
     assert p.returncode == 0, f"{args} -> {p.returncode}\n{p.stdout[-2000:]}\n{p.stderr[-3000:]}"
     return p.stdout
@@ -217,7 +221,7 @@ def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
 
 
 def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
-    """setup.py writes harness/build_info.json into the wheel; an installed ldbench reports that commit
+    """setup.py writes core/build_info.json into the wheel; an installed ldbench reports that commit
     (rows' ``commit`` column and ``--version``), not None."""
     if shutil.which("git") is None or not (ROOT / ".git").exists():
         pytest.skip("needs git and a checkout")
@@ -239,7 +243,7 @@ def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
                         str(wheel)], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-3000:]
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LDBENCH_COMMIT", "LDBENCH_DIRTY")}
-    out = subprocess.run([str(py), "-c", "import json, harness.plugins as p; print(p.__file__); "
+    out = subprocess.run([str(py), "-c", "import json, ldbench.core.plugins as p; print(p.__file__); "
                           "print(json.dumps(p.ldbench_info()))"], cwd=tmp_path, env=env, capture_output=True,
                          text=True, check=True).stdout.splitlines()
     assert Path(out[0]).is_relative_to(purelib), out
@@ -251,13 +255,13 @@ def test_the_run_seed_reaches_methods(tmp_path, monkeypatch, clean_plugins):
     parameter is mixed with it (Method.seed_for), unchanged at run seed 0."""
     import numpy as np
 
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
-    from methods.base import Method
-    from references.exr import read_exr
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
+    from ldbench.methods.base import Method
+    from ldbench.core.exr import read_exr
 
     monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "seedprobe", """
-        from methods.hbao import HBAO
+        from ldbench.methods.hbao import HBAO
 
         class Probe(HBAO):
             name = "seed-probe"
@@ -314,15 +318,15 @@ def test_new_method_template_installs_lists_and_runs(venv, tmp_path, capsys):
 def test_module_class_names_are_forwarded_to_workers(tmp_path, monkeypatch, clean_plugins):
     """A worker of a remote cluster does not inherit the driver's environment: the executor forwards the
     registered references (and their import folders) explicitly, and a worker resolves them by name."""
-    from harness.executors.ray import forwarded_env
-    from methods.base import canonical_name, get_method
+    from ldbench.harness.executors.ray import forwarded_env
+    from ldbench.methods.base import canonical_name, get_method
 
-    src = _module(tmp_path / "src", "fwdmod", "from methods.hbao import HBAO\n\n\nclass Fwd(HBAO):\n    name = 'fwd'\n")
+    src = _module(tmp_path / "src", "fwdmod", "from ldbench.methods.hbao import HBAO\n\n\nclass Fwd(HBAO):\n    name = 'fwd'\n")
     monkeypatch.syspath_prepend(str(src))
     assert canonical_name("fwdmod:Fwd") == "fwd"
     env = dict(forwarded_env())
     assert json.loads(env[plugins.ENV[plugins.METHOD_GROUP]]) == [["fwdmod:Fwd", str(src)]]
-    code = ("import os, sys; from methods.base import get_method; print(get_method('fwd').__module__)")
+    code = ("import os, sys; from ldbench.methods.base import get_method; print(get_method('fwd').__module__)")
     child = {k: v for k, v in os.environ.items() if not k.startswith("LDBENCH_PLUGIN")}
     child.update(env, PYTHONPATH=str(ROOT))  # what Worker.__init__ sets, in a fresh process elsewhere
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child, capture_output=True, text=True)
@@ -333,10 +337,10 @@ def test_module_class_names_are_forwarded_to_workers(tmp_path, monkeypatch, clea
 def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
     """The example's SSAO against the reference (thresholds just below the measured 13.2 dB step and
     16.1 dB quadratic at 32², spp 16), and the quadratic mode weighting occluders below 1."""
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
-    from harness.newmethod import write_template
+    from ldbench.harness.newmethod import write_template
 
     write_template("tmpl-in-tree", out=tmp_path / "tmpl")  # the new-method template, measured 13.1 dB
     monkeypatch.syspath_prepend(str(tmp_path / "tmpl"))
@@ -352,7 +356,7 @@ def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
     df = df[df["method"] == "example-ao"]
     step, quad = (df[df["effect_params"].map(lambda e: e["falloff"] == f)].iloc[0] for f in ("step", "quadratic"))
     assert step["psnr"] > 12.5 and quad["psnr"] > 15.5, (step["psnr"], quad["psnr"])
-    from references.exr import read_exr
+    from ldbench.core.exr import read_exr
 
     mean = {f: read_exr(tmp_path / "r" / r["images"]["exr"])["Y"].mean() for f, r in (("s", step), ("q", quad))}
     assert mean["q"] > mean["s"] + 0.01, mean

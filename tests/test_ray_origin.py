@@ -1,4 +1,4 @@
-"""Where secondary rays start (harness/conventions.py spawn_origin, crease_point): the references and the
+"""Where secondary rays start (core/conventions.py spawn_origin, crease_point): the references and the
 ray batches are not biased by their own origin offset, and a pixel centre on a crease still sees the other
 wall. Mitsuba on the CPU, a few seconds."""
 from __future__ import annotations
@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from testkit import quad
-from harness import conventions as conv
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene
+from ldbench.core import conventions as conv
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene
 
-references = pytest.importorskip("references")
-from references import primary_hits, render_reference  # noqa: E402
+references = pytest.importorskip("ldbench.references")
+from ldbench.references import primary_hits, render_reference  # noqa: E402
 
 try:
     references.choose_variant()
@@ -51,8 +51,8 @@ def test_crease_pixel_sees_the_other_wall(at):
     assert abs(crease.mean() - 0.5) < 4 * se, crease
     assert crease.min() > 0.3 and crease.max() < 0.7
     # the rays effect's batch: its oracle finds the wall (t ≈ 0) for about half the crease's rays
-    from harness.effects.rays import RaysParams
-    from references.rays import make_batch, trace_oracle
+    from ldbench.core.effects.rays import RaysParams
+    from ldbench.references.rays import make_batch, trace_oracle
 
     batch = make_batch(s, W, W, RaysParams(ray_kind="diffuse", rays_per_pixel=64), seed=1)
     t = trace_oracle(s, batch).t
@@ -87,8 +87,8 @@ def test_ao_reference_unbiased_at_atrium_scale():
 
 def test_batch_origins_are_mitsubas_spawn_offset():
     """Away from edges a batch ray starts at x + ε n: no move along the surface, exactly ε off it."""
-    from harness.effects.rays import RaysParams
-    from references.rays import make_batch
+    from ldbench.core.effects.rays import RaysParams
+    from ldbench.references.rays import make_batch
 
     s = crease_scene()
     W = 33

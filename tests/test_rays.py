@@ -1,4 +1,4 @@
-"""The ``rays`` effect (harness/effects/rays.py, references/rays.py): the oracle against closed forms, the
+"""The ``rays`` effect (core/effects/rays.py, references/rays.py): the oracle against closed forms, the
 ray batch's distributions and determinism, and the per-ray metrics."""
 from __future__ import annotations
 
@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from harness.effects import Effect
-from harness.effects.rays import RayBatch, RaysParams, build_batch, is_hit, ray_metrics
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene, SpotLight
-from references import EXACT, render_effect
-from references.rays import make_batch, trace_oracle
+from ldbench.core.effects import Effect
+from ldbench.core.effects.rays import RayBatch, RaysParams, build_batch, is_hit, ray_metrics
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene, SpotLight
+from ldbench.references import EXACT, render_effect
+from ldbench.references.rays import make_batch, trace_oracle
 from testkit import box, cornell_like
 
 
@@ -168,8 +168,8 @@ def test_rays_per_second_is_the_ray_count_over_the_trace_time(tmp_path):
     both ways, and it failed)."""
     import time
 
-    from harness.cli import main
-    from harness.records import read_results
+    from ldbench.harness.cli import main
+    from ldbench.harness.records import read_results
 
     t0 = time.perf_counter()
     rc = main(["run", "--scene", "cornell", "--method", "ldm", "--effect", "rays", "--ray-kind", "diffuse",
@@ -200,8 +200,8 @@ def test_every_ray_kind_through_every_tracer(gpu, kind):
     """Each ray kind (diffuse, glossy, shadow rays to the light with occlusion only, AO rays up to d_max)
     answered by each tracer against the oracle: hit agreement as measured, distances only where defined
     (not for shadow rays), no violated invariant."""
-    from harness.scenes import load_scene
-    from methods.base import View, get_method
+    from ldbench.core.scenes import load_scene
+    from ldbench.methods.base import View, get_method
 
     sc = load_scene("cornell")
     e = Effect("rays", ray_kind=kind, rays_per_pixel=1, **({"d_max": 0.5} if kind == "ao" else {}))

@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import records as R
-from harness.errors import LdbenchError
+from ldbench.harness import records as R
+from ldbench.core.errors import LdbenchError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,10 +175,10 @@ def test_timing_fields_explicit_total():
 def test_params_record_the_values_used():
     """A cdi-vpl vpl_range row records the rsm and miss_range its VPLs were built with (the effect's),
     not the method's indirect-only defaults; other effects and methods keep their own."""
-    from harness.effects import Effect
-    from harness.runner import _job_fields
-    from harness.scenes import load_scene
-    from harness.suite import Job
+    from ldbench.core.effects import Effect
+    from ldbench.harness.runner import _job_fields
+    from ldbench.core.scenes import load_scene
+    from ldbench.harness.suite import Job
 
     scene = load_scene("cornell")
     machine = R.machine_info({})

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from testkit import cornell_like
-from harness.effects import Effect
+from ldbench.core.effects import Effect
 
-references = pytest.importorskip("references")
-from references import render_reference  # noqa: E402
-from references.exr import read_exr_header  # noqa: E402
+references = pytest.importorskip("ldbench.references")
+from ldbench.references import render_reference  # noqa: E402
+from ldbench.core.exr import read_exr_header  # noqa: E402
 
 
 def test_exr_copied_over_another_entry_is_a_miss(tmp_path):
@@ -32,7 +32,7 @@ def test_exr_copied_over_another_entry_is_a_miss(tmp_path):
 def test_default_cache_dir_rules(monkeypatch, tmp_path):
     """LDBENCH_CACHE wins; a checkout caches beside its sources; an installed package (no pyproject.toml
     beside it) uses the user cache, never its own, possibly read-only, folder."""
-    from references import cache
+    from ldbench.references import cache
 
     monkeypatch.setenv("LDBENCH_CACHE", str(tmp_path / "c"))
     assert cache.default_cache_dir() == tmp_path / "c"
@@ -48,7 +48,7 @@ def test_default_cache_dir_rules(monkeypatch, tmp_path):
 def _rewrite_pixels(path, fn, digest=None):
     """Rewrite an entry's EXR with its pixels changed by ``fn``, its header key kept (and, with
     ``digest``, a pixel checksum made to match)."""
-    from references.exr import read_exr, write_exr
+    from ldbench.core.exr import read_exr, write_exr
 
     ch = read_exr(path)
     header = read_exr_header(path)
@@ -76,7 +76,7 @@ def test_non_finite_entry_with_a_matching_checksum_is_a_miss(tmp_path):
     """Even a NaN entry whose checksums agree (written so by something else) is never used."""
     import json
 
-    from references import cache
+    from ldbench.references import cache
 
     s = cornell_like()
     kw = dict(width=16, height=12, cache_dir=tmp_path, progress=False)
@@ -100,8 +100,8 @@ def test_a_non_finite_reference_never_scores_a_row():
     line before any method is scored against it."""
     from types import SimpleNamespace
 
-    from harness.checks import finite_reference
-    from harness.errors import LdbenchError
+    from ldbench.harness.checks import finite_reference
+    from ldbench.core.errors import LdbenchError
 
     mean = np.ones((4, 4, 1), np.float32)
     mask = np.ones((4, 4), bool)
@@ -123,10 +123,10 @@ def test_a_non_finite_reference_never_scores_a_row():
 
 
 def test_a_run_stops_before_scoring_against_a_non_finite_reference(tmp_path, monkeypatch):
-    import references as refs
-    from harness.errors import LdbenchError
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    import ldbench.references as refs
+    from ldbench.core.errors import LdbenchError
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     real = refs.render_reference
 

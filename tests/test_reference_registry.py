@@ -2,10 +2,10 @@
 render_effect hands each effect to the renderer of its key, with the arguments that renderer takes."""
 import pytest
 
-import references as package
-from harness.effects import Effect, registry
-from references import glossy_indirect, oit, rays, render_effect, soft_shadows, vpl_range
-from references import registry as R
+import ldbench.references as package
+from ldbench.core.effects import Effect, registry
+from ldbench.references import glossy_indirect, oit, rays, render_effect, soft_shadows, vpl_range
+from ldbench.references import registry as R
 
 #: effect -> (module of references, function, how it is called): the ground truth of each effect
 EXPECTED = {

@@ -13,15 +13,14 @@ import pytest
 
 from testkit import H_DISK, R_DISK, box, cornell_like, disk, disk_ao_formula, plane, quad
 from testkit import disk_occlusion as _disk_occlusion
-from harness.effects import Effect
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene, SpotLight
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene, SpotLight
 
-references = pytest.importorskip("references")
-from references import (  # noqa: E402
-    choose_variant, primary_hits, read_exr, read_image, render_reference, write_exr, write_image,
-)
-from references import variant as ref_variant  # noqa: E402
+references = pytest.importorskip("ldbench.references")
+from ldbench.references import (choose_variant, primary_hits, read_exr, read_image, render_reference,
+                                write_exr, write_image)
+from ldbench.references import variant as ref_variant  # noqa: E402
 
 try:
     VARIANT = choose_variant()
@@ -151,7 +150,7 @@ def test_spot_falloff_matches_mitsuba(cutoff, beam):
     import drjit as dr
     import mitsuba as mi
 
-    from references.integrators import build_scene
+    from ldbench.references.integrators import build_scene
 
     light = SpotLight(position=(0.2, 3.0, -0.1), target=(0.5, 0.0, 0.4), intensity=(2.0, 3.0, 5.0),
                       cutoff_angle=cutoff, beam_width=beam, up=(0.3, 1.0, 0.0))
@@ -263,7 +262,7 @@ def test_indirect_matches_mitsuba_path_tracer():
     """Our one-bounce estimator vs Mitsuba's own ``path`` (max_depth 3 minus max_depth 2)."""
     import mitsuba as mi
 
-    from references.integrators import build_scene
+    from ldbench.references.integrators import build_scene
 
     s = closed_box_scene()
     W = H = 32
@@ -386,7 +385,7 @@ def test_cache(tmp_path, monkeypatch):
 def test_errors():
     s = cornell_like(light=False)
     kw = dict(width=8, height=8, spp=4, cache=False, progress=False)
-    with pytest.raises(LdbenchError, match="does not render effect rays"):  # rays: references.rays
+    with pytest.raises(LdbenchError, match="does not render effect rays"):  # rays: ldbench.references.rays
         render_reference(s, Effect("rays"), **kw)
     with pytest.raises(LdbenchError, match="unknown effect 'caustics'"):
         Effect("caustics")

@@ -1,4 +1,4 @@
-"""The HTML report (harness/report.py, harness/figures.py) on a small real run and on synthetic rows."""
+"""The HTML report (reports/report.py, reports/figures.py) on a small real run and on synthetic rows."""
 from __future__ import annotations
 
 import html.parser
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from harness import records
-from harness.report import build_report, write_report
+from ldbench.harness import records
+from ldbench.reports.report import build_report, write_report
 
 VOID = {"area", "base", "br", "col", "embed", "hr", "img", "input", "link", "meta", "source", "track", "wbr"}
 
@@ -70,8 +70,8 @@ def local(run_dir: Path, link: str) -> Path:
 
 @pytest.fixture(scope="module")
 def real_run(tmp_path_factory):
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     suite = suite_from_dict({
         "suite": {"name": "report-test", "size": "32x32", "spp": 4, "warmup": 0, "frames": 3},
@@ -129,7 +129,7 @@ def test_real_run_figures_png_and_pdf(real_run):
 
 
 def test_report_cli_rebuilds(real_run, tmp_path):
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     d = tmp_path / "copy"
     shutil.copytree(real_run, d)
@@ -212,7 +212,7 @@ def test_synthetic_sweep_figures(tmp_path):
 
 
 def test_swept_parameters_and_pareto():
-    from harness import figures as F
+    from ldbench.reports import figures as F
     import pandas as pd
 
     df = F.prepare(pd.DataFrame(synthetic_rows()))
@@ -223,7 +223,7 @@ def test_swept_parameters_and_pareto():
 
 
 def test_report_survives_a_broken_figure(tmp_path, monkeypatch):
-    from harness import figures as F
+    from ldbench.reports import figures as F
 
     records.write_results(synthetic_rows(), tmp_path)
 

@@ -19,8 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness import metrics, records
-from harness.report import build_report, shown_params, terminal_table
+from ldbench.core import metrics
+from ldbench.harness import records
+from ldbench.reports.report import build_report, shown_params, terminal_table
 
 CHROMIUM_SKIP = "chromium not installed: the report's image viewer went untested in a browser"
 
@@ -34,8 +35,8 @@ needs_chromium = pytest.mark.skipif(_chromium() is None, reason=CHROMIUM_SKIP)
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    from harness.executors import run_jobs
-    from harness.suite import suite_from_dict
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
 
     suite = suite_from_dict({
         "suite": {"name": "viewer-test", "size": "32x32", "spp": 4, "warmup": 0, "frames": 2},
@@ -56,7 +57,7 @@ def built(run):
 
 
 def _read_exr(path):
-    from harness.figures import _read_exr
+    from ldbench.reports.figures import _read_exr
 
     return _read_exr(Path(path))
 
@@ -108,7 +109,7 @@ def test_signed_and_flip_maps_with_ranges(run, built):
 
 
 def test_values_over_the_size_limit_are_skipped(tmp_path, monkeypatch):
-    from harness import imageio
+    from ldbench.core import imageio
 
     monkeypatch.setattr(imageio, "VALUES_MAX_PIXELS", 15)
     assert not imageio.save_values_js(tmp_path / "a.js", "a.js", np.zeros((4, 4, 1)))
@@ -117,7 +118,7 @@ def test_values_over_the_size_limit_are_skipped(tmp_path, monkeypatch):
 
 
 def test_value_files_stop_at_the_reports_budget(run, tmp_path):
-    from harness import figures as F
+    from ldbench.reports import figures as F
 
     df = F.prepare(records.read_results(run))
     key, rows = next(iter(F.grid_groups(df).items()))
@@ -146,7 +147,7 @@ def test_grid_links_full_size_files(run, built):
 
 def test_only_non_default_params_grouped(run, built):
     assert shown_params("hbao", {}) == []
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
 
     full = get_method("ldm").Params().to_dict()
     assert shown_params("ldm", {**full, "directions": 16}) == [("", [("directions", 16)])]
@@ -169,8 +170,8 @@ def test_swept_parameters_show_in_every_row():
     """A sweep that includes the default value shows the parameter in that row too."""
     import pandas as pd
 
-    from harness.report import swept_params, _results_table, _Html
-    from harness import figures as F
+    from ldbench.reports.report import swept_params, _results_table, _Html
+    from ldbench.reports import figures as F
 
     rows = [records.make_row(run_id="r", suite="s", scene="cornell", method="ldm", effect="ao",
                              effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"},
@@ -210,7 +211,7 @@ def test_terminal_table_shows_each_effects_metrics(run):
 def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
     """The tallest bar has a zero-height stage on top (a stage only the other method has): matplotlib's
     autoscale alone would end the axis exactly at its top."""
-    from harness import figures as F
+    from ldbench.reports import figures as F
     import pandas as pd
 
     rows = [records.make_row(run_id="r", suite="s", scene="cornell", method=m, effect="ao",
@@ -229,7 +230,7 @@ def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
 
 def test_single_method_grid_keeps_colour_bar_labels(run, tmp_path):
     """The colour bar of a one-method grid lies right of the last axes; nothing may touch the border."""
-    from harness import figures as F
+    from ldbench.reports import figures as F
     import matplotlib.image as mpimg
 
     df = F.prepare(records.read_results(run))
@@ -350,7 +351,7 @@ def test_thumbnail_click_opens_the_viewer(run, built, tmp_path):
 
 
 def test_run_prints_each_effects_metrics(tmp_path, capsys):
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     main(["run", "--scene", "cornell", "--effect", "rays", "--ray-kind", "diffuse", "--rays-per-pixel", "1",
           "--method", "ldm", "--set", "ldm.directions=16", "--set", "ldm.resolution=32", "--size", "16x16",

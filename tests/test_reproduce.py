@@ -1,4 +1,4 @@
-"""``ldbench reproduce`` (harness/reproduce.py): registry, row matching, claims, timing verdicts on a
+"""``ldbench reproduce`` (reports/reproduce.py): registry, row matching, claims, timing verdicts on a
 GPU and on a CPU, printing, end to end."""
 from __future__ import annotations
 
@@ -10,12 +10,12 @@ import time
 import pytest
 
 from conftest import needs_shared_scenes
-from harness import records
-from harness import reproduce as R
-from harness.cli import main
-from harness.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, NOT_MEASURED, evaluate, registry,
-                               scale_match, scale_suite, suite_file)
-from harness.reproductions.aalund2015 import FIG8_D_MAX
+from ldbench.harness import records
+from ldbench.reports import reproduce as R
+from ldbench.harness.cli import main
+from ldbench.reports.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, NOT_MEASURED, evaluate,
+                                       registry, scale_match, scale_suite, suite_file)
+from ldbench.reports.reproductions.aalund2015 import FIG8_D_MAX
 
 REGISTRY = registry()
 
@@ -54,7 +54,7 @@ def test_scale_maps_rows_and_jobs():
     ci = REGISTRY["aalund2015-fig8"].scales["ci"]
     m = scale_match({"method": "ldm-ao", "params": {"directions": 512, "resolution": 200}}, ci)
     assert m["params"] == {"directions": 16, "resolution": 64}
-    from harness.suite import suite_from_dict
+    from ldbench.harness.suite import suite_from_dict
 
     suite = suite_from_dict({"suite": {"size": "800x800", "spp": 1024},
                              "run": [{"scene": "atrium", "scene_params": {"triangles": 260000}, "effect": "ao",
@@ -146,11 +146,11 @@ def test_gpu_timing_keeps_the_iqr_rule(tmp_path):
 
 
 def test_a_paper_is_one_data_module(tmp_path, monkeypatch):
-    """Adding a paper is adding a module to harness/reproductions/: found without engine changes."""
-    import harness.reproductions as pkg
+    """Adding a paper is adding a module to reports/reproductions/: found without engine changes."""
+    import ldbench.reports.reproductions as pkg
 
     (tmp_path / "zz_test2099.py").write_text(
-        "from harness.reproduce import Claim, Reproduction\n"
+        "from ldbench.reports.reproduce import Claim, Reproduction\n"
         "REPRODUCTIONS = (Reproduction(key='zz-test2099-t1', paper='zz2099', title='t', source='Table 1',\n"
         "    hardware='GPU', resolution='64x64', paper_scene='s', suite='suites/default.toml',\n"
         "    rows=({'id': 'a', 'label': 'a', 'match': {'method': 'hbao'}, 'time_ms': 1.0},\n"
@@ -158,14 +158,14 @@ def test_a_paper_is_one_data_module(tmp_path, monkeypatch):
         "    claims=(Claim('a is faster', 'a', 'b'),), scales={'paper': {}, 'ci': {}}),)\n")
     monkeypatch.setattr(pkg, "__path__", [*pkg.__path__, str(tmp_path)])
     monkeypatch.setattr(R, "_REGISTRY", None)
-    monkeypatch.delitem(sys.modules, "harness.reproductions.zz_test2099", raising=False)
+    monkeypatch.delitem(sys.modules, "ldbench.reports.reproductions.zz_test2099", raising=False)
     try:
         reg = registry()
         assert "zz-test2099-t1" in reg and "aalund2015-fig8" in reg
         assert R.get_entry("zz-test2099-t1").paper == "zz2099"
         assert "zz-test2099-t1" in R.list_text()
     finally:
-        sys.modules.pop("harness.reproductions.zz_test2099", None)
+        sys.modules.pop("ldbench.reports.reproductions.zz_test2099", None)
         R._REGISTRY = None
 
 
@@ -188,7 +188,7 @@ def test_reproduce_user_errors(capsys, tmp_path):
 
 
 def _have(*methods):
-    from methods.base import get_method
+    from ldbench.methods.base import get_method
 
     try:
         return all(get_method(m) for m in methods)
@@ -224,7 +224,7 @@ def test_fig8_on_real_scenes_ci_end_to_end(tmp_path, capsys):
     """aalund2015-fig8-real at the ci scale on Sponza and Sibenik (from the shared mirror): every row
     measured, quality claims hold (LDMs beat HBAO at large d_max; measured 20.8 vs 7.6 dB on Sponza and
     18.8 vs 11.3 dB on Sibenik on llvmpipe)."""
-    from harness.cli import main
+    from ldbench.harness.cli import main
 
     rc = main(["reproduce", "aalund2015-fig8-real", "--scale", "ci", "--out", str(tmp_path / "r"),
                "--no-report", "--no-progress"])
@@ -245,7 +245,7 @@ def _staged(method, d, t, stages, counters, iqr=0.1):
 def test_stage_and_counter_quantities_and_the_new_claim_kinds(tmp_path):
     """stage:NAME (summed with +) and counter:NAME quantities in rows and claims; a claim between two
     stages of one row (b_quantity); a "gap" claim (a/b against c/d), with its timing verdict."""
-    from harness.reproduce import Claim, Reproduction
+    from ldbench.reports.reproduce import Claim, Reproduction
 
     m = {"scene": "atrium", "effect": "ao"}
     rows = ({"id": "l1", "label": "ldm 1", "match": {**m, "method": "ldm-ao", "d_max": 1.0},

@@ -1,14 +1,14 @@
 """The claims an audit found untestable can fail: each is fed synthetic result rows on both sides of its
-bound (and, for timed bounds, noise straddling it), through the real entries of harness/reproductions and
-the verdict engine (harness/reproduce.py). Also: every claim prints its verdict rule and the derivation
+bound (and, for timed bounds, noise straddling it), through the real entries of reports/reproductions and
+the verdict engine (reports/reproduce.py). Also: every claim prints its verdict rule and the derivation
 of its window, and no claim has a window without one."""
 from __future__ import annotations
 
 import pytest
 
-from harness import records
-from harness.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, _MATCH_ROW_KEYS, evaluate, format_text,
-                               get_entry, registry, scale_match)
+from ldbench.harness import records
+from ldbench.reports.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, _MATCH_ROW_KEYS, evaluate,
+                                       format_text, get_entry, registry, scale_match)
 
 
 def _row(entry, rid, *, t=None, iqr=0.01, device="nvidia", memory=None, stages=None, scale="paper", **cols):
@@ -183,7 +183,7 @@ def test_docs_claims_page_is_in_step():
     `python scripts/claims_md.py`)."""
     from pathlib import Path
 
-    from harness.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown
+    from ldbench.reports.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown
 
     page = (Path(__file__).resolve().parents[1] / "docs" / "claims.md").read_text(encoding="utf-8")
     generated = page.split(CLAIMS_BEGIN, 1)[1].split(CLAIMS_END, 1)[0].strip()

@@ -1,4 +1,4 @@
-"""The reproduce entries of claims that had none (harness/reproductions: niessner2010-fig7, -rays, -sec7;
+"""The reproduce entries of claims that had none (reports/reproductions: niessner2010-fig7, -rays, -sec7;
 yang2010-costs; archer2019-layouts): each runs at --scale ci on llvmpipe, its table has every row with our
 value, and every claim gets a verdict (time claims on cpu-software: 'not measurable here' unless beyond the
 spread). The published numbers are checked against the papers' words."""
@@ -9,8 +9,8 @@ import math
 
 import pytest
 
-from harness.cli import main
-from harness.reproduce import FAILS, HOLDS, NOT_MEASURABLE, registry
+from ldbench.harness.cli import main
+from ldbench.reports.reproduce import FAILS, HOLDS, NOT_MEASURABLE, registry
 
 NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts")
 VERDICTS = {HOLDS, FAILS, NOT_MEASURABLE}

@@ -10,10 +10,10 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-import harness
-from harness import records as R
-from harness.cli import main
-from harness.errors import LdbenchError
+import ldbench.harness
+from ldbench.harness import records as R
+from ldbench.harness.cli import main
+from ldbench.core.errors import LdbenchError
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "results-columns.md"
 
@@ -60,7 +60,7 @@ def _full_row():
 def test_every_column_round_trips(tmp_path, name):
     row = _full_row()
     R.write_results([row, R.make_row(run_id="r2", scene="cornell")], tmp_path)
-    df = harness.read_results(tmp_path / name if name else tmp_path)
+    df = ldbench.harness.read_results(tmp_path / name if name else tmp_path)
     assert list(df.columns) == list(R.COLUMNS)
     got, empty = df.iloc[0], df.iloc[1]
     for c, t in R.COLUMN_TYPES.items():
@@ -119,6 +119,6 @@ def test_a_real_run_writes_only_documented_columns(tmp_path, capsys):
         undocumented = [c for c in cols if c not in names]
         assert not undocumented, f"{f}: columns missing from docs/results-columns.md: {undocumented}"
         assert cols[: len(names)] == names
-    df = harness.read_results(out)
+    df = ldbench.harness.read_results(out)
     assert isinstance(df.loc[0, "stage_ms"], dict) and isinstance(df.loc[0, "machine"], dict)
     assert df.loc[0, "schema_version"] == R.SCHEMA_VERSION

@@ -5,8 +5,10 @@ import math
 import pandas as pd
 import pytest
 
-from harness import device, figures, gpu, records
-from harness.naming import key_slug, slug
+from ldbench.core import device, gpu
+from ldbench.reports import figures
+from ldbench.harness import records
+from ldbench.harness.naming import key_slug, slug
 
 
 @pytest.mark.parametrize("renderer, vendor, expected", [
@@ -29,7 +31,7 @@ from harness.naming import key_slug, slug
 ])
 def test_one_device_rule_for_timing_and_records(renderer, vendor, expected):
     assert device.classify_device(renderer, vendor) == expected
-    # the timing code (harness.gpu) and the records use this very function
+    # the timing code (ldbench.core.gpu) and the records use this very function
     assert gpu.classify_device is device.classify_device is records.classify_device
     info = records.machine_info({"GL_RENDERER": renderer, "GL_VENDOR": vendor} if renderer else None)
     assert info["device"] == expected

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from harness.errors import LdbenchError
-from harness.rundir import MARKER, RunDir, is_run_dir
+from ldbench.core.errors import LdbenchError
+from ldbench.harness.rundir import MARKER, RunDir, is_run_dir
 from testkit import read_only_parent
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def make_run(d: Path, tag: str = "old") -> Path:
     """The files of a finished run as ldbench writes them (one row, ``tag`` as its suite's name)."""
-    from harness import records
+    from ldbench.harness import records
 
     d.mkdir(parents=True, exist_ok=True)
     records.write_results([records.make_row(run_id=tag, suite=tag)], d)
@@ -199,12 +199,12 @@ def test_concurrent_cli_run_into_same_out_exits_2(tmp_path):
     out = tmp_path / "run"
     holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
         import sys, time
-        from harness.rundir import RunDir
+        from ldbench.harness.rundir import RunDir
         RunDir({str(out)!r}).open(); print("locked", flush=True); time.sleep(60)""")],
         cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "locked"
-        p = subprocess.run([sys.executable, "-m", "harness.cli", "run", "--scene", "cornell", "--method",
+        p = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", "run", "--scene", "cornell", "--method",
                             "direct-raster", "--effect", "direct", "--size", "16x16", "--spp", "4",
                             "--out", str(out), "--no-progress"], cwd=ROOT, capture_output=True, text=True,
                            timeout=300)

@@ -1,4 +1,4 @@
-"""Registered real scenes (harness/scene_registry.py + .toml, harness/scenes.build_registered).
+"""Registered real scenes (core/scene_registry.py + .toml, harness/scenes.build_registered).
 
 Tests marked ``needs_shared_scenes`` use the scene mirror of tests/conftest.py (beside the checkout, or
 $LDBENCH_SHARED/scenes); without it they skip and the session ends with one loud line saying so.
@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_SCENES, needs_shared_scenes
-from harness import scene_registry as R
-from harness.cli import main
-from harness.errors import LdbenchError
-from harness.scene import SpotLight
-from harness.scenes import load_scene
+from ldbench.core import scene_registry as R
+from ldbench.harness.cli import main
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import SpotLight
+from ldbench.core.scenes import load_scene
 
 NAMES = ["sponza", "sibenik", "bunny", "dragon", "buddha", "lucy", "armadillo", "cornell-mitsuba",
          "cornell-bitterli"]
@@ -230,7 +230,7 @@ def test_loading_gives_the_published_triangle_counts(mirror_cache, monkeypatch):
 def _view_coverage(scene, w=64, h=48):
     """(fraction of pixels whose primary ray hits, fraction of hits lit directly by the spot light),
     traced by Mitsuba on the scene's own triangles."""
-    from references.variant import choose_variant
+    from ldbench.references.variant import choose_variant
 
     import mitsuba as mi
 

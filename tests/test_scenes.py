@@ -1,12 +1,12 @@
-"""Built-in scene builders and the scene dispatcher (harness/scenes.py)."""
+"""Built-in scene builders and the scene dispatcher (core/scenes.py)."""
 import time
 
 import numpy as np
 import pytest
 
-from harness.errors import LdbenchError
-from harness.scene import Camera, Mesh, Scene, SpotLight
-from harness.scenes import BUILDERS, list_scenes, load_scene
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene, SpotLight
+from ldbench.core.scenes import BUILDERS, list_scenes, load_scene
 
 from conftest import SHARED_SCENES as SHARED
 

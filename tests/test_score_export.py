@@ -7,19 +7,19 @@ import json
 import numpy as np
 import pytest
 
-from harness import records
-from harness.cli import main
-from harness.effects import Effect
-from harness.executors import run_jobs
-from harness.score import Question, items_from_folder, score_into_run
-from harness.suite import suite_from_dict
+from ldbench.harness import records
+from ldbench.harness.cli import main
+from ldbench.core.effects import Effect
+from ldbench.harness.executors import run_jobs
+from ldbench.harness.score import Question, items_from_folder, score_into_run
+from ldbench.harness.suite import suite_from_dict
 
 SIZE = 24
 IMAGE_METRICS = ("psnr", "ssim", "flip", "relmse", "coverage")
 
 
 def _export(tmp_path, effect, name, size=SIZE, spp=8, **kw):
-    from harness.export import export_question
+    from ldbench.harness.export import export_question
 
     return export_question(Question("cornell", effect, size, size, spp=spp, **kw), tmp_path / name)
 
@@ -36,11 +36,11 @@ def hbao_run(tmp_path_factory):
 
 def _render_outside(gpu, folder):
     """hbao run by hand from the exported camera (no runner): its image and mask as answer files."""
-    from harness.scene import Camera
-    from harness.scenes import load_scene
-    from methods.base import View
-    from methods.hbao import HBAO
-    from references.exr import write_exr
+    from ldbench.core.scene import Camera
+    from ldbench.core.scenes import load_scene
+    from ldbench.methods.base import View
+    from ldbench.methods.hbao import HBAO
+    from ldbench.core.exr import write_exr
 
     q = json.loads((folder / "question.json").read_text())
     cam = json.loads((folder / "camera.json").read_text())
@@ -95,7 +95,7 @@ def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao
 def test_png_answer_with_its_transfer_curve(tmp_path, gpu, hbao_run):
     import matplotlib.image as mpimg
 
-    from harness.metrics import to_srgb8
+    from ldbench.core.metrics import to_srgb8
 
     run_dir, _ = hbao_run
     folder = _export(tmp_path, Effect("ao", d_max=0.5), "png")
@@ -157,15 +157,15 @@ def test_rays_exported_answered_by_numpy_and_scored(tmp_path, kind):
 def _mitsuba_render(folder, spp):
     import mitsuba as mi
 
-    from references.variant import choose_variant
+    from ldbench.references.variant import choose_variant
 
     mi.set_variant(choose_variant())
     return np.array(mi.render(mi.load_file(str(folder / "scene.xml")), spp=spp))
 
 
 def test_exported_xml_renders_the_direct_reference(tmp_path):
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     folder = _export(tmp_path, Effect("direct"), "direct", size=64, spp=16)
     img = _mitsuba_render(folder, 16)
@@ -178,8 +178,8 @@ def test_exported_xml_renders_the_direct_reference(tmp_path):
 
 
 def test_exported_xml_renders_the_ao_reference_within_its_noise(tmp_path):
-    from harness.scenes import load_scene
-    from references import render_reference
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
 
     folder = _export(tmp_path, Effect("ao"), "ao", size=48, spp=128)
     img = _mitsuba_render(folder, 128)[..., :1]
@@ -192,7 +192,7 @@ def test_exported_xml_renders_the_ao_reference_within_its_noise(tmp_path):
 
 def test_score_bad_input_is_one_line(tmp_path, capsys):
     folder = _export(tmp_path, Effect("ao", d_max=0.5), "bad", size=16, spp=2)
-    from references.exr import write_exr
+    from ldbench.core.exr import write_exr
 
     write_exr(folder / "answer.exr", {"Y": np.ones((8, 8), np.float32)})
     cases = [["--from", str(folder)],  # wrong size
@@ -211,9 +211,9 @@ def test_score_bad_input_is_one_line(tmp_path, capsys):
 
 
 def test_save_arrays_writes_inputs_and_both_answers(tmp_path):
-    from harness.effects.rays import ray_metrics
-    from harness.effects.vpl_range import range_metrics
-    from harness.scenes import load_scene
+    from ldbench.core.effects.rays import ray_metrics
+    from ldbench.core.effects.vpl_range import range_metrics
+    from ldbench.core.scenes import load_scene
 
     suite = suite_from_dict({"suite": {"name": "arrays", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1},
                              "run": [{"scene": "cornell", "effect": "rays", "methods": ["ldm"],

@@ -5,9 +5,9 @@ import dataclasses
 
 import pytest
 
-from harness.errors import LdbenchError
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, make_structure
+from ldbench.core.errors import LdbenchError
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, make_structure
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, layer_transforms, quads_scene
 
 

@@ -6,12 +6,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from harness.checks import camera_sees_geometry, unique_scene_names
-from harness.cli import build_parser, suite_from_args
-from harness.errors import LdbenchError
-from harness.suite import (DEFAULT_SIZE, MAX_FRAMES, MAX_SEED, MAX_SPP, MAX_WARMUP, parse_size, resolve_sizes,
-                           suite_from_dict)
-from methods.base import _coerce, get_method
+from ldbench.harness.checks import camera_sees_geometry, unique_scene_names
+from ldbench.harness.cli import build_parser, suite_from_args
+from ldbench.core.errors import LdbenchError
+from ldbench.harness.suite import (DEFAULT_SIZE, MAX_FRAMES, MAX_SEED, MAX_SPP, MAX_WARMUP, parse_size,
+                                   resolve_sizes, suite_from_dict)
+from ldbench.core.params import _coerce
+from ldbench.methods.base import get_method
 
 
 def suite(head=None, **run):
@@ -124,7 +125,7 @@ def test_command_line_rejects(tmp_path, extra, needle):
 
 def test_a_grouped_parameter_is_held_to_the_integer_bound():
     """structure.pool_capacity (no declared maximum) sits in a parameter group: the 2^31 - 1 bound of
-    harness.suite.method_params applies to it as to a flat parameter, by its dotted and its earlier name."""
+    ldbench.harness.suite.method_params applies to it as to a flat parameter, by its dotted and its earlier name."""
     for kv in (f"ldm.structure.pool_capacity={2 ** 31}", f"ldm.pool_capacity={2 ** 31}"):
         with pytest.raises(LdbenchError, match="structure.pool_capacity=2147483648 of method 'ldm' above its max"):
             run_args("--scene", "cornell", "--method", "ldm", "--effect", "ao", "--size", "16x16", "--set", kv)
@@ -149,7 +150,7 @@ def test_command_line_rejects_rays(extra, needle):
 
 def test_retries_bounded():
     pytest.importorskip("ray")
-    from harness.executors.ray import MAX_RETRIES, RayExecutor
+    from ldbench.harness.executors.ray import MAX_RETRIES, RayExecutor
 
     with pytest.raises(LdbenchError, match=f"--retries must be <= {MAX_RETRIES}"):
         RayExecutor(retries=MAX_RETRIES + 1)
@@ -172,7 +173,7 @@ def test_parse_size():
 
 
 def test_size_minimum_is_what_the_metrics_need():
-    from harness import metrics
+    from ldbench.core import metrics
 
     a = np.random.default_rng(0).random((3, 3, 3)).astype(np.float32)
     assert np.isfinite(metrics.all_metrics(a, a * 0.5)["ssim"])
@@ -204,7 +205,7 @@ def test_default_size_is_the_xml_film():
 
 
 def test_unique_scene_names():
-    from harness.scenes import load_scene
+    from ldbench.core.scenes import load_scene
 
     a, b = FakeScene("scene", {}, "aaaaaa11"), FakeScene("scene", {}, "bbbbbb22")
     c, d = load_scene("cornell"), load_scene("cornell", subdivide=2)
@@ -226,7 +227,7 @@ def test_camera_sees_geometry():
 
 def test_a_bundled_suite_by_name(tmp_path, monkeypatch):
     """`ldbench run default` from any folder: a bundled suite is found by its name."""
-    from harness.suite import load_suite
+    from ldbench.harness.suite import load_suite
 
     monkeypatch.chdir(tmp_path)
     s = load_suite("default")

@@ -1,4 +1,4 @@
-"""The ``vpl_range`` effect (harness/effects/vpl_range.py, references/vpl_range.py) and the ``cdi-vpl``
+"""The ``vpl_range`` effect (core/effects/vpl_range.py, references/vpl_range.py) and the ``cdi-vpl``
 ranges: the six rays (numpy and their GLSL twin), the Mitsuba RSM, VPL ranges inside a box of known size
 against the closed form (oracle and CDI), the random baseline, the metrics, an end-to-end run.
 
@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.effects import Effect
-from harness.effects.vpl_range import (frame, hash01, range_metrics, reduce_ranges, rsm_camera, texel_solid_angle,
-                                       vpl_directions)
-from harness.errors import LdbenchError
-from harness.scene import Camera, Scene, SpotLight
-from methods.base import View
-from methods.cdi_vpl import CdiVpl, CdiVplParams
-from references.vpl_range import exact_ranges, make_vpls
+from ldbench.core.effects import Effect
+from ldbench.core.effects.vpl_range import (frame, hash01, range_metrics, reduce_ranges, rsm_camera,
+                                            texel_solid_angle, vpl_directions)
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Scene, SpotLight
+from ldbench.methods.base import View
+from ldbench.methods.cdi_vpl import CdiVpl, CdiVplParams
+from ldbench.references.vpl_range import exact_ranges, make_vpls
 from testkit import box
 
 VPL_GLSL = Path(__file__).resolve().parents[1] / "methods" / "cdi_vpl" / "vpl.glsl"
@@ -219,8 +219,8 @@ def test_effect_parameters_and_light():
 def test_end_to_end_run(tmp_path):
     """``ldbench run`` of the CDI and the random baseline on cornell: rows ok, the range columns filled,
     the CDI far closer to the exact ranges than random ones."""
-    from harness.cli import main
-    from harness.records import read_results
+    from ldbench.harness.cli import main
+    from ldbench.harness.records import read_results
 
     out = tmp_path / "run"
     rc = main(["run", "--scene", "cornell", "--method", "cdi-vpl", "--effect", "vpl_range", "--effect-set",

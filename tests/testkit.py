@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.scene import Camera, Mesh, Scene, SpotLight
+from ldbench.core.scene import Camera, Mesh, Scene, SpotLight
 
 
 def disk_occlusion(a, h=1.0, r=1.0, d_max=math.inf, falloff="step", nphi=4096):

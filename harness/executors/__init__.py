@@ -1,4 +1,4 @@
-"""Executors: who runs the jobs of a :class:`~harness.runner.RunPlan`.
+"""Executors: who runs the jobs of a :class:`~ldbench.harness.runner.RunPlan`.
 
 An executor has ``uses_driver_gpu`` (whether the jobs use the GL context of the process that holds the
 run directory) and ``run(plan, out, *, gpu, progress) -> rows`` (one record row per ``plan.jobs``
@@ -16,7 +16,7 @@ from __future__ import annotations
 import json
 from typing import TYPE_CHECKING
 
-from ..errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
     import pandas as pd
@@ -46,11 +46,11 @@ def run_jobs(suite: "Suite", out_dir, *, progress: bool = True, report: bool = T
     """Execute every job of ``suite``; write ``out_dir`` atomically. Returns the results table.
 
     ``executor``: None or ``"local"`` (this process, one job after the other), ``"ray"``, or an
-    executor object (:mod:`harness.executors`). Whatever runs the jobs, this process holds the run
+    executor object (:mod:`ldbench.harness.executors`). Whatever runs the jobs, this process holds the run
     directory's lock, writes the results and commits the folder, or deletes it on any failure.
     """
     from .. import records
-    from ..gpu import Gpu
+    from ldbench.core.gpu import Gpu
     from ..rundir import RunDir
     from ..runner import plan_run
 
@@ -76,7 +76,7 @@ def run_jobs(suite: "Suite", out_dir, *, progress: bool = True, report: bool = T
         (tmp / "suite.json").write_text(json.dumps({"name": suite.name, "source": suite.source,
                                                     "jobs": len(suite.jobs)}, indent=1))
         if report:
-            from ..report import build_report
+            from ldbench.reports.report import build_report
             build_report(tmp, records.read_results(tmp, unfinished=True))
         if interrupts.seen:  # a Ctrl-C whose KeyboardInterrupt some library caught: still no commit
             raise KeyboardInterrupt

@@ -3,7 +3,7 @@ scripts/gpu/ray-executor-speedup.sh.)
 
 Everything must be equal except :data:`TIMED` (the run's identity, times and timing-derived rates, the
 machine dict with its clocks, and the device a job ran on): every other column, row by row in suite
-order, and every file under ``images/`` byte for byte. ``python -m harness.executors.check A B`` prints
+order, and every file under ``images/`` byte for byte. ``python -m ldbench.harness.executors.check A B`` prints
 the differences (none: exit 0).
 """
 from __future__ import annotations
@@ -52,7 +52,7 @@ def differences(a_dir, b_dir, *, ignore=TIMED) -> list[str]:
 def main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 2:
-        print("usage: python -m harness.executors.check RUN_A RUN_B", file=sys.stderr)
+        print("usage: python -m ldbench.harness.executors.check RUN_A RUN_B", file=sys.stderr)
         return 2
     diffs = differences(*args)
     for d in diffs:

@@ -3,10 +3,10 @@
 
 Faults, as on the Ray executor: bad input (LdbenchError) while preparing stops the run; any other
 exception of a reference marks its jobs ``error: reference failed: ...``, of a job that job's row
-(:func:`~harness.runner.run_job`); the other rows are kept and the run completes."""
+(:func:`~ldbench.harness.runner.run_job`); the other rows are kept and the run completes."""
 from __future__ import annotations
 
-from ..errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 from ..runner import RunContext, progress_bar, error_text, failed_row, prepare, prepare_key, release_inputs, run_job
 
 

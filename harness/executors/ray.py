@@ -31,7 +31,7 @@ environment            the driver's ``LDBENCH_*`` variables are set in every wor
 =====================  ==========================================================================
 
 The run directory (lock, partial folder, results, commit) stays with the driver
-(:func:`harness.executors.run_jobs`). Rows come back in suite order, with the local run's schema.
+(:func:`ldbench.harness.executors.run_jobs`). Rows come back in suite order, with the local run's schema.
 
 Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
 TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
@@ -50,7 +50,7 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import LdbenchError
+from ldbench.core.errors import LdbenchError
 
 INSTALL_HINT = "the Ray executor needs Ray: pip install 'ldbench[ray]'"
 STAGE = ".stage"  # inside the partial run directory; gone before the commit
@@ -204,7 +204,7 @@ class Worker:
     def _jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
         import socket
 
-        from ..gpu import Gpu
+        from ldbench.core.gpu import Gpu
         from ..runner import RunContext, machine_of, release_inputs, run_job
 
         if self.gpu is None:

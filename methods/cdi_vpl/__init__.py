@@ -2,9 +2,9 @@
 ``indirect`` and ``rays``.
 
 **CDI** (§3.1): ``directions`` orthographic deep images of ``resolution``² texels over the scene's bounding
-sphere (:func:`methods.structures.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
-spherical coordinates (:func:`methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
-(:func:`methods.directions.ldm_axes`), stored as linearised arrays (:mod:`methods.structures.linear`). Build
+sphere (:func:`ldbench.methods.structures.ortho_layers`), directions on the upper hemisphere as ``stacks × slices`` in
+spherical coordinates (:func:`ldbench.methods.directions.stacks_slices`; 169 = 13 × 13) or the zonal equal-area set
+(:func:`ldbench.methods.directions.ldm_axes`), stored as linearised arrays (:mod:`ldbench.methods.structures.linear`). Build
 (stages ``count``, ``scan``, ``fill``, ``sort``), a variant of the shared layered-structure module:
 
 * ``one_pass`` (the paper): one raster of the scene per pass, each triangle swizzled to its dominant axis in
@@ -26,13 +26,13 @@ holding the ray's origin, its list stepped to the first fragment beyond the orig
 against the direction); distances along that direction; self-intersection skipped with a receiver-plane
 test (see the GLSL).
 
-**VPLs** (§3.2; ``vpl_range``: the harness's VPLs and rays, :mod:`harness.effects.vpl_range`; ``indirect``:
+**VPLs** (§3.2; ``vpl_range``: the harness's VPLs and rays, :mod:`ldbench.core.effects.vpl_range`; ``indirect``:
 the method's own RSM of the spot light, ``rsm``² texels, every ``vpl_step``-th in x and y): six rays per VPL,
 range = mean or max of the hit distances, a miss counting ``miss_range`` × the diagonal. ``range``:
 ``cdi`` (the method), ``random`` (uniform in [``r_min``, ``r_max``] × the diagonal: the paper's baseline) or
 ``exact`` (Mitsuba on the same rays, computed once in setup: the quality bound, not a timing).
 
-**Lighting** (``indirect``, :mod:`methods.cdi_vpl.lighting`): 3D light grid of cubic cells (``grid`` along
+**Lighting** (``indirect``, :mod:`ldbench.methods.cdi_vpl.lighting`): 3D light grid of cubic cells (``grid`` along
 the longest side) over the scene bounds, a VPL sphere binned into the cells it overlaps that hold a visible
 surface (``depth_mask``), cells as linearised index lists (count → prefix sum → fill); each G-buffer pixel
 summed over its cell's VPLs: diffuse, cosine terms, unshadowed, cut off at the range.
@@ -79,13 +79,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.effects.vpl_range import reduce_ranges
-from methods.base import Method, ParamsBase, Result, group, param
-from methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
-from methods.invariants import layered_invariants
-from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.effects.vpl_range import reduce_ranges
+from ldbench.core.params import ParamsBase, group, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
+from ldbench.methods.invariants import layered_invariants
+from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
+                                        ortho_layers)
 
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)

@@ -12,15 +12,16 @@ import math
 
 import numpy as np
 
-from harness.bindings import B
-from harness.conventions import RAY_EPSILON
-from harness.effects.vpl_range import RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera, vpl_directions
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.lights import set_spot_uniforms
-from methods.gbuffer import mat_bytes
-from methods.structures import fill_uint
-from methods.scan import Scan
+from ldbench.core.bindings import B
+from ldbench.core.conventions import RAY_EPSILON
+from ldbench.core.effects.vpl_range import (RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera,
+                                            vpl_directions)
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.methods.lights import set_spot_uniforms
+from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.structures import fill_uint
+from ldbench.methods.scan import Scan
 
 VPL_BYTES = 48
 
@@ -212,7 +213,7 @@ class VplLighting:
 
     # ---- the exact baseline: Mitsuba on the same six rays, once (the scene and the light are static) -----
     def _exact_table(self, scene):
-        from harness.effects.rays import RayBatch
+        from ldbench.core.effects.rays import RayBatch
 
         self.render_rsm()
         pos = read_texture(self.rsm_pos)      # row 0 = top, as the harness's RSM

@@ -1,5 +1,5 @@
 // Reflective shadow map (Dachsbacher & Stamminger 2005) of the spot light: the scene rasterized from the
-// light (harness/effects/vpl_range.py rsm_camera: the same view as the harness's Mitsuba RSM), depth-tested.
+// light (core/effects/vpl_range.py rsm_camera: the same view as the harness's Mitsuba RSM), depth-tested.
 // Per texel: o_position = (p, 1) (w = 0: nothing), o_normal = the geometric normal facing the light,
 // o_flux = (albedo · I · fall-off · Ω, area): the flux the texel's VPL reflects and the area it covers,
 // Ω = (2 tan(cut-off) / R)² cos³α the texel's solid angle, area = Ω d² / max(|cos|, 0.05).

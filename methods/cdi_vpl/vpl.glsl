@@ -1,4 +1,4 @@
-// The six rays of a VPL, the GLSL twin of harness/effects/vpl_range.py vpl_directions (the hash and the frame
+// The six rays of a VPL, the GLSL twin of core/effects/vpl_range.py vpl_directions (the hash and the frame
 // are those of conventions.glsl):
 // ray 0 along the primary direction p, rays 1..5 at cone_angle from p, azimuths phi0 + 2 pi k / 5 in the
 // Duff et al. (2017) frame of p, phi0 = 2 pi hash01(texel, seed).

@@ -33,9 +33,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.gpu import read_texture
-from methods.base import ParamsBase, param
-from methods.oit import PeelingMethod, complexity_counters
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.oit import PeelingMethod, complexity_counters
 
 MAX_PASSES = 4096  # safety cap: a scene deeper than this is reported (invariant), never an endless loop
 

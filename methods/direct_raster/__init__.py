@@ -18,10 +18,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.bindings import B
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
-from methods.lights import CubeShadowMap, set_spot_uniforms
+from ldbench.core.bindings import B
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.lights import CubeShadowMap, set_spot_uniforms
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ class DirectRaster(Method):
     Params = DirectRasterParams
 
     def setup(self, gpu, scene):
-        from harness.effects import Effect
+        from ldbench.core.effects import Effect
 
         Effect("direct").check_scene(scene)  # the one rule for "needs a light"
         self.light = scene.lights[0]

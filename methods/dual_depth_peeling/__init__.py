@@ -39,10 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.effects.oit import BACKGROUND
-from harness.gpu import read_texture
-from methods.base import ParamsBase, param
-from methods.oit import PeelingMethod, complexity_counters
+from ldbench.core.effects.oit import BACKGROUND
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.oit import PeelingMethod, complexity_counters
 
 MAX_PASSES = 4096
 FAR = 3.0e38

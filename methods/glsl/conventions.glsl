@@ -1,4 +1,4 @@
-// Ray conventions, the GLSL twin of harness/conventions.py (which documents them; tests/test_conventions.py
+// Ray conventions, the GLSL twin of core/conventions.py (which documents them; tests/test_conventions.py
 // checks that both agree): the secondary-ray origin, the Duff et al. (2017) tangent frame, the sampling
 // warps, the integer hashes behind the random numbers, and the clamp and reduction of a VPL's six distances.
 #ifndef LDBENCH_CONVENTIONS_GLSL

@@ -1,4 +1,4 @@
-// Shared GLSL of the OIT adapters (methods/oit.py; effect harness/effects/oit.py).
+// Shared GLSL of the OIT adapters (methods/oit.py; effect core/effects/oit.py).
 //
 //   oit_material[k]             vec4(albedo rgb, opacity) of material k (= mesh index), B_OIT_MATERIALS
 //   oit_before(za, ma, zb, mb)  the effect's order: nearer depth first; at equal depth the lower material

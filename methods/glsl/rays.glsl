@@ -1,4 +1,4 @@
-// The `rays` effect's batch on the GPU (harness/effects/rays.py RayBatch.upload): per ray
+// The `rays` effect's batch on the GPU (core/effects/rays.py RayBatch.upload): per ray
 // vec4(origin, tmax), vec4(direction, 0), vec4(normal at the origin, 0); and the tracer's answer:
 // the hit distance per ray (uintBitsToFloat(0x7f800000) = +inf for a miss).
 #ifndef LDBENCH_RAYS_GLSL

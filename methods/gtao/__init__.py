@@ -4,7 +4,7 @@ today; Intel's XeGTAO is its best-known implementation and the source of the def
 
 Stages (all GPU; the screen-space passes are compute shaders):
 
-``gbuffer``  the shared :class:`~methods.gbuffer.GBuffer` (world position, camera-facing geometric normal).
+``gbuffer``  the shared :class:`~ldbench.methods.gbuffer.GBuffer` (world position, camera-facing geometric normal).
 ``gtao``     ``gtao.glsl``: per pixel, ``slices`` view-space slices (rotated per pixel by a spatial R2
              sequence along a 64×64 Hilbert curve, XeGTAO's noise without its temporal part), a horizon
              search of ``steps`` samples on each side, and the slice's cosine-weighted visibility between
@@ -38,12 +38,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import mat_bytes
-from methods.uniforms import set_uniforms
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.uniforms import set_uniforms
 
 FALLOFF_MODE = {"step": 0, "quadratic": 1}
 DENOISE_SHARPNESS = 40.0  # inverse relative tolerance of the plane-distance term (as hbao's blur)

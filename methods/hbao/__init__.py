@@ -6,7 +6,7 @@ the derivations, the measured accuracy and the known limits.
 
 Stages (all GPU; the screen-space passes are compute shaders):
 
-``gbuffer``  the shared :class:`~methods.gbuffer.GBuffer` (world position, camera-facing geometric normal).
+``gbuffer``  the shared :class:`~ldbench.methods.gbuffer.GBuffer` (world position, camera-facing geometric normal).
 ``hbao``     ``hbao.glsl``: per pixel, ``directions`` screen-space directions rotated by a 4×4 tiled random
              texture (deterministic from ``seed``), each marched in ``steps`` equal pixel steps with a
              jittered start out to the projected radius of d_max (``d_max · focal / depth`` pixels,
@@ -84,12 +84,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import mat_bytes
-from methods.uniforms import set_uniforms
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.uniforms import set_uniforms
 
 INTEGRALS = ("hbao", "cosine")
 SAMPLINGS = ("fixed", "pixel_step")

@@ -4,7 +4,7 @@ Effects ``rays`` (diffuse, glossy, shadow, ao batches), ``indirect`` (one diffus
 8 rays per pixel and separable 11×11 Gaussian), ``glossy_indirect`` (16 rays per pixel, normalized Phong
 lobe) and ``soft_shadows`` (16 shadow rays per pixel towards a spherical light).
 
-**Directions** (:func:`methods.directions.cube_directions`): each cube face split into k × k squares,
+**Directions** (:func:`ldbench.methods.directions.cube_directions`): each cube face split into k × k squares,
 n = 6k² directions (the paper's 96, 150, 384 LDIs are k = 4, 5, 8); ``directions`` must be 6k². The set
 is antipodally symmetric and an orthographic LDI holds every depth along its axis, so by default one LDI
 answers both v and −v: **3k² LDIs are stored** (``share_opposite``; the paper stored all 6k², "we
@@ -16,9 +16,9 @@ edge-on (not at all), and rays grazing such walls miss them (measured in docs/ld
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
-farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`methods.structures.ortho_layers`).
+farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`ldbench.methods.structures.ortho_layers`).
 
-**Build** (:mod:`methods.structures`): ``build = "peel"``, depth peeling (the ``peel`` source, stages
+**Build** (:mod:`ldbench.methods.structures`): ``build = "peel"``, depth peeling (the ``peel`` source, stages
 ``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU prefix
 sum; ``build = "single_pass"``, the shared one-pass linearised arrays (``count``, ``scan``, ``fill``,
 ``sort``) + ``canon``: the same structure bit for bit. Payload per fragment: normal and albedo; the spot
@@ -68,15 +68,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from harness.conventions import RAY_EPSILON, SHADOW_EPSILON
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, group, param
-from methods.directions import CUBE_ROTATION, cube_directions, cube_k
-from methods.invariants import layered_invariants
-from methods.lights import CubeShadowMap, set_spot_uniforms
-from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
+from ldbench.core.bindings import B
+from ldbench.core.conventions import RAY_EPSILON, SHADOW_EPSILON
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, group, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.directions import CUBE_ROTATION, cube_directions, cube_k
+from ldbench.methods.invariants import layered_invariants
+from ldbench.methods.lights import CubeShadowMap, set_spot_uniforms
+from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
+                                        ortho_layers)
 
 PAYLOAD = ("normal", "albedo")
 
@@ -143,7 +145,7 @@ class LdiParams(ParamsBase):
     directions: int = param(150, "cube-sampled directions n = 6k^2 (96, 150, 384 in the paper)", lo=6, hi=6 * 64 * 64,
                             paper="96, 150, 384")
     resolution: int = param(128, "LDI pixels per side", lo=4, hi=4096, paper="128, 512")
-    rotated: bool = param(False, "rotate the direction cube (methods.directions.CUBE_ROTATION): no LDI along an "
+    rotated: bool = param(False, "rotate the direction cube (ldbench.methods.directions.CUBE_ROTATION): no LDI along an "
                                  "axis-aligned wall", paper=False)
     share_opposite: bool = param(True, "one LDI answers v and -v (3k^2 stored); False: all 6k^2 as the paper",
                                  paper=False)

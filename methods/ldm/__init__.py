@@ -6,12 +6,12 @@ Also registered as ``ldm-ao`` (its earlier name): suites and command lines using
 Per frame (stages):
 
 ``gbuffer``  (``ao``) camera G-buffer (position, camera-facing geometric normal).
-build        the N maps as a layered structure (:mod:`methods.structures`), ``layout = "linked"``: one
+build        the N maps as a layered structure (:mod:`ldbench.methods.structures`), ``layout = "linked"``: one
              instanced draw rasterizes the scene into all maps (both faces, no depth test), every fragment
-             inserted into its texel's linked list (:mod:`methods.structures.linked`), pre-sorted by a lock-free
+             inserted into its texel's linked list (:mod:`ldbench.methods.structures.linked`), pre-sorted by a lock-free
              CAS insert (``sorted_insert = True``, the paper's PSPPSLL) — stages ``count`` (only
              ``pool = "count"``), ``build``, ``sort`` (only ``sorted_insert = False``);
-             ``layout = "linear"``: linearised arrays (:mod:`methods.structures.linear`) — stages ``count``,
+             ``layout = "linear"``: linearised arrays (:mod:`ldbench.methods.structures.linear`) — stages ``count``,
              ``scan``, ``fill``, ``sort``. Both give the same sorted lists, hence the same images.
 ``ao``       compute pass over the G-buffer pixels, looping over the N maps.
 ``trace``    (``rays``) one invocation per ray of the harness's batch: the map whose axis is nearest to the
@@ -20,9 +20,9 @@ build        the N maps as a layered structure (:mod:`methods.structures`), ``la
 indirect     (``indirect``, §3.4, §4.2) ``gbuffer``, the build, then ``light_raster``, ``trace`` (photons:
              first hit by rasterizing from the spot light, split into the N map directions, second hit by
              the two-way query, camera visibility, photon differentials) and ``splat`` (Silverman's kernel
-             over each photon's footprint): :mod:`methods.ldm.indirect`, docs/ldm_indirect.md.
+             over each photon's footprint): :mod:`ldbench.methods.ldm.indirect`, docs/ldm_indirect.md.
 
-Maps. The N axes are :func:`methods.directions.ldm_axes` (the recursive zonal equal-area partition of the
+Maps. The N axes are :func:`ldbench.methods.directions.ldm_axes` (the recursive zonal equal-area partition of the
 upper hemisphere; {±v_i} is an antipodally symmetric equal-area set of 2N directions). Map i is an
 orthographic ``resolution²`` view along v_i that covers the scene's bounding sphere (centre = bounds
 centre, radius = farthest vertex), so every map sees all geometry; stored depth = (p − c)·v_i.
@@ -39,7 +39,7 @@ point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos
 
 Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
 still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
-(:class:`~methods.structures.spec.StructureSpec`), ``trace.*`` the map query of every effect,
+(:class:`~ldbench.methods.structures.spec.StructureSpec`), ``trace.*`` the map query of every effect,
 ``rays.*`` and ``indirect.*`` one effect's.
 
 ===============================  ========  =======  ========================================================
@@ -86,14 +86,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, group, param
-from methods.directions import ldm_axes, nearest_axis_table
-from methods.invariants import layered_invariants
-from methods.structures import StructureSpec, bind_ortho_layers, bounding_sphere, make_structure, ortho_layers
-from methods.scan import groups_2d
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, group, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.directions import ldm_axes, nearest_axis_table
+from ldbench.methods.invariants import layered_invariants
+from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
+                                        ortho_layers)
+from ldbench.methods.scan import groups_2d
 
 LUT_RES = 128
 FAR = 3.0e38

@@ -1,6 +1,6 @@
 // LDM ambient occlusion / obscurance (aalund2015 §3.3, §4.1): one invocation per G-buffer pixel, a
 // loop over the N maps; each map contributes the one of its two directions +-v in the hemisphere of
-// the camera-facing normal. V = 1 - rho(t) (harness/effects/ao.py), weighted by cos(theta).
+// the camera-facing normal. V = 1 - rho(t) (core/effects/ao.py), weighted by cos(theta).
 // estimator 0 ("ratio"):  A = sum V cos / sum cos   (exact when nothing is hit)
 // estimator 1 ("paper"):  A = 2/N sum V cos          (aalund2015 eq. 2)
 // Background pixels hold 1.

@@ -1,11 +1,11 @@
 """LDM single-bounce indirect light: photon differentials traced through the maps and splatted into the
-camera view (aalund2015 §3.4, §4.2; docs/ldm_indirect.md). Used by :class:`methods.ldm.Ldm` for the
+camera view (aalund2015 §3.4, §4.2; docs/ldm_indirect.md). Used by :class:`ldbench.methods.ldm.Ldm` for the
 ``indirect`` effect (LDDE paths, no direct term).
 
 Per frame, after the camera G-buffer and the LDM build of the adapter (stages):
 
 ================  =====================================================================================
-``light_raster``  the shared :class:`~methods.gbuffer.GBuffer` rendered from each spot light: an R × R
+``light_raster``  the shared :class:`~ldbench.methods.gbuffer.GBuffer` rendered from each spot light: an R × R
                   pinhole raster whose field of view is twice the cut-off angle (first hits x₁, normals
                   facing the light, albedo). One photon per texel inside the cone.
 ``trace``         ``photon_trace.glsl``: flux I·falloff·Ω_texel, ray differential of the texel, transfer
@@ -37,14 +37,14 @@ import math
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from harness.scene import Camera
-from methods.base import View
-from methods.lights import set_spot_uniforms
-from methods.gbuffer import GBuffer, mat_bytes
-from methods.structures import fill_uint
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.scene import Camera
+from ldbench.methods.base import View
+from ldbench.methods.lights import set_spot_uniforms
+from ldbench.methods.gbuffer import GBuffer, mat_bytes
+from ldbench.methods.structures import fill_uint
 
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
@@ -72,7 +72,7 @@ def light_camera(light) -> Camera:
 
 
 class IndirectLight:
-    """The indirect-light passes of one :class:`~methods.ldm.Ldm` adapter (its maps, G-buffer, params)."""
+    """The indirect-light passes of one :class:`~ldbench.methods.ldm.Ldm` adapter (its maps, G-buffer, params)."""
 
     def __init__(self, ldm):
         self.m, self.gpu, self.p = ldm, ldm.gpu, ldm.params.indirect

@@ -4,10 +4,10 @@ Per frame (stages):
 
 ``build``    (``count`` first with ``pool = "count"``) one raster pass of the whole scene (both faces, no
              depth test) into one layer of ``width × height`` linked lists of the shared module
-             (:func:`methods.structures.make_structure`, ``layout = "linked"``, ``layers = 1``): yang2010's insert — a node
+             (:func:`ldbench.methods.structures.make_structure`, ``layout = "linked"``, ``layers = 1``): yang2010's insert — a node
              from the atomic counter, ``atomicExchange`` on the pixel's head — with one payload word per
              node, the fragment's material id. The layer's transform is the camera's clip matrix and its
-             depth row the linear view depth (:func:`methods.oit.camera_transform`). The lists stay in
+             depth row the linear view depth (:func:`ldbench.methods.oit.camera_transform`). The lists stay in
              arrival order (no sort pass: the resolve sorts).
 ``resolve``  one full-screen pass (``resolve.glsl``): per pixel, walk the list into a register array,
              insertion-sort it by (depth, material) — the effect's tie rule — and composite front to back
@@ -50,11 +50,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from methods.base import ParamsBase, group, param
-from methods.invariants import layered_invariants
-from methods.structures import StructureSpec, make_structure
-from methods.oit import OITMethod, camera_transform
+from ldbench.core.bindings import B
+from ldbench.core.params import ParamsBase, group, param
+from ldbench.methods.invariants import layered_invariants
+from ldbench.methods.structures import StructureSpec, make_structure
+from ldbench.methods.oit import OITMethod, camera_transform
 
 
 @dataclass(frozen=True)

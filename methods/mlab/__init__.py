@@ -35,11 +35,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import ParamsBase, param
-from methods.oit import OITMethod, camera_transform, complexity_counters
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.oit import OITMethod, camera_transform, complexity_counters
 
 SYNCS = ("auto", "interlock", "spinlock")
 MAX_SPIN = 1 << 16  # lock tries per fragment before it is counted as lost

@@ -2,7 +2,7 @@
 
 The seed methods are ray tracers over rasterized layered depth structures: ``layers`` images of
 ``width × height`` texels, each texel holding the depths (and payload words) of *every* surface its
-centre sees along the layer's projection. A :class:`~methods.structures.spec.StructureSpec` says which
+centre sees along the layer's projection. A :class:`~ldbench.methods.structures.spec.StructureSpec` says which
 structure, in one vocabulary:
 
 ==============  ===========================================================  ==============================

@@ -2,9 +2,9 @@
 
 :class:`LayeredStructure` holds what every layout shares (``layers`` images of ``width × height`` texels,
 the per-layer clip transform and depth row, the counters buffer) and runs one *fragment pass* through its
-fragment source (:mod:`methods.structures.sources`, :mod:`methods.structures.splat`), which stores every
+fragment source (:mod:`ldbench.methods.structures.sources`, :mod:`ldbench.methods.structures.splat`), which stores every
 fragment with ``ls_store`` of ``methods/glsl/layered_store.glsl``. The layouts
-(:mod:`methods.structures.linked`, :mod:`methods.structures.linear`) implement the build around it.
+(:mod:`ldbench.methods.structures.linked`, :mod:`ldbench.methods.structures.linear`) implement the build around it.
 
 Each layer ``k`` has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the
 stored depth is ``dot(depth_row, (p, 1))`` of the fragment's world position (interpolated
@@ -17,7 +17,7 @@ position-only copy (``spec.indexed``).
 
 **Invariants** (:meth:`LayeredStructure.invariants`, checked on every run; a violation makes the row
 ``degraded``): every fragment stored (no overflow unless the pool policy is ``fixed``; the adapters list
-that overflow too, :func:`methods.invariants.layered_invariants`), every stored fragment reachable exactly
+that overflow too, :func:`ldbench.methods.invariants.layered_invariants`), every stored fragment reachable exactly
 once, every list sorted, no abandoned insert.
 
 Also here: the orthographic layers of a bounding sphere (:func:`ortho_layers`, :func:`bind_ortho_layers`)
@@ -27,10 +27,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
-from methods.directions import orthonormal_basis
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
+from ldbench.methods.directions import orthonormal_basis
 
 from .spec import StructureSpec
 
@@ -46,13 +46,13 @@ class LayeredStructure:
 
     Parameters
     ----------
-    gpu, geometry, res : :class:`~harness.gpu.Gpu`, :class:`~methods.gbuffer.SceneGeometry` to rasterize,
-        :class:`~harness.gpu.Resources` accounting for the buffers.
-    spec : the :class:`~methods.structures.spec.StructureSpec` (layout, source, assembly, pool, knobs).
+    gpu, geometry, res : :class:`~ldbench.core.gpu.Gpu`, :class:`~ldbench.methods.gbuffer.SceneGeometry` to rasterize,
+        :class:`~ldbench.core.gpu.Resources` accounting for the buffers.
+    spec : the :class:`~ldbench.methods.structures.spec.StructureSpec` (layout, source, assembly, pool, knobs).
     layers, width, height : number of layers and their size in texels.
     prefix : the buffers' names start with it.
 
-    The fragment source is attached by :func:`methods.structures.factory.make_structure`
+    The fragment source is attached by :func:`ldbench.methods.structures.factory.make_structure`
     (:meth:`attach_source`); :meth:`fragment_pass` runs it.
     """
 

@@ -14,7 +14,7 @@ LAYOUT_CLASSES = {"linked": LayeredLinkedLists, "linear": LinearisedArrays}
 def make_structure(spec: StructureSpec, gpu, geometry, res, *, layers: int, width: int,
                    height: int | None = None, prefix: str = "ls.", sphere=None):
     """The structure of ``spec`` with ``layers`` layers of ``width × height`` texels (``height``: default
-    ``width``) over ``geometry`` (:class:`~methods.gbuffer.SceneGeometry`), its buffers named ``prefix``…
+    ``width``) over ``geometry`` (:class:`~ldbench.methods.gbuffer.SceneGeometry`), its buffers named ``prefix``…
     in ``res``. ``sphere`` = (centre, radius) the ``one_pass`` raster covers (default: the geometry's
     bounding sphere). The layers' transforms follow with ``set_layers``."""
     s = LAYOUT_CLASSES[spec.layout](gpu, geometry, res, spec, layers=layers, width=width, height=height,

@@ -1,10 +1,10 @@
-"""Linearised per-texel arrays (archer2019 §3): the ``linear`` layout of :mod:`methods.structures`.
+"""Linearised per-texel arrays (archer2019 §3): the ``linear`` layout of :mod:`ldbench.methods.structures`.
 
 A texel's fragments are contiguous in one depth array (and a parallel payload array), so a list is
 read with unit stride and its length is known without a walk. Build, per frame (stages):
 
 ``count``  clear the per-list counts, rasterize, ``atomicAdd(count[list], 1)`` per fragment.
-``scan``   GPU exclusive prefix sum over all ``layers × W × H`` counts + 1 (:class:`methods.scan.Scan`):
+``scan``   GPU exclusive prefix sum over all ``layers × W × H`` counts + 1 (:class:`ldbench.methods.scan.Scan`):
            offsets, and the total in the last entry, which is read back to size the arrays
            (policy ``grow``: re-allocate when too small, shrink when more than twice too large;
            ``fixed``: ``pool_capacity`` fragments, overflow reported, no read-back; ``lazy``: no
@@ -28,7 +28,7 @@ fragments, sized from the emitted count as above.
 ``spec.canonical``: a last stage ``canon`` orders the fragments at equal depth by their payload words
 (``methods/glsl/layered_canon.glsl``), so that every source gives the same structure bit for bit (the
 LDIs of niessner2010). A source that assembles the arrays itself (``peel``,
-:mod:`methods.structures.peel`) replaces count → scan → fill → sort.
+:mod:`ldbench.methods.structures.peel`) replaces count → scan → fill → sort.
 
 Invariants: fragments filled = fragments counted (the end of the last list equals the total), no
 overflow unless the pool is ``fixed``, every list sorted.
@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
 
-from methods.scan import Scan
+from ldbench.methods.scan import Scan
 
 from .core import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
 
@@ -51,7 +51,7 @@ C_COUNTED, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_FILLED, C_EMITTED, C
 class LinearisedArrays(LayeredStructure):
     """``layers`` images of ``width × height`` contiguous depth lists (see the module docstring).
 
-    The spec's fields used (:class:`~methods.structures.spec.StructureSpec`): ``pool`` (``grow``: sized
+    The spec's fields used (:class:`~ldbench.methods.structures.spec.StructureSpec`): ``pool`` (``grow``: sized
     from the scanned total every frame; ``fixed``: ``pool_capacity``; ``lazy``: sized from the previous
     build's total, no read-back inside a build), ``pool_capacity`` (first size for ``grow``; 0 = 1 per
     texel), ``max_list`` (register-array length of the sort pass; longer lists: exact global-memory sort),
@@ -205,7 +205,7 @@ class LinearisedArrays(LayeredStructure):
         fragments (counted; the sort assembly: emitted), fragments_stored, pool_capacity, overflow, lists,
         lists_nonempty, mean_list_length, max_list_length, unsorted_lists, linked_nodes (fragments
         reachable through the offsets: the end of the last list, must equal fragments_stored),
-        sort_overflow_lists, and :meth:`~methods.structures.core.LayeredStructure.build_stats`.
+        sort_overflow_lists, and :meth:`~ldbench.methods.structures.core.LayeredStructure.build_stats`.
         """
         c = self.stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
         ends = np.frombuffer(self.gpu.read(self.offsets, 8, offset=4 * (self.n_lists - 1)), np.uint32)

@@ -1,4 +1,4 @@
-"""Layered per-pixel linked lists on the GPU (yang2010 §3): the ``linked`` layout of :mod:`methods.structures`.
+"""Layered per-pixel linked lists on the GPU (yang2010 §3): the ``linked`` layout of :mod:`ldbench.methods.structures`.
 
 :class:`LayeredLinkedLists` holds ``layers`` maps of ``width × height`` per-pixel linked lists, e.g. the
 N orthographic layered depth maps (LDMs) of aalund2015, in one head buffer and one node pool:
@@ -17,7 +17,7 @@ Node allocation is one ``atomicAdd`` per fragment, or with ``aggregate=True`` on
 (``ARB_shader_ballot``: the subgroup's leader adds the number of active invocations, each invocation
 takes base + its rank), which removes most of the contention on the single counter address.
 
-The fragment pass, layer transforms and payload words are those of :mod:`methods.structures.core`.
+The fragment pass, layer transforms and payload words are those of :mod:`ldbench.methods.structures.core`.
 
 Insert algorithm (``sorted_insert``):
 
@@ -65,8 +65,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
 
 from .core import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
 
@@ -85,7 +85,7 @@ def _floor_pow2(x: int) -> int:
 class LayeredLinkedLists(LayeredStructure):
     """``layers`` maps of ``width × height`` per-pixel linked lists (see the module docstring).
 
-    The spec's fields used (:class:`~methods.structures.spec.StructureSpec`): ``sorted_insert`` (lock-free
+    The spec's fields used (:class:`~ldbench.methods.structures.spec.StructureSpec`): ``sorted_insert`` (lock-free
     sorted insert, or yang2010 insert + sort pass), ``pool`` and ``pool_capacity`` (the fixed size, or the
     first size for ``grow`` and ``lazy``; 0 = 1 node per list), ``max_list`` (local array of the sort pass),
     ``page_nodes`` (nodes per SSBO page; 0 = from the driver's SSBO size limit), ``aggregate``

@@ -8,7 +8,7 @@
              that appends the texel's layer m (texel, m, depth, triangle) to a scratch list and counts the
              layer's fragments in an atomic counter. Peeling stops after the first pass that finds no
              fragment (one 4-byte read-back per layer, as the paper's occlusion query) or at ``max_layers``.
-``scan``     the per-texel layer counts m_i, GPU exclusive prefix sum (:class:`methods.scan.Scan`,
+``scan``     the per-texel layer counts m_i, GPU exclusive prefix sum (:class:`ldbench.methods.scan.Scan`,
              the paper's CPU compaction done on the GPU); the total sizes the arrays.
 ``scatter``  scratch entry → slot begin(texel) + m: depth and payload (normal and albedo looked up from the
              triangle id, the paper's "triangle ids", packed as the raster packs them;
@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
 
 from .core import B_ALBEDO, B_LAYERS, C_CAPACITY, fill_uint
 from .linear import C_COUNTED, C_FILLED, C_OVERFLOW

@@ -1,6 +1,6 @@
 """Fragment sources: how a structure's fragment pass finds the fragments of every layer.
 
-A source is attached to one structure (:meth:`~methods.structures.core.LayeredStructure.attach_source`)
+A source is attached to one structure (:meth:`~ldbench.methods.structures.core.LayeredStructure.attach_source`)
 and runs each fragment pass of its layout and assembly (``run(extra, capacity)``: every fragment stored
 with ``ls_store`` compiled with the ``extra`` defines). The sources (``spec.source``):
 
@@ -16,17 +16,17 @@ with ``ls_store`` compiled with the ``extra`` defines). The sources (``spec.sour
   conservative: a layer sees a triangle's fragments at the raster's sample positions, not at its own
   texel centres (holes where a triangle is more face-on to the layer than to its dominant axis, extra
   fragments where it is edge-on).
-* ``splat`` (:class:`methods.structures.splat.Splat`): a compute-shader rasterizer of the small triangles
+* ``splat`` (:class:`ldbench.methods.structures.splat.Splat`): a compute-shader rasterizer of the small triangles
   with the hardware's fill rule (the same fragments as ``raster``), the triangles longer than
   ``splat_max`` texels drawn by the hardware in the same pass (affine layers only).
-* ``peel`` (:class:`methods.structures.peel.Peel`): depth peeling; it assembles the linear arrays
+* ``peel`` (:class:`ldbench.methods.structures.peel.Peel`): depth peeling; it assembles the linear arrays
   itself (``assembles``) instead of serving count and fill passes.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from harness.gpu import GLSL_DIR
+from ldbench.core.gpu import GLSL_DIR
 
 from .core import B_ALBEDO, bounding_sphere
 

@@ -4,18 +4,18 @@ A structure is a ``layout`` (how the fragments are stored) filled from a fragmen
 are found), put in order by an ``assembly``, in a pool sized by the ``pool`` policy; the remaining
 fields are the knobs of one layout or source. The spec says *how* to build; the size (layers, texels)
 and the layers' transforms come from the method that owns the structure
-(:func:`methods.structures.factory.make_structure`).
+(:func:`ldbench.methods.structures.factory.make_structure`).
 
 The adapters that keep a structure (``ldm``, ``ldi``, ``cdi-vpl``, ``ll-oit``) nest this class unchanged
-as their ``structure`` parameter group (:func:`methods.base.group`), each exposing the fields it lets a
+as their ``structure`` parameter group (:func:`ldbench.core.params.group`), each exposing the fields it lets a
 suite choose; every error names the dotted parameter (``structure.source``).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.errors import LdbenchError
-from methods.base import ParamsBase, param
+from ldbench.core.errors import LdbenchError
+from ldbench.core.params import ParamsBase, param
 
 #: ``linked``: per-texel linked lists (yang2010, aalund2015); ``linear``: linearised arrays (archer2019).
 #: Compacted depth-peeled layers (niessner2010) are the ``linear`` layout filled by the ``peel`` source.

@@ -1,6 +1,6 @@
 """The ``splat`` source: a compute rasterizer of small triangles with the hardware's fill rule.
 
-Variant of the fragment pass of :mod:`methods.structures` (docs/fast_builds.md). The hardware raster of
+Variant of the fragment pass of :mod:`ldbench.methods.structures` (docs/fast_builds.md). The hardware raster of
 every triangle in every layer is the reference source; it is bound by the rasterizer's triangle rate, not
 by memory (measured in docs/fast_builds.md).
 
@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import GLSL_DIR
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import GLSL_DIR
 
-from methods.gbuffer import VERTEX_ATTRS
+from ldbench.methods.gbuffer import VERTEX_ATTRS
 
 from .core import B_ALBEDO, fill_uint
 from .sources import FragmentSource, Raster

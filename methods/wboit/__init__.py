@@ -24,9 +24,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from harness.gpu import read_texture
-from methods.base import ParamsBase, param
-from methods.oit import OITMethod, camera_transform, complexity_counters
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.oit import OITMethod, camera_transform, complexity_counters
 
 WEIGHTS = {"eq7": 7, "eq8": 8, "eq9": 9, "eq10": 10, "constant": 0}
 

@@ -7,12 +7,12 @@ import sys
 
 import numpy as np
 
-from harness.effects import Effect
-from harness.gpu import Gpu
-from harness.scenes import load_scene
-from methods.base import View
-from methods.ldm import Ldm, LdmParams
-from references import render_reference
+from ldbench.core.effects import Effect
+from ldbench.core.gpu import Gpu
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import View
+from ldbench.methods.ldm import Ldm, LdmParams
+from ldbench.references import render_reference
 
 
 def main(out="docs/img/crease-cornell.png", size=128):

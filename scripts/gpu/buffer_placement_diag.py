@@ -6,7 +6,7 @@ and a compute-shader copy).
     python scripts/gpu/buffer_placement_diag.py [--dry]
 
 Prints, per variant, the wall time of consecutive builds (ms; the same structure rebuilt; between two
-builds some variants read a buffer back, directly or through harness.gpu.Gpu.read) and the driver's GL
+builds some variants read a buffer back, directly or through ldbench.core.gpu.Gpu.read) and the driver's GL
 debug messages about buffer placement."""
 from __future__ import annotations
 
@@ -17,11 +17,11 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from harness.gpu import Gpu
-from harness.scenes import load_scene
-from methods.directions import ldm_axes
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
+from ldbench.core.gpu import Gpu
+from ldbench.core.scenes import load_scene
+from ldbench.methods.directions import ldm_axes
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
 DRY = "--dry" in sys.argv
 gpu = Gpu()

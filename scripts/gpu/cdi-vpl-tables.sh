@@ -8,7 +8,7 @@
 # Outputs (small: Markdown, CSV, PNG, logs; < 5 MB) under "$OUT/cdi-vpl-tables/"; a summary on stdout.
 # Each table runs scene by scene (ldbench's runner on the bundled suite's jobs of that scene, scale
 # "paper"), every step under `timeout` (limits add up to 5 min); a failing or timed-out step loses only its
-# own rows, the script goes on; the last step evaluates whatever rows exist (harness.reproduce).
+# own rows, the script goes on; the last step evaluates whatever rows exist (ldbench.reports.reproduce).
 # LDBENCH_GPU_DRY=1: a CPU-sized dry run (scale "ci", RSMs ≤ 64², tiny scenes) to test the script on llvmpipe.
 set -u
 O="${OUT:-/tmp/ldbench-gpu}/cdi-vpl-tables"
@@ -33,10 +33,10 @@ step() {  # step SECONDS NAME CMD...: run with a time limit (× K), log, continu
 # The driver: run one (table, scene) part of a bundled reproduction suite into its own run folder.
 cat > "$W/part.py" <<'EOF'
 import dataclasses, sys
-from harness.effects import Effect
-from harness.reproduce import get_entry, scale_suite, suite_file
-from harness.runner import run_jobs
-from harness.suite import load_suite
+from ldbench.core.effects import Effect
+from ldbench.reports.reproduce import get_entry, scale_suite, suite_file
+from ldbench.harness.runner import run_jobs
+from ldbench.harness.suite import load_suite
 
 table, scene, out, scale, dry = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5] == "1"
 entry = get_entry(table)
@@ -56,7 +56,7 @@ run_jobs(dataclasses.replace(suite, jobs=jobs), out, progress=False, report=Fals
 EOF
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 15 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
+step 15 probe $PY -c "from ldbench.core.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
 
 # 1. parts, most important first (the goals: table2/atrium has the 169 × 64² build, table3 the raycasts)
 step 35 table2-atrium $PY "$W/part.py" archer2019-table2 atrium "$W/table2-atrium" "$SCALE" "$DRY"
@@ -74,8 +74,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from harness.records import read_results
-from harness.reproduce import evaluate, format_markdown, get_entry
+from ldbench.harness.records import read_results
+from ldbench.reports.reproduce import evaluate, format_markdown, get_entry
 
 work, out, scale = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
 PUB1 = {"atrium": {"capture": 3.5, "sort": 2.0, "gbuffer": 1.3, "rsm": 0.5, "vpl": 0.15, "grid": 0.7, "shade": 12.0,

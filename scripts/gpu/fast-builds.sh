@@ -22,7 +22,7 @@ mkdir -p "$R"
 : > "$R/log.txt"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 PY="${PYTHON:-python3}"
-LD="$PY -m harness.cli"
+LD="$PY -m ldbench.harness.cli"
 DRY="${LDBENCH_GPU_DRY:-0}"
 K=1
 B=""
@@ -46,7 +46,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit (× K), log, continu
 }
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$R/gpu.txt" 2>&1
-step 10 probe $PY -c "from harness.gpu import Gpu; from methods.structures.splat import fill_rule
+step 10 probe $PY -c "from ldbench.core.gpu import Gpu; from ldbench.methods.structures.splat import fill_rule
 g = Gpu(); print(g.info, g.device); print('fill rule', fill_rule(g))"
 # the splat's fragments against this GPU's hardware raster (edge cases: ties on texel centres, snapping)
 step 45 tests $PY -m pytest -q -p no:cacheprovider tests/test_builds.py

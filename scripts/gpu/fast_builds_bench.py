@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.gpu import Gpu
-from harness.scenes import load_scene
-from methods.directions import ldm_axes
-from methods.gbuffer import SceneGeometry
-from methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
+from ldbench.core.gpu import Gpu
+from ldbench.core.scenes import load_scene
+from ldbench.methods.directions import ldm_axes
+from ldbench.methods.gbuffer import SceneGeometry
+from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
 #: name -> StructureSpec fields; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
 #: pool grow with its read-back); every other variant uses the lazy pool (no read-back inside a build).

@@ -39,7 +39,7 @@ BUILD_STAGES = ("count", "build", "scan", "fill", "sort", "emit")
 
 
 def fig8_table(run_dir: Path) -> tuple[list[str], pd.DataFrame | None]:
-    from harness.records import read_results
+    from ldbench.harness.records import read_results
 
     df = read_results(run_dir)
     rows = []

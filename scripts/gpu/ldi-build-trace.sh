@@ -20,7 +20,7 @@ W="$(mktemp -d "${TMPDIR:-/tmp}/ldi-build-trace.XXXXXX")"
 export LDBENCH_CACHE="${LDBENCH_CACHE:-$W/cache}"
 export LDBENCH_SCENES="${LDBENCH_SCENES:-$W/scenes}"
 PY="${PYTHON:-python3}"
-LDB="${LDBENCH:-$PY -m harness.cli}"
+LDB="${LDBENCH:-$PY -m ldbench.harness.cli}"
 DRY="${LDBENCH_GPU_DRY:-0}"
 SCALE=paper SIZE=800x800 SPP=1024 ATRIUM=260000 FRAMES="--warmup 2 --frames 5" K=1
 if [ "$DRY" = 1 ]; then SCALE=ci SIZE=32x32 SPP=64 ATRIUM=4000 FRAMES="--warmup 0 --frames 3" K=6; fi
@@ -34,7 +34,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit (x K), log, continue
 }
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 10 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device, g.ctx.info['GL_MAX_SHADER_STORAGE_BLOCK_SIZE'])"
+step 10 probe $PY -c "from ldbench.core.gpu import Gpu; g = Gpu(); print(g.info, g.device, g.ctx.info['GL_MAX_SHADER_STORAGE_BLOCK_SIZE'])"
 step 15 fetch $LDB scenes fetch sibenik --from "$MIRROR"
 # the structure tests on this GPU: peel == one-pass build bit for bit, compaction == cumsum, walk == CPU DDA
 step 20 tests $PY -m pytest -q -p no:cacheprovider tests/test_ldi.py -k "identical or cpu_raster or cumsum or cpu_dda or six_cube"
@@ -43,9 +43,9 @@ step 20 tests $PY -m pytest -q -p no:cacheprovider tests/test_ldi.py -k "identic
 #    that fails or times out loses only its rows); evaluated together in the summary
 cat > "$W/part.py" <<'EOF'
 import dataclasses, sys
-from harness.reproduce import get_entry, scale_suite, suite_file
-from harness.runner import run_jobs
-from harness.suite import load_suite
+from ldbench.reports.reproduce import get_entry, scale_suite, suite_file
+from ldbench.harness.runner import run_jobs
+from ldbench.harness.suite import load_suite
 
 part, out, scale = sys.argv[1], sys.argv[2], sys.argv[3]
 entry = get_entry("niessner2010-table1")
@@ -81,9 +81,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.records import read_results
-from harness.reproduce import evaluate, format_markdown, get_entry
-from harness.reproductions.niessner2010 import premise
+from ldbench.harness.records import read_results
+from ldbench.reports.reproduce import evaluate, format_markdown, get_entry
+from ldbench.reports.reproductions.niessner2010 import premise
 
 work, out, scale = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3]
 

@@ -14,7 +14,7 @@ W="${LDBENCH_GPU_WORK:-/tmp/ldbench-ldm-indirect-stages}"   # full run folders (
 mkdir -p "$O" "$W"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache}
 PY=${PY:-python3}
-LD="$PY -m harness.cli"
+LD="$PY -m ldbench.harness.cli"
 if [ "${LDBENCH_GPU_DRY:-0}" = 1 ]; then
     SIZE=32x32 TRI=4000 D=16 RES=32 R_ATR=16 R_COR=24 SPP=16 WARM=0 FRAMES=2 SCALE=ci TESTS=3
 else
@@ -28,7 +28,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on fa
     echo "   rc=$? in $((SECONDS - t0)) s" | tee -a "$O/log.txt"
 }
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 60 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device); \
+step 60 probe $PY -c "from ldbench.core.gpu import Gpu; g = Gpu(); print(g.info, g.device); \
 print('GL_NV_shader_atomic_float', 'GL_NV_shader_atomic_float' in g.ctx.extensions); \
 print('SSBO limit MiB', int(g.ctx.info['GL_MAX_SHADER_STORAGE_BLOCK_SIZE']) / 2**20)"
 
@@ -103,7 +103,7 @@ def js(v):
 
 
 def rgb(path):
-    from references.exr import read_exr
+    from ldbench.core.exr import read_exr
 
     ch = read_exr(path)
     return np.stack([ch[c] for c in "RGB"], -1) if "R" in ch else ch["Y"][..., None]

@@ -6,7 +6,7 @@ set -u
 O="${OUT:-/tmp/ldbench-gpu}/ldm-rays"
 mkdir -p "$O"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
-LD="python3 -m harness.cli"
+LD="python3 -m ldbench.harness.cli"
 step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on failure
     local t=$1 name=$2; shift 2
     echo "== $name: $*" | tee -a "$O/log.txt"
@@ -23,7 +23,7 @@ keep() {  # keep RUN_DIR NAME: the small files of a run directory
     for f in "$d"/figures/rays-*.png "$d"/figures/stages-*.png; do [ -f "$f" ] && cp "$f" "$O/$n-$(basename "$f")"; done
 }
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 60 probe python3 -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device, g.available_gpu_memory()); g.check_image_size(16384, 16384); print('16384^2 allowed')"
+step 60 probe python3 -c "from ldbench.core.gpu import Gpu; g = Gpu(); print(g.info, g.device, g.available_gpu_memory()); g.check_image_size(16384, 16384); print('16384^2 allowed')"
 # 1. The GLSL of the layered structures, the lock-free insert under real contention, LDM AO and rays, HBAO
 step 120 pytest python3 -m pytest -q -p no:cacheprovider tests/test_layered.py tests/test_linked_list.py \
     tests/test_ldm.py tests/test_rays.py tests/test_hbao.py

@@ -16,7 +16,7 @@ O="${OUT:-/tmp/ldbench-gpu}/modern-baselines-$part"
 mkdir -p "$O"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 PY="${PYTHON:-python3}"
-LD="$PY -m harness.cli"
+LD="$PY -m ldbench.harness.cli"
 W="$(mktemp -d "${TMPDIR:-/tmp}/modern-baselines.XXXXXX")"
 step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on failure
     local t=$1 name=$2; shift 2

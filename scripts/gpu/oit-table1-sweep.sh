@@ -16,7 +16,7 @@ mkdir -p "$O"
 : > "$O/log.txt"
 export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
 PY="${PYTHON:-python3}"
-LD="$PY -m harness.cli"
+LD="$PY -m ldbench.harness.cli"
 W="$(mktemp -d "${TMPDIR:-/tmp}/oit-table1-sweep.XXXXXX")"
 TINY="${LDBENCH_GPU_DRY:-0}"
 if [ "$TINY" = 1 ]; then
@@ -35,7 +35,7 @@ step() {  # step SECONDS NAME CMD...: run with a time limit, log, continue on fa
 }
 
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$O/gpu.txt" 2>&1
-step 8 probe $PY -c "from harness.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
+step 8 probe $PY -c "from ldbench.core.gpu import Gpu; g = Gpu(); print(g.info, g.device)"
 
 # 0. the Stanford dragon for Table 1 (copied from a mirror into the checksummed cache)
 MIRROR="${1:-}"
@@ -72,7 +72,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.records import read_results
+from ldbench.harness.records import read_results
 
 work, out = Path(sys.argv[1]), Path(sys.argv[2])
 rows = []

@@ -9,7 +9,7 @@
 #     ray      ldbench run SUITE --executor ray  over all GPUs (runs/ray-executor-speedup/ray-N)
 #     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
-#              run (harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
+#              run (ldbench.harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
 #              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
 # The runs stay in runs/ray-executor-speedup/ (ignored by git), so steps can be split over several
 # commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
@@ -94,7 +94,7 @@ run() {  # run NAME [K]: one `ldbench run` into $W/NAME, wall clock into $W/NAME
     local t0 t1 rc
     t0=$(date +%s.%N)
     # shellcheck disable=SC2086
-    env LDBENCH_CACHE="$PWD/$W/cache-$name" "${env[@]}" timeout "$T" "$PY" -m harness.cli run "$SUITE" $ARGS \
+    env LDBENCH_CACHE="$PWD/$W/cache-$name" "${env[@]}" timeout "$T" "$PY" -m ldbench.harness.cli run "$SUITE" $ARGS \
         "${ex[@]}" --out "$W/$name" --no-progress --no-report > "$W/$name.log" 2>&1
     rc=$?
     t1=$(date +%s.%N)
@@ -112,9 +112,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from harness.egl import nvidia_gpus
-from harness.executors.check import differences
-from harness.records import read_results
+from ldbench.core.egl import nvidia_gpus
+from ldbench.harness.executors.check import differences
+from ldbench.harness.records import read_results
 
 gpus = nvidia_gpus()
 

@@ -15,12 +15,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from harness.bindings import B
-from harness.errors import LdbenchError
-from harness.gpu import read_texture
-from methods.base import Method, ParamsBase, Result, param
-from methods.gbuffer import mat_bytes
-from methods.uniforms import set_uniforms
+from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import read_texture
+from ldbench.core.params import ParamsBase, param
+from ldbench.methods.base import Method, Result
+from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.uniforms import set_uniforms
 
 
 @dataclass(frozen=True)
