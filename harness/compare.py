@@ -842,9 +842,9 @@ def _check_thresholds(c: Check, brow, rrow, th: Thresholds) -> dict:
                     "allowed_drop_db": max(th.tol_db, q["noise_db"])}
         return {"ssim_tol": th.ssim_tol, "noise_z": th.noise_z, "noise_ssim": q["noise_ssim"],
                 "allowed_drop": max(th.ssim_tol, q["noise_ssim"])}
-    for col, better, abs_tol, rel_tol in _gate(rrow):
+    for col, better, abs_tol, rel_tol in gated_metrics(rrow):
         if col == c.metric:
-            b = _f(_get(brow, col))
+            b = _f(row_value(brow, col))
             allowed = max(abs_tol, rel_tol * abs(b)) if b is not None and math.isfinite(b) else None
             return {"better": better, "abs_tol": abs_tol, "rel_tol": rel_tol, "allowed_change": allowed}
     return {}
@@ -869,10 +869,10 @@ def to_json(comp: Comparison) -> dict:
         col = _METRIC_COLUMN.get(c.metric, c.metric)
         checks.append({
             "benchmark": c.benchmark,
-            "key": {k: _json_value(_get(row, k)) for k in comp.match} if row is not None else {},
+            "key": {k: _json_value(row_value(row, k)) for k in comp.match} if row is not None else {},
             "metric": c.metric, "column": col,
-            "baseline": _json_value(_get(brow, col)) if brow is not None else None,
-            "current": _json_value(_get(rrow, col)) if rrow is not None else None,
+            "baseline": _json_value(row_value(brow, col)) if brow is not None else None,
+            "current": _json_value(row_value(rrow, col)) if rrow is not None else None,
             "baseline_text": c.baseline, "current_text": c.current, "change": c.change,
             "verdict": c.verdict, "regression": c.regression, "note": c.note,
             "thresholds": _json_value(_check_thresholds(c, brow, rrow, comp.thresholds)),

@@ -29,7 +29,7 @@ import ldbench.methods.hbao
 from ldbench.methods.hbao import HBAO, HBAOParams
 
 REF_SPP = 256
-HBAO_DIR = Path(methods.hbao.__file__).resolve().parent
+HBAO_DIR = Path(ldbench.methods.hbao.__file__).resolve().parent
 
 
 def quad(name, c, u, v, albedo=(0.8, 0.8, 0.8)):
