@@ -131,6 +131,6 @@ def test_python_and_glsl_conventions_agree(gpu, tmp_path):
         ref = np.concatenate([conv.reduce_range(t[i], float(cap[i]), mode) for i in range(N)])
         np.testing.assert_allclose(got, ref, rtol=1e-6)
 
-    from ldbench.references.rays import _epsilons
-    assert _epsilons() == (np.float32(conv.RAY_EPSILON), np.float32(conv.SHADOW_EPSILON))
+    from ldbench.references.rays import epsilons
+    assert epsilons() == (np.float32(conv.RAY_EPSILON), np.float32(conv.SHADOW_EPSILON))
 
