@@ -8,6 +8,7 @@ import numpy as np
 
 from ldbench.harness import history as H
 from ldbench.harness import records as R
+from ldbench.reports import history_plots as HP
 from ldbench.harness.cli import main
 from test_history import GPU, LLVMPIPE, _write_run
 
@@ -68,7 +69,7 @@ def test_no_html_flag_and_a_page_without_change_points(tmp_path, capsys):
     out = tmp_path / "site"
     assert main(["history", "plot", "--history-dir", str(hist), "--out", str(out), "--no-html"]) == 0
     assert not (out / "index.html").exists() and (out / "changes.md").is_file()
-    res = H.plot_history(hist, out, machine=R.machine_key(GPU))
+    res = HP.plot_history(hist, out, machine=R.machine_key(GPU))
     page = Path(res["html"]).read_text(encoding="utf-8")
     assert "No change points." in page and "change(s)</span>" not in page
     assert R.machine_key(LLVMPIPE) not in page and page.count('class="card"') == 2
