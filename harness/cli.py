@@ -333,8 +333,8 @@ def suite_from_args(args):
         if getattr(args, k) is not None:
             head[k] = getattr(args, k)
     suite = suite_from_dict({"suite": head, "run": [run]}, name="adhoc")
-    if why:  # said (once the run's parameters are known to be valid) as a warning: -q keeps it, -qq not
-        log.warning(f"ao without --d-max: d_max = {d:g} ({why})")
+    # said as a warning once the run has gone through (bad input stays one line; -q keeps it, -qq not)
+    args.d_max_notice = f"ao without --d-max: d_max = {d:g} ({why})" if why else None
     return suite
 
 
@@ -347,6 +347,8 @@ def _run(args):
     from .naming import slug  # a suite named "../../x" stays inside runs/
     out = Path(args.out) if args.out else Path("runs") / f"{slug(suite.name)}-{time.strftime('%Y%m%d-%H%M%S')}"
     df = run_jobs(suite, out, progress=not args.no_progress, report=not args.no_report, executor=executor)
+    if getattr(args, "d_max_notice", None):
+        log.warning(args.d_max_notice)
     from ldbench.reports.report import terminal_table
     print(terminal_table(df))
     print(f"wrote {out}")

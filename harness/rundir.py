@@ -6,7 +6,8 @@ ldbench: a Parquet table with the results schema and a JSON object naming the su
 :class:`RunDir` is the only code that creates, replaces or deletes one:
 
 * **Refuse** (one-line :class:`~ldbench.core.errors.LdbenchError`) when DIR exists and is neither an
-  ldbench run nor an empty folder, when it is a file or a symbolic link, when it is the current
+  ldbench run nor an empty folder, when it is a run that also holds a top-level entry ldbench never writes
+  (:data:`RUN_ENTRIES`: a user's notes beside the results), when it is a file or a symbolic link, when it is the current
   directory or contains it, and when its parent cannot be written. All of this is checked by
   :meth:`RunDir.open`, before anything is rendered.
 * **Lock**: ``.DIR.lock`` beside DIR, held with ``flock`` for the whole run (the pid inside is
@@ -47,6 +48,15 @@ from ldbench.core.errors import LdbenchError
 from .records import PARTIAL_MARKER as MARKER  # noqa: F401 (records refuses what carries it)
 
 RUN_FILES = ("results.parquet", "suite.json")
+#: Every top-level entry that ldbench writes into a run directory (the runner, ``report``, ``compare``,
+#: ``reproduce``, ``score``); a run holding anything else also holds a user's file and is not replaced.
+RUN_ENTRIES = frozenset(RUN_FILES + ("results.csv", "summary.md", "index.html", "reproduce.md", "compare.md",
+                                     "images", "figures"))
+
+
+def foreign_entries(path) -> list[str]:
+    """Top-level entries of the run directory ``path`` that ldbench does not write (sorted)."""
+    return sorted(e.name for e in Path(path).iterdir() if e.name not in RUN_ENTRIES)
 
 
 #: The keys of the ``suite.json`` ldbench writes (:func:`ldbench.harness.executors.run_jobs`).
@@ -80,10 +90,11 @@ def is_run_dir(path) -> bool:
 
 
 def _replaceable(p: Path) -> bool:
-    """An existing DIR that may be replaced: an ldbench run, or an empty folder."""
+    """An existing DIR that may be replaced: an ldbench run holding only what ldbench writes, or an empty
+    folder."""
     if p.is_symlink() or not p.is_dir():
         return False
-    return is_run_dir(p) or not any(p.iterdir())
+    return (is_run_dir(p) and not foreign_entries(p)) or not any(p.iterdir())
 
 
 def _pid_alive(pid: int) -> bool:
@@ -131,6 +142,11 @@ class RunDir:
         if out.exists():
             if not out.is_dir():
                 raise LdbenchError(f"--out {out} exists and is not a directory")
+            if is_run_dir(out) and foreign_entries(out):
+                extra = foreign_entries(out)
+                raise LdbenchError(f"--out {out} is an ldbench run that also holds files ldbench did not write "
+                                   f"({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''}); move them or "
+                                   f"give another folder: not replacing it")
             if not _replaceable(out):
                 raise LdbenchError(f"--out {out} exists and is not an ldbench run (no "
                                    f"{' and '.join(RUN_FILES)} written by ldbench); not replacing it")

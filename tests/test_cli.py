@@ -188,6 +188,20 @@ def test_rerun_replaces_the_run(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
+def test_rerun_never_deletes_a_users_file_beside_the_results(tmp_path):
+    """A finished run into which the user put a file of their own is not replaced: one line, exit 2,
+    nothing touched (ldbench deletes only what it wrote)."""
+    out = tmp_path / "run"
+    assert tiny_run(out)[0] == 0
+    (out / "notes.txt").write_text("mine")
+    first = (out / "results.csv").read_text()
+    rc, _, se = tiny_run(out, "--set", "hbao.directions=4")
+    assert rc == 2 and "notes.txt" in se and len(se.strip().splitlines()) == 1, se
+    assert (out / "notes.txt").read_text() == "mine" and (out / "results.csv").read_text() == first
+    (out / "notes.txt").unlink()
+    assert tiny_run(out, "--set", "hbao.directions=4")[0] == 0
+
+
 def test_suite_name_cannot_escape_runs(tmp_path):
     work = tmp_path / "a" / "b"
     work.mkdir(parents=True)
