@@ -7,11 +7,13 @@ PYTEST_ARGS ?= -q
 .PHONY: bench test setup clean
 setup: $(STAMP)
 
+# setuptools prints an advisory for every editable install of a package-dir mapping (the layers live
+# under one import name, ldbench; tests/test_imports.py guards the layout): filtered by its text.
 $(STAMP): pyproject.toml scripts/system-deps.sh
 	bash scripts/system-deps.sh
 	test -x $(PY) || python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
+	PYTHONWARNINGS='ignore:Editable installation' $(PY) -m pip install -q -e '.[test]'
 	touch $@
 
 bench: $(STAMP)

@@ -13,8 +13,8 @@ def test_license_is_bsd_3_clause_of_the_ldbench_authors():
     text = (ROOT / "LICENSE").read_text()
     assert text.startswith("BSD 3-Clause License") and "the ldbench authors" in text
     assert "Neither the name of the copyright holder" in text
-    assert PROJECT["license"] == {"text": "BSD-3-Clause"}
-    assert "License :: OSI Approved :: BSD License" in PROJECT["classifiers"]
+    assert PROJECT["license"] == "BSD-3-Clause" and PROJECT["license-files"] == ["LICENSE"]
+    assert not any(c.startswith("License ::") for c in PROJECT["classifiers"])  # PEP 639: the expression only
     assert PROJECT["authors"] == [{"name": "the ldbench authors"}]
 
 
