@@ -109,7 +109,8 @@ def wboit_model(scene, weight: str) -> np.ndarray:
     n = W * H
     acc = np.stack([np.bincount(hits.pixel, albedo[:, c] * a * w, n) for c in range(3)], -1)
     acc_a = np.bincount(hits.pixel, a * w, n)
-    R = np.exp(np.bincount(hits.pixel, np.log1p(-np.minimum(a, 1 - 1e-30)), n))
+    with np.errstate(divide="ignore"):  # an opaque fragment: log 0 = -inf, its revealage 0
+        R = np.exp(np.bincount(hits.pixel, np.log1p(-a), n))
     C = acc / np.clip(acc_a, 1e-4, 5e4)[:, None] * (1 - R)[:, None] + R[:, None] * np.asarray(BACKGROUND)
     C[np.bincount(hits.pixel, minlength=n) == 0] = BACKGROUND
     return C.reshape(H, W, 3)
