@@ -241,6 +241,36 @@ def test_mlab_sync_modes(gpu):
             run(gpu, sc, "mlab", sync="interlock")
 
 
+def check_mlab_frames_repeat(gpu, method_cls=None):
+    """Each frame starts from empty k-buffers: the second and third frames of one instance equal the
+    first (the runner's warm-up and measured frames reuse it)."""
+    from ldbench.core.effects import Effect
+    from ldbench.methods.mlab import MLAB
+    from ldbench.methods.base import View
+
+    cls = method_cls or MLAB
+    sc = stack_scene()
+    m = cls(cls.Params(k=3, sync="spinlock"))
+    m.setup(gpu, sc)
+    try:
+        imgs = [np.asarray(m.frame(View(sc.camera, W, H), Effect("oit")).resolve().image) for _ in range(3)]
+    finally:
+        m.release()
+    for i, img in enumerate(imgs[1:], 2):
+        assert np.array_equal(img, imgs[0]), f"frame {i} differs from frame 1 by {np.abs(img - imgs[0]).max():.3g}"
+
+
+def test_mlab_frames_start_empty(gpu):
+    check_mlab_frames_repeat(gpu)
+
+
+def test_mlab_broken_clear_fails(gpu, tmp_path):
+    from ldbench.methods.mlab import MLAB
+
+    with pytest.raises(AssertionError, match="frame 2 differs"):
+        check_mlab_frames_repeat(gpu, broken(MLAB, ML_DIR, tmp_path, "count.glsl", "    count[i] = 0u;\n", ""))
+
+
 def test_mlab_lost_fragments_degrade(gpu, tmp_path):
     """A lock that is never released (the spin bound reached) loses fragments: counted, an invariant."""
     from ldbench.methods.mlab import MLAB
