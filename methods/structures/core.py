@@ -82,6 +82,22 @@ class LayeredStructure:
         self.have_layers = False
         self.layer_scale, self.layers_affine = 0.0, True
 
+    def resize_pool(self, need: int) -> None:
+        """Before a build (the count and lazy pools): reallocate to ``need`` slots when they would not fit
+        (up to the maximum) or when fewer than half of the present ones would be used."""
+        if (need > self.capacity and self.capacity < self.max_capacity) or need < self.capacity // 2:
+            self.allocate(max(need, 1))
+
+    def refit_after_build(self, need: int, rebuild) -> None:
+        """After a build that needed ``need`` slots (the grow pool, the first lazy build): grow and
+        ``rebuild()`` when they did not fit, or shrink at the next build when fewer than half were used
+        (the slots are in use this frame)."""
+        if need > self.capacity and self.capacity < self.max_capacity:
+            self.allocate(need)
+            rebuild()
+        elif need < self.capacity // 2:
+            self._shrink_to = max(need, 1)
+
     @property
     def build_variant(self) -> str:
         return self.spec.source

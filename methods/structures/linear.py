@@ -109,8 +109,7 @@ class LinearisedArrays(LayeredStructure):
         if self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
             need = (int(self.read_counters()[C_EMITTED]) if self.assembly == "sort"
                     else int(np.frombuffer(self.gpu.read(self.offsets, 4, offset=4 * n), np.uint32)[0]))
-            if (need > self.capacity and self.capacity < self.max_capacity) or need < self.capacity // 2:
-                self.allocate(max(need, 1))
+            self.resize_pool(need)
         elif self._shrink_to:
             self.allocate(self._shrink_to)
         self._shrink_to = 0
@@ -169,12 +168,7 @@ class LinearisedArrays(LayeredStructure):
         with stage("emit"):
             self._emit()
             if sync:
-                need = self.emitted()
-                if need > self.capacity and self.capacity < self.max_capacity:
-                    self.allocate(need)
-                    self._emit()
-                elif need < self.capacity // 2:
-                    self._shrink_to = max(need, 1)  # the pairs are in use: shrink before the next build
+                self.refit_after_build(self.emitted(), self._emit)
         with stage("scan"):
             self.scan.run(self.offsets, n + 1)
         with stage("fill"):

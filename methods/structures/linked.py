@@ -191,26 +191,18 @@ class LayeredLinkedLists(LayeredStructure):
         if self.pool == "count":
             with stage("count"):
                 n = self.count()
-                if (n > self.capacity and self.capacity < self.max_capacity) or n < self.capacity // 2:
-                    self.allocate(max(n, 1))
+                self.resize_pool(n)
         elif self.pool == "grow" and self._shrink_to:
             self.allocate(self._shrink_to)
             self._shrink_to = 0
         elif self.pool == "lazy" and self._built:  # the previous build's count: it has completed, no stall
-            n = self.read_counter()
-            if (n > self.capacity and self.capacity < self.max_capacity) or n < self.capacity // 2:
-                self.allocate(max(n, 1))
+            self.resize_pool(self.read_counter())
         sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
         self._built = True
         with stage("build"):
             self._build_once()
             if sync:
-                n = self.read_counter()
-                if n > self.capacity and self.capacity < self.max_capacity:
-                    self.allocate(n)
-                    self._build_once()
-                elif n < self.capacity // 2:
-                    self._shrink_to = max(n, 1)  # the lists are in use this frame: shrink at the next build
+                self.refit_after_build(self.read_counter(), self._build_once)
         if not self.sorted_insert and sort:
             with stage("sort"):
                 self.sort()
