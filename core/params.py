@@ -2,7 +2,7 @@
 paper's value), :func:`group` a group of them, and :class:`ParamsBase` checks every field on
 construction, so an unknown or out-of-range value is one clear error naming the parameter. Method
 adapters and effects declare their ``Params`` with them (frozen dataclasses deriving from
-:class:`ParamsBase`).
+:class:`ParamsBase`), and named sets of values as :class:`Preset` (``preset = "paper"``).
 """
 from __future__ import annotations
 
@@ -23,16 +23,31 @@ def param(default, doc: str, *, lo=None, hi=None, choices=None, paper=None):
                                             "paper": paper})
 
 
+@dataclass(frozen=True)
+class Preset:
+    """A named set of parameter values (flat names, dotted for grouped ones) that a suite or command line
+    selects with ``preset = NAME`` (``--set ldm.preset=paper``); parameters given beside it win."""
+
+    doc: str
+    values: dict
+
+
+#: the parameter name that selects a preset
+PRESET_KEY = "preset"
+
+
 def group(cls, doc: str, *, expose: tuple | None = None, choices: dict | None = None, paper: dict | None = None,
-          **defaults):
+          when: dict | None = None, **defaults):
     """A parameter group: a field holding a nested :class:`ParamsBase` ``cls`` (e.g. the
     :class:`~ldbench.methods.structures.spec.StructureSpec` of a method's structure), whose parameters are named
     ``<field>.<name>`` (``cls.prefix`` must be ``"<field>."``). ``defaults``: this method's values of the
     group's fields; ``expose``: the fields a suite may set (None: all; the others stay at ``defaults``);
-    ``choices``: narrower choices of a field for this method; ``paper``: the paper's value of a field."""
+    ``choices``: narrower choices of a field for this method; ``paper``: the paper's value of a field;
+    ``when``: defaults that follow a value a suite sets, ``{field: {value: {other field: its default}}}``
+    (e.g. a source that allows only one assembly), applied to the fields the suite left unset."""
     return field(default_factory=lambda: cls(**defaults),
                  metadata={"group": cls, "doc": doc, "expose": expose, "choices": choices or {},
-                           "paper_values": paper or {}, "defaults": defaults})
+                           "paper_values": paper or {}, "defaults": defaults, "when": when or {}})
 
 
 @dataclass(frozen=True)
@@ -51,6 +66,8 @@ class ParamsBase:
     renamed: ClassVar[dict] = {}
     #: earlier flat name -> {earlier value: {dotted name: value, ...}} (a vocabulary that changed)
     renamed_values: ClassVar[dict] = {}
+    #: name -> :class:`Preset`, selected by the parameter ``preset``
+    presets: ClassVar[dict] = {}
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -83,7 +100,11 @@ class ParamsBase:
             for k, allowed in md["choices"].items():  # before the group's own checks: the narrower choice
                 if isinstance(v.get(k), str) and v[k] not in allowed:
                     raise LdbenchError(f"parameter {f.name}.{k}={v[k]!r} not one of {list(allowed)}")
-            v = gcls(**{**md["defaults"], **v})
+            follow = {}
+            for k, table in md["when"].items():
+                if k in v and v[k] in table:
+                    follow.update({dk: dv for dk, dv in table[v[k]].items() if dk not in v})
+            v = gcls(**{**md["defaults"], **follow, **v})
         elif not isinstance(v, gcls):
             raise LdbenchError(f"parameter group {f.name} must be a table of parameters, got {v!r}")
         for k, allowed in md["choices"].items():
@@ -99,8 +120,10 @@ class ParamsBase:
     def upgrade(cls, values: dict) -> dict:
         """``values`` in the current flat names: earlier names through :attr:`renamed` and
         :attr:`renamed_values`, nested group tables (``{"structure": {"source": ...}}``, as TOML reads
-        ``structure.source = ...``) flattened. The same parameter given twice with two values is an error."""
+        ``structure.source = ...``) flattened, and ``preset`` replaced by its values under the parameters
+        given beside it. The same parameter given twice with two values is an error."""
         groups, out, given = cls._groups(), {}, {}
+        values = cls._expand_preset(values)
         flat = []
         for k, v in values.items():
             if k in groups and isinstance(v, dict):
@@ -121,6 +144,28 @@ class ParamsBase:
                     raise LdbenchError(f"parameter {nk} given twice: {given[nk]} and {k}={v!r}")
                 out[nk], given[nk] = nv, f"{k}={v!r}"
         return out
+
+    @classmethod
+    def _expand_preset(cls, values: dict) -> dict:
+        """``values`` with ``preset = NAME`` replaced by the preset's values; a value given beside it wins."""
+        if PRESET_KEY not in values:
+            return values
+        values = dict(values)
+        name = values.pop(PRESET_KEY)
+        if name not in cls.presets:
+            known = ", ".join(cls.presets) or "none"
+            raise LdbenchError(f"parameter preset={name!r}: not a preset of this method (known: {known})")
+        upgraded = cls.upgrade(values)  # compare in current names: an earlier name beside the preset wins too
+        return {**{k: v for k, v in cls.presets[name].values.items() if k not in upgraded}, **values}
+
+    @classmethod
+    def with_presets(cls, shown: dict, full: dict) -> dict:
+        """``shown``, some of a row's flat parameters ``full`` (current names), with a preset named instead
+        of its values when ``full`` holds all of them (for printing which configuration a row ran)."""
+        for name, pre in cls.presets.items():
+            if pre.values and all(k in full and full[k] == v for k, v in pre.values.items()):
+                return {PRESET_KEY: name, **{k: v for k, v in shown.items() if k not in pre.values}}
+        return shown
 
     @classmethod
     def from_dict(cls, values: dict, *, method: str = "") -> "ParamsBase":
@@ -185,6 +230,9 @@ class ParamsBase:
                                  md["paper_values"].get(n), indent="    "))
             grouped += lines
         out = rows + grouped
+        for name, pre in cls.presets.items():
+            vals = ", ".join(f"{k}={v!r}" for k, v in pre.values.items())
+            out.append(f"  preset {name!r} ({PRESET_KEY} = {name!r}): {pre.doc}: {vals}")
         if cls.renamed:
             out.append("  earlier names: " + ", ".join(f"{k} -> {v}" for k, v in cls.renamed.items()))
         return "\n".join(out)

@@ -324,12 +324,14 @@ def _shown_params(r, match) -> dict:
     try:
         from ldbench.methods.base import get_method
 
-        defaults = get_method(r["method"]).Params().to_dict()
+        cls = get_method(r["method"]).Params
+        defaults = cls().to_dict()
     except Exception:  # noqa: BLE001 - unknown method in an old run: show what we have
-        defaults = {}
+        cls, defaults = None, {}
     want = _current_names(r.get("method"), match.get("params") or {})
-    return {k: v for k, v in _current_names(r.get("method"), r["params"]).items()
-            if k in want or (k in defaults and not _same(defaults[k], v))}
+    full = _current_names(r.get("method"), r["params"])
+    shown = {k: v for k, v in full.items() if k in want or (k in defaults and not _same(defaults[k], v))}
+    return cls.with_presets(shown, full) if cls is not None else shown
 
 
 def _float(v):

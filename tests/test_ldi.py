@@ -51,7 +51,8 @@ def test_registered_and_params():
     assert get_method("ldi") is Ldi and Ldi.paper == "niessner2010"
     assert {"rays", "indirect", "glossy_indirect", "soft_shadows"} == set(Ldi.effects)
     p = LdiParams()
-    assert (p.directions, p.resolution, p.structure.source, p.share_opposite) == (150, 128, "peel", True)
+    assert (p.directions, p.resolution, p.structure.source, p.share_opposite) == (150, 128, "splat", True)
+    assert p.structure.assembly == "sort" and LdiParams.from_dict({"preset": "paper"}).structure.source == "peel"
     assert (p.structure.payload, p.structure.canonical, p.structure.indexed) == (("normal", "albedo"), True, False)
     with pytest.raises(LdbenchError, match="directions=100.*nearest: 96, 150"):
         LdiParams(directions=100)
@@ -103,7 +104,7 @@ def test_compaction_against_cumsum(gpu):
     and the compaction of random counts with runs of zeros equals it too."""
     from ldbench.core.scenes import load_scene
 
-    m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=32)
+    m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=32, build="peel")
     try:
         s = m.ls
         s.build()
@@ -161,8 +162,8 @@ def test_peel_and_single_pass_identical(gpu):
     copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2))  # the same triangles; its
     # albedo word (RGBA8, blue in bits 16-23) is below the floor's
     scene = dataclasses.replace(base, meshes=list(base.meshes) + [copy])
-    builds = {"peel": {}, "single_pass": dict(build="single_pass"),
-              "splat": dict(build="single_pass", raster="splat"),
+    builds = {"peel": dict(preset="paper"), "single_pass": dict(build="single_pass", assembly="direct"),
+              "splat": dict(build="single_pass", raster="splat", assembly="direct"), "default": {},
               "splat-sort": dict(build="single_pass", raster="splat", assembly="sort"),
               "sort": dict(build="single_pass", assembly="sort")}
     for share in (True, False):
@@ -174,7 +175,7 @@ def test_peel_and_single_pass_identical(gpu):
             try:
                 m.ls.build()
                 out[name] = _arrays(m.ls)
-                if "raster" in kw:
+                if "raster" in kw or not kw:
                     assert out[name][3]["build_variant"] == "splat"
             finally:
                 m.release()
@@ -182,7 +183,7 @@ def test_peel_and_single_pass_identical(gpu):
         for name, b in out.items():
             assert a[3]["fragments"] == b[3]["fragments"] > 10000, name
             assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2]), name  # offsets, payload words
-            if name.startswith("splat"):  # its own depth plane: the same depths to float rounding
+            if name.startswith("splat") or name == "default":  # its own depth plane: the same depths to float rounding
                 d = np.abs(a[1].view(np.float32) - b[1].view(np.float32))
                 assert d.max() <= (1.5e-6 if gpu.device == "cpu-software" else 5e-4), (name, d.max())  # 1.37e-6
             else:
@@ -205,7 +206,7 @@ def test_fast_build_parameters_need_the_single_pass():
 def test_peel_invariants_report_truncation(gpu):
     from ldbench.core.scenes import load_scene
 
-    m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=16, max_layers=2)
+    m = _ldi(gpu, load_scene("cornell"), directions=6, resolution=16, max_layers=2, build="peel")
     try:
         m.ls.build()
         st = m.ls.stats()
@@ -574,7 +575,7 @@ def test_prebuilt_ldis_answer_as_the_per_frame_build(gpu):
     batch = e.spec.inputs(sc, 16, 16, e.params, 0, exact=EXACT)
     out = {}
     for pre in (False, True):
-        m = _ldi(gpu, sc, directions=24, resolution=32, prebuild=pre)
+        m = _ldi(gpu, sc, directions=24, resolution=32, prebuild=pre, preset="paper")
         try:
             batch.upload(gpu)
             ts = []

@@ -69,7 +69,9 @@ def test_registered_and_params():
     assert get_method("ldm-ao") is LdmAO and get_method("ldm") is LdmAO and "ldm" in registry()
     assert LdmAO.paper == "aalund2015" and LdmAO.effects == frozenset({"ao", "rays", "indirect"})
     p = LdmAOParams()
-    assert (p.directions, p.resolution, p.structure.sorted_insert) == (128, 128, True)
+    assert (p.directions, p.resolution, p.structure.sorted_insert, p.structure.source) == (128, 128, False, "splat")
+    q = LdmAOParams.from_dict({"preset": "paper"}).structure
+    assert (q.source, q.sorted_insert, q.pool, q.layout) == ("raster", True, "grow", "linked")
     with pytest.raises(LdbenchError, match="directions"):
         LdmAOParams(directions=0)
     with pytest.raises(LdbenchError, match="pool"):
@@ -149,7 +151,7 @@ def test_ci_sized_run(gpu):
         r.resolve()
     finally:
         m.release()
-    assert set(stages) == {"gbuffer", "build", "ao"}
+    assert set(stages) == {"gbuffer", "build", "sort", "ao"}  # the default: yang2010 insert + sort pass
     img = r.image
     assert img.shape == (64, 64, 1) and img.dtype == np.float32
     assert r.mask.shape == (64, 64) and r.mask.any() and (~r.mask).any()

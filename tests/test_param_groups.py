@@ -72,7 +72,7 @@ def test_suites_take_dotted_nested_and_earlier_names():
 @pytest.mark.parametrize("in_suite,sets,want", [
     ('build = "raster"', ["ldm.structure.source=splat"], ("splat", "linked")),   # the suite's earlier name
     ('structure.source = "raster"', ["ldm.build=splat"], ("splat", "linked")),   # the --set's earlier name
-    ('layout = "linked"', ["ldm.structure.layout=linear", "ldm.assembly=sort"], ("raster", "linear"))])
+    ('layout = "linked"', ["ldm.structure.layout=linear", "ldm.assembly=sort"], ("splat", "linear"))])
 def test_set_overrides_a_suite_parameter_under_either_name(tmp_path, in_suite, sets, want):
     from ldbench.harness.cli import build_parser, suite_from_args
     from ldbench.methods.ldm import LdmParams

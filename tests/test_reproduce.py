@@ -206,7 +206,7 @@ def test_fig8_ci_end_to_end(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "512.4 ms" in out and "903.6 ms" in out
     assert "Fig. 8(a) LDMs" in out and "no matching row" not in out
-    assert re.search(r"ldm(-ao)? \(directions=16, resolution=64\)", out)  # the ci scale reached the job
+    assert re.search(r"ldm(-ao)? \(preset=paper, directions=16, resolution=64\)", out)  # the ci scale reached the job
     lines = out.splitlines()
     for c in REGISTRY["aalund2015-fig8"].claims:  # every claim measured, with one of the verdicts
         line = next(ln for ln in lines if re.match(rf"\d+\s+{re.escape(c.text)}", ln))

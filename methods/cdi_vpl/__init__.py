@@ -41,6 +41,9 @@ Stages: ``count``, ``scan``, ``fill``, ``sort`` (CDI); ``raycast`` (``vpl_range`
 ``exact_range``); ``trace`` (``rays``); ``gbuffer``, ``rsm``, ``vpl``, ``grid_mask``, ``grid_count``,
 ``grid_scan``, ``grid_fill``, ``shade`` (``indirect``).
 
+Defaults assemble the paper's one-pass CDI as sorted pairs with no read-back (the same arrays);
+``preset = "paper"`` is the count + fill assembly, which every ``reproduce`` entry runs.
+
 Parameters are grouped by role (``ldbench methods``); the earlier flat names still work
 (:attr:`CdiVplParams.renamed`; ``build = brute_force`` is ``structure.source = raster`` with
 ``structure.instanced = false``, ``build = instanced`` the same with ``true``).
@@ -53,7 +56,8 @@ Parameter                  Default         Paper           Meaning
 ``resolution``             64              64              texels per side of each deep image
 ``structure.source``       one_pass        one_pass        one_pass | raster | splat (compute, = the raster)
 ``structure.instanced``    False                           raster: one instanced draw (False: one per direction)
-``structure.assembly``     direct                          count + fill passes | one pass of pairs sorted by list
+``structure.assembly``     sort            direct          count + fill passes | one pass of pairs sorted by list
+``structure.pool``         lazy            grow            lazy: sized from the previous build (no read-back) | grow
 ``structure.pass_layers``  0                               one_pass: directions per raster pass (0 = all)
 ``structure.max_list``     32                              register-sort length (longer lists: exact slow path)
 ``cdi``                    frame           frame           build the CDI every frame | once in setup (static)
@@ -82,7 +86,7 @@ import numpy as np
 from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.effects.vpl_range import reduce_ranges
-from ldbench.core.params import ParamsBase, group, param
+from ldbench.core.params import ParamsBase, Preset, group, param
 from ldbench.methods.base import Method, Result
 from ldbench.methods.directions import ldm_axes, nearest_axis_table, stacks_slices, stacks_slices_shape
 from ldbench.methods.invariants import layered_invariants
@@ -156,13 +160,18 @@ class CdiVplParams(ParamsBase):
         StructureSpec, "the CDI: linearised arrays; source one_pass (the paper: one raster for all directions), "
         "raster (one raster per direction: instanced = false is the paper's brute force, true one instanced "
         "draw) or splat (the instanced raster's fragments; docs/fast_builds.md)",
-        expose=("source", "instanced", "assembly", "pass_layers", "max_list"),
+        expose=("source", "instanced", "assembly", "pool", "pass_layers", "max_list"),
         choices={"source": ("one_pass", "raster", "splat")},
         paper={"source": "one_pass (raster, instanced = false: the baseline)"},
-        layout="linear", source="one_pass", instanced=False, max_list=32)
+        layout="linear", source="one_pass", instanced=False, max_list=32, assembly="sort", pool="lazy")
     trace: CdiTrace = group(CdiTrace, "the walk of a ray through the CDI")
     vpl: CdiVplRanges = group(CdiVplRanges, "effects vpl_range and indirect: the VPL ranges")
     indirect: CdiVplIndirect = group(CdiVplIndirect, "effect indirect: RSM, VPLs, light grid")
+
+    presets = {"paper": Preset(
+        "the paper's assembly of the one-pass CDI (count and fill passes, the arrays sized by a read-back); the "
+        "default stores the same arrays (one pass of (list, depth) pairs sorted by list, no read-back)",
+        {"structure.source": "one_pass", "structure.assembly": "direct", "structure.pool": "grow"})}
 
     renamed = {"build": "structure.source", "assembly": "structure.assembly", "pass_directions": "structure.pass_layers",
                "max_list": "structure.max_list", "bias": "trace.bias", "lookup": "trace.lookup",

@@ -18,10 +18,11 @@ keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
 farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`ldbench.methods.structures.ortho_layers`).
 
-**Build** (:mod:`ldbench.methods.structures`): ``build = "peel"``, depth peeling (the ``peel`` source, stages
-``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU prefix
-sum; ``build = "single_pass"``, the shared one-pass linearised arrays (``count``, ``scan``, ``fill``,
-``sort``) + ``canon``: the same structure bit for bit. Payload per fragment: normal and albedo; the spot
+**Build** (:mod:`ldbench.methods.structures`): ``structure.source = "peel"`` (``preset = "paper"``), depth
+peeling (stages ``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU
+prefix sum; ``raster`` or ``splat`` (the default), the shared one-pass linearised arrays (``emit``, ``scan``,
+``fill``, ``sort`` with the default ``assembly = "sort"``) + ``canon``: the same structure (the hardware
+raster's bit for bit; the compute splat's depths to float rounding). Payload per fragment: normal and albedo; the spot
 light's direct light at a hit is computed with the cube shadow map (stage ``shadow``), as in the paper.
 The LDIs are rebuilt every frame unless ``prebuild`` (built once in ``setup``, untimed, like the paper's
 offline precomputation; frames then only trace).
@@ -44,8 +45,8 @@ Parameter                       Default      Paper       Meaning
 ``resolution``                  128          128, 512    LDI pixels per side
 ``rotated``                     False        False       rotate the direction cube (CUBE_ROTATION; see below)
 ``share_opposite``              True         False       one LDI answers v and −v (3k² LDIs stored)
-``structure.source``            peel         peel        peel | raster | splat (single pass: the same structure)
-``structure.assembly``          direct                   raster, splat: count + fill | one pass of pairs sorted by list
+``structure.source``            splat        peel        peel | raster | splat (single pass: the same structure)
+``structure.assembly``          sort                     raster, splat: count + fill | one pass of pairs sorted by list
 ``prebuild``                    False                    build once in setup (untimed); frames only trace
 ``trace.epsilon``               1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
 ``trace.bias``                  0.25                     tangent-plane bias of the self-hit test, LDI pixels
@@ -72,7 +73,7 @@ from ldbench.core.bindings import B
 from ldbench.core.conventions import RAY_EPSILON, SHADOW_EPSILON
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
-from ldbench.core.params import ParamsBase, group, param
+from ldbench.core.params import ParamsBase, Preset, group, param
 from ldbench.methods.base import Method, Result
 from ldbench.methods.directions import CUBE_ROTATION, cube_directions, cube_k
 from ldbench.methods.invariants import layered_invariants
@@ -156,12 +157,18 @@ class LdiParams(ParamsBase):
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
         "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
         expose=("source", "assembly", "max_layers"), choices={"source": ("peel", "raster", "splat")},
-        paper={"source": "peel"}, layout="linear", source="peel", payload=PAYLOAD, indexed=False, max_list=64,
-        canonical=True)
+        paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct"}}}, layout="linear",
+        source="splat", assembly="sort", payload=PAYLOAD, indexed=False, max_list=64, canonical=True)
     trace: LdiTrace = group(LdiTrace, "the walk of every ray")
     image: LdiImage = group(LdiImage, "effects indirect, glossy_indirect, soft_shadows: rays per pixel")
     indirect: LdiIndirect = group(LdiIndirect, "effect indirect: the filter")
     shadow: LdiShadow = group(LdiShadow, "effects indirect and glossy_indirect: the spot light's shadow map")
+
+    presets = {"paper": Preset(
+        "the paper's build: depth peeling, one layer of every pixel per pass, compacted by a prefix sum; the "
+        "default stores the same arrays bit for bit in one pass (a compute raster with the hardware's fill "
+        "rule, (list, depth) pairs sorted by list, ties in payload order)",
+        {"structure.source": "peel", "structure.assembly": "direct"})}
 
     renamed = {"build": "structure.source", "raster": "structure.source", "assembly": "structure.assembly",
                "max_layers": "structure.max_layers", "epsilon": "trace.epsilon", "bias": "trace.bias",

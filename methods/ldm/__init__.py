@@ -37,6 +37,10 @@ direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with 
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
+Defaults are the fastest build that stores the same lists (the compute splat, yang2010's insert and a sort
+pass, no read-back: docs/fast_builds.md); ``preset = "paper"`` is the paper's build (hardware raster,
+pre-sorted lock-free insert), which every ``reproduce`` entry runs; both render the same images.
+
 Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
 still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
 (:class:`~ldbench.methods.structures.spec.StructureSpec`), ``trace.*`` the map query of every effect,
@@ -50,15 +54,15 @@ Parameter                        Default   Paper    Meaning
 ``resolution``                   128       200, 50  texels per side of each LDM
 ``trace.bias``                   0.25               self-intersection bias along the ray, in LDM texels
 ``trace.crease``                 0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
-``structure.pool``               grow               pool sizing: grow | count | fixed | lazy (count: linked only;
+``structure.pool``               lazy               pool sizing: grow | count | fixed | lazy (count: linked only;
                                                     lazy: no read-back inside a build, docs/fast_builds.md)
-``structure.source``             raster    raster   fragments from: raster (hardware, per map) | one_pass
+``structure.source``             splat     raster   fragments from: raster (hardware, per map) | one_pass
                                                     (archer2019, not conservative) | splat (compute, same
                                                     fragments as raster; long triangles on the hardware)
 ``structure.assembly``           direct             linear layout: direct (count, scan, fill, sort) | sort
                                                     (one pass of (list, depth) pairs, scan, scatter, sort)
 ``structure.pool_capacity``      0                  nodes for ``fixed`` (and first size for ``grow``)
-``structure.sorted_insert``      True      True     lock-free sorted insert; False = yang2010 + sort pass
+``structure.sorted_insert``      False     True     lock-free sorted insert; False = yang2010 + sort pass
 ``structure.max_list``           64                 register-array length of the sort passes (longer: slow path)
 ``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
 ``structure.aggregate``          False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
@@ -89,7 +93,7 @@ import numpy as np
 from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
-from ldbench.core.params import ParamsBase, group, param
+from ldbench.core.params import ParamsBase, Preset, group, param
 from ldbench.methods.base import Method, Result
 from ldbench.methods.directions import ldm_axes, nearest_axis_table
 from ldbench.methods.invariants import layered_invariants
@@ -164,10 +168,18 @@ class LdmParams(ParamsBase):
     resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
     structure: StructureSpec = group(StructureSpec, "the N maps as one layered structure", expose=LDM_STRUCTURE,
                                      choices={"source": ("raster", "one_pass", "splat")},
-                                     paper={"layout": "linked", "source": "raster", "sorted_insert": True})
+                                     paper={"layout": "linked", "source": "raster", "sorted_insert": True},
+                                     source="splat", sorted_insert=False, pool="lazy")
     trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
     rays: LdmRays = group(LdmRays, "effect rays")
     indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")
+
+    presets = {"paper": Preset(
+        "the paper's build (hardware raster of every map, lock-free pre-sorted insert; the pool sized by a "
+        "read-back) and splats blended by the raster; the default stores the same lists (a compute raster with "
+        "the hardware's fill rule, yang2010's insert and a sort pass, no read-back) and renders the same images",
+        {"structure.layout": "linked", "structure.source": "raster", "structure.sorted_insert": True,
+         "structure.pool": "grow"})}
 
     renamed = {"layout": "structure.layout", "build": "structure.source", "assembly": "structure.assembly",
                "pool": "structure.pool", "pool_capacity": "structure.pool_capacity",
