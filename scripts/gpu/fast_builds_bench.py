@@ -1,7 +1,7 @@
 """Fast-build measurements (run by scripts/gpu/fast-builds.sh; docs/fast_builds.md): the build variants of the
 layered structures (methods/structures/) timed alone, on the LDM's maps of aalund2015 Figure 8.
 
-    python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION]
+    python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION] [--variants A,B]
 
 PART:
   bandwidth  copy bandwidth of this GPU (a compute-shader copy of 64 MiB … 1 GiB, the fastest; timed like a
@@ -15,7 +15,7 @@ PART:
 Each build is timed as the runner times a frame (gpu.begin_frame / stage / end_frame: GL timer queries
 on a GPU, wall clock on llvmpipe) after one untimed build that sizes the pools; a row is written as soon
 as it is measured, so a part cut short by its time limit keeps its rows. --dry: tiny sizes (llvmpipe);
---fig8: another configuration for the fig8, coverage and tune parts.
+--fig8: another configuration for the fig8, coverage and tune parts; --variants: only these variants.
 """
 from __future__ import annotations
 
@@ -44,6 +44,8 @@ VARIANTS = {
     "splat/linked-yang": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False),
     "splat/linear": dict(layout="linear", pool="lazy", source="splat"),
     "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
+    "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                        aggregate=True),
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
@@ -178,6 +180,11 @@ def main():
     z = sizes(dry)
     if "--fig8" in sys.argv:
         z["fig8"] = tuple(int(x) for x in sys.argv[sys.argv.index("--fig8") + 1].split(","))
+    if "--variants" in sys.argv:  # a comma-separated subset of VARIANTS
+        keep = sys.argv[sys.argv.index("--variants") + 1].split(",")
+        for k in list(VARIANTS):
+            if k not in keep:
+                del VARIANTS[k]
     gpu = Gpu()
     bw_file = out / "bandwidth.csv"
     if part == "bandwidth":

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# GPU measurements of the fast defaults against the paper presets (docs/fast_builds.md, "Defaults"): the
+# before/after table of scripts/gpu/fast_defaults.py (Figure 8 and 10 frames, the CDI build, HBAO, the LDI
+# build), the copy bandwidth it divides by, and the default build's time against triangles (65k … 4M) and
+# against maps (32 … 1024) with scripts/gpu/fast_builds_bench.py.
+#
+# Usage, from the project root with its Python environment set up:
+#     OUT=/some/dir bash scripts/gpu/fast-defaults.sh [ROWS]      ROWS: e.g. fig8,cdi (default: all)
+# Output: "$OUT/fast-defaults.tgz" (CSVs, the Markdown table, the runs' results, logs). Each step runs under
+# `timeout` and a failing step does not stop the script. LDBENCH_GPU_DRY=1: a CPU-sized dry run.
+set -u
+W="${LDBENCH_GPU_WORK:-$(mktemp -d "${TMPDIR:-/tmp}/fast-defaults.XXXXXX")}/fast-defaults"
+mkdir -p "$W"
+export LDBENCH_CACHE=${LDBENCH_CACHE:-/tmp/ldb-cache} LDBENCH_SCENES=${LDBENCH_SCENES:-/tmp/ldb-scenes}
+PY="${PYTHON:-python3}"
+DRY=()
+[ "${LDBENCH_GPU_DRY:-0}" = 1 ] && DRY=(--dry)
+ONLY=()
+[ $# -ge 1 ] && ONLY=(--only "$1")
+step() {  # step SECONDS NAME CMD...
+    local t=$1 name=$2; shift 2
+    echo "==== $name (limit $t s)" | tee -a "$W/log.txt"
+    timeout --kill-after=10 "$t" "$@" >> "$W/log.txt" 2>&1
+    echo "     rc=$?" | tee -a "$W/log.txt"
+}
+nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >> "$W/log.txt" 2>&1
+step 60 bandwidth "$PY" scripts/gpu/fast_builds_bench.py "$W" bandwidth "${DRY[@]}"
+step 330 before-after "$PY" scripts/gpu/fast_defaults.py "$W" "${DRY[@]}" "${ONLY[@]}"
+V=splat/linked-yang,splat/linked-yang-aggregate
+step 150 triangles "$PY" scripts/gpu/fast_builds_bench.py "$W" triangles "${DRY[@]}" --variants "$V"
+step 90 maps "$PY" scripts/gpu/fast_builds_bench.py "$W" maps "${DRY[@]}" --variants "$V"
+cat "$W/fast-defaults.md" 2>/dev/null
+mkdir -p "${OUT:-/tmp/ldbench-gpu}"
+tar czf "${OUT:-/tmp/ldbench-gpu}/fast-defaults.tgz" --exclude='*.exr' --exclude='*.npz' -C "$(dirname "$W")" fast-defaults
+ls -la "${OUT:-/tmp/ldbench-gpu}"
