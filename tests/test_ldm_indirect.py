@@ -97,7 +97,7 @@ def test_registered_and_params():
     assert "indirect" in Ldm.effects and {"ao", "rays"} <= Ldm.effects
     p = LdmParams().indirect
     assert (p.photons, p.footprint_scale, p.max_splat_px, p.splat, p.refine_hit, p.rotation) == \
-        (128, 2.0, 400.0, "blend", True, "incident")
+        (128, 2.0, 400.0, "atomic", True, "incident")
     with pytest.raises(LdbenchError, match="splat"):
         LdmParams.from_dict({"indirect.splat": "bogus"})
     with pytest.raises(LdbenchError, match="photons"):
@@ -273,7 +273,7 @@ def cornell_runs(gpu):
     scene = load_scene("cornell")
     ref = render_reference(scene, IND, width=48, height=48, spp=1024, progress=False)
     kw = dict(directions=128, resolution=64, photons=96)
-    blend = render(gpu, scene, 48, frames=2, **kw)
+    blend = render(gpu, scene, 48, frames=2, splat="blend", **kw)
     atomic = render(gpu, scene, 48, splat="atomic", **kw)[0]
     return scene, ref, blend, atomic
 
@@ -291,14 +291,16 @@ def test_cornell_against_mitsuba(cornell_runs):
 
 
 def test_blend_and_atomic_splats_agree(cornell_runs):
-    """Same photons, two accumulations: the raster path decides coverage of the projected quads with the
-    rasterizer's fixed-point edges, the atomic path with exact edge functions at pixel centres. Measured:
-    median per-pixel relative difference 2e-7 (summation order), mean absolute difference 0.06 % of the
-    mean radiance (thin splats whose coverage flips between the two)."""
+    """Same photons, two accumulations of the same covered pixels (the atomic path applies the
+    rasterizer's measured fill rule to the geometry shader's two triangles): they differ by the order of
+    the sums, and at a few pixels where the GPU's own viewport transform rounds a splat corner across a
+    sub-pixel step (measured on llvmpipe: median relative difference 2.1e-7, 7 of 2304 pixels above 1e-5,
+    the largest 0.84 % of the pixel; mean absolute difference 2.4e-6 of the mean)."""
     _, ref, blend, atomic = cornell_runs
     a, b = blend[-1].image, atomic.image
     rel = np.abs(a - b).sum(-1) / np.maximum(a.sum(-1), 1e-6)
-    assert np.median(rel) < 1e-5 and np.abs(a - b).mean() / a.mean() < 0.005
+    assert np.median(rel) < 5e-7 and np.abs(a - b).mean() / a.mean() < 1e-5, (np.median(rel), np.abs(a - b).mean())
+    assert (rel > 1e-5).sum() <= 10 and rel.max() < 0.02, ((rel > 1e-5).sum(), rel.max())
     assert atomic.counters["photons_stored"] == blend[-1].counters["photons_stored"]
 
 

@@ -80,7 +80,7 @@ Parameter                        Default   Paper    Meaning
 ``indirect.visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
 ``indirect.refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
 ``indirect.rotation``            incident  (engine) (indirect) differential turned by α(−d₁, d₂), or α(d₁, d₂) (propagation)
-``indirect.splat``               blend     blend    (indirect) additive blending, or float atomics in a compute pass
+``indirect.splat``               atomic    blend    (indirect) additive blending, or float atomics over the same pixels
 ===============================  ========  =======  ========================================================
 """
 from __future__ import annotations
@@ -153,8 +153,8 @@ class LdmIndirect(ParamsBase):
                           "diverging beam diverging) or w_i = d1 (propagation: d* = alpha d alpha-bar taking d1 "
                           "to d2)", choices=("incident", "propagation"),
                           paper="w_i 'the incoming direction' (engine: incident)")
-    splat: str = param("blend", "additive blending of rasterized quads, or float atomics in a compute pass",
-                       choices=("blend", "atomic"), paper="blend")
+    splat: str = param("atomic", "additive blending of rasterized quads, or float atomics over the same pixels "
+                       "in a compute pass", choices=("blend", "atomic"), paper="blend")
 
 
 #: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
@@ -177,9 +177,11 @@ class LdmParams(ParamsBase):
     presets = {"paper": Preset(
         "the paper's build (hardware raster of every map, lock-free pre-sorted insert; the pool sized by a "
         "read-back) and splats blended by the raster; the default stores the same lists (a compute raster with "
-        "the hardware's fill rule, yang2010's insert and a sort pass, no read-back) and renders the same images",
+        "the hardware's fill rule, yang2010's insert and a sort pass, no read-back), so the same AO and rays, "
+        "and adds the same splats over the same pixels with float atomics (the indirect image to the order "
+        "of the sums, docs/fast_builds.md)",
         {"structure.layout": "linked", "structure.source": "raster", "structure.sorted_insert": True,
-         "structure.pool": "grow"})}
+         "structure.pool": "grow", "indirect.splat": "blend"})}
 
     renamed = {"layout": "structure.layout", "build": "structure.source", "assembly": "structure.assembly",
                "pool": "structure.pool", "pool_capacity": "structure.pool_capacity",

@@ -45,6 +45,7 @@ from ldbench.methods.base import View
 from ldbench.methods.lights import set_spot_uniforms
 from ldbench.methods.gbuffer import GBuffer, mat_bytes
 from ldbench.methods.structures import fill_uint
+from ldbench.methods.structures.splat import fill_rule, rule_defines
 
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
@@ -94,7 +95,8 @@ class IndirectLight:
         self.view = None
         self.n_stored = 0
         self.splat_prog = self.gpu.program(ldm.shader("photon_splat.glsl"))
-        self.splat_cs = self._compute("photon_splat.glsl", {"SPLAT_ATOMIC": 1}) if self.p.splat == "atomic" else None
+        self.splat_cs = (self._compute("photon_splat.glsl", {"SPLAT_ATOMIC": 1, **rule_defines(fill_rule(self.gpu))})
+                         if self.p.splat == "atomic" else None)
         self.trace_defines = {**ldm.ls.defines(), "REFINE_HIT": int(self.p.refine_hit),
                               "ROTATE_INCIDENT": int(self.p.rotation == "incident")}
         self.trace_cs = self.gpu.compute(ldm.shader("photon_trace.glsl"), self.trace_defines)

@@ -105,12 +105,22 @@ void main() {   // one invocation per photon (grid-stride)
 }
 #else
 // One workgroup per photon (grid-stride over photons), its 64 invocations stride over the pixels of the
-// splat's screen rectangle: a 400-pixel splat is not left to one thread. Pixel centres inside the
-// projected quad only, as the rasterizer samples it.
+// splat's screen rectangle: a 400-pixel splat is not left to one thread. The pixels the raster path
+// shades: the quad as the geometry shader's strip, triangles (q0, q1, q2) and (q2, q1, q3), covered by the
+// hardware's rule (fill_rule.glsl), each shared-edge centre once, samples beyond the near or far plane
+// dropped as clipping would; so the two paths differ by the order of their sums only.
+#include "fill_rule.glsl"
 layout(std430, binding = B_PHOTON_ACCUM) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;
-float edge(vec2 a, vec2 b, vec2 p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); }
+// z_ndc at window point p on the plane through (w_i, z_i): affine in window space
+float plane_z(vec2 w0, vec2 w1, vec2 w2, vec3 z, vec2 p) {
+    vec2 A = w1 - w0, B = w2 - w0;
+    float af = A.x * B.y - A.y * B.x;
+    if (af == 0.0) return z.x;
+    vec2 dz = vec2((z.y - z.x) * B.y - (z.z - z.x) * A.y, (z.z - z.x) * A.x - (z.y - z.x) * B.x) / af;
+    return z.x + dot(dz, p - w0);
+}
 void main() {
     for (uint i = gl_WorkGroupID.x; i < n_photons; i += gl_NumWorkGroups.x) {
         vec3 x = photons[i].x_r.xyz;
@@ -122,15 +132,21 @@ void main() {
         vec3 E = flux / (0.25 * 3.14159265358979323846 * length(cross(du, dv)));
         mat3 M = filter_matrix(du, dv, normalize(photons[i].n), topology);
         vec2 q[4];
-        for (int j = 0; j < 4; ++j) q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
-        float orient = sign(edge(q[0], q[1], q[3]));   // the quad q0 -> q1 -> q3 -> q2 is convex
-        ivec2 a = max(ivec2(floor(lo)), ivec2(0)), b = min(ivec2(ceil(hi)), ivec2(image_size));
+        vec4 z;
+        for (int j = 0; j < 4; ++j) {
+            q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
+            z[j] = c[j].z / c[j].w;
+        }
+        FrTri ta = fr_setup(q[0], q[1], q[2]), tb = fr_setup(q[2], q[1], q[3]);
+        bool clip = any(greaterThan(abs(z), vec4(1.0)));
+        ivec2 a = max(min(ta.lo, tb.lo), ivec2(0)), b = min(max(ta.hi, tb.hi) + 1, ivec2(image_size));
         int w = b.x - a.x, n = w * (b.y - a.y);
-        for (int j = int(gl_LocalInvocationID.x); j < n; j += 64) {
+        for (int j = int(gl_LocalInvocationID.x); j < n && w > 0; j += 64) {
             int px = a.x + j % w, py = a.y + j / w;
-            vec2 pc = vec2(px, py) + 0.5;
-            if (orient * edge(q[0], q[1], pc) < 0.0 || orient * edge(q[1], q[3], pc) < 0.0 ||
-                orient * edge(q[3], q[2], pc) < 0.0 || orient * edge(q[2], q[0], pc) < 0.0) continue;
+            bool in_a = fr_covers(ta, ivec2(px, py));
+            if (!in_a && !fr_covers(tb, ivec2(px, py))) continue;
+            if (clip && abs(in_a ? plane_z(q[0], q[1], q[2], z.xyz, vec2(px, py) + 0.5)
+                                 : plane_z(q[2], q[1], q[3], z.zyw, vec2(px, py) + 0.5)) > 1.0) continue;
             vec4 g = texelFetch(g_position, ivec2(px, py), 0);
             if (g.w < 0.5) continue;
             float k = silverman(length(M * (g.xyz - x)));

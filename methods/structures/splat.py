@@ -39,6 +39,13 @@ _IPROBE_POS = np.array([(0.1 + 0.45 / 256, 0.2 - 0.43 / 256), (3.9 - 0.38 / 256,
 _IPROBE_VAL = np.array([0.0, 300.0, -200.0])
 
 
+def rule_defines(rule: dict) -> dict:
+    """The GLSL defines of a :func:`fill_rule` (``splat_raster.glsl``, ``fill_rule.glsl``)."""
+    return {"LS_SUBPIXEL_BITS": rule["subpixel_bits"], "SPLAT_TOP": int(rule["top"]),
+            "SPLAT_BOTTOM": int(rule["bottom"]), "SPLAT_LEFT": int(rule["left"]), "SPLAT_RIGHT": int(rule["right"]),
+            "SPLAT_SNAPPED_PLANE": int(rule["snapped_plane"])}
+
+
 def fill_rule(gpu) -> dict:
     """The hardware's raster rules on this context, measured once: ``{"top", "bottom", "left", "right":
     bool (a texel centre exactly on such an edge is covered), "subpixel_bits": int, "snapped_plane": bool
@@ -145,10 +152,7 @@ class Splat(FragmentSource):
         self._vaos: dict = {}
 
     def defines(self, extra: dict) -> dict:
-        r = self.rule
-        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "LS_SUBPIXEL_BITS": r["subpixel_bits"],
-                "SPLAT_TOP": int(r["top"]), "SPLAT_BOTTOM": int(r["bottom"]), "SPLAT_LEFT": int(r["left"]),
-                "SPLAT_RIGHT": int(r["right"]), "SPLAT_SNAPPED_PLANE": int(r["snapped_plane"])}
+        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
         key = id(prog)
