@@ -6,7 +6,7 @@ reference, and the bound its build reaches.
     python scripts/gpu/fast_defaults.py OUT_DIR [--dry] [--only ROW,ROW]
 
 Rows: fig8 (aalund2015 Figure 8 frame), cdi (the CDI build, 169 x 64², atrium), fig10 (aalund2015 Figure 10
-frame: blended against atomic splats), hbao (800², 8 x 8), ldi (96 LDIs of 128², atrium). Writes
+frame), hbao (800², 8 x 8), ldi (96 LDIs of 128², atrium). Writes
 OUT_DIR/runs/<row>-<label>/ (each a `ldbench run`), OUT_DIR/fast-defaults.csv and OUT_DIR/fast-defaults.md.
 The bound: the structure's bytes / (build time x the copy bandwidth in OUT_DIR/bandwidth.csv, written by
 ``fast_builds_bench.py OUT_DIR bandwidth``), and the raster rate (triangles x layers / build time).
@@ -31,9 +31,11 @@ ROWS = {
     "fig8": ("ldm", "ao", D_MAX + FIG8, {"paper": ["--set", "ldm.preset=paper"], "default": [],
                                          "default+aggregate": ["--set", "ldm.structure.aggregate=true"]}),
     "cdi": ("cdi-vpl", "vpl_range", [], {"paper": ["--set", "cdi-vpl.preset=paper"], "default": [],
+                                         "default, max_list 64": ["--set", "cdi-vpl.structure.max_list=64"],
+                                         "default, max_list 128": ["--set", "cdi-vpl.structure.max_list=128"],
                                          "splat+sort": ["--set", "cdi-vpl.structure.source=splat"]}),
-    "fig10": ("ldm", "indirect", FIG10, {"blend": ["--set", "ldm.indirect.splat=blend"],
-                                         "atomic": ["--set", "ldm.indirect.splat=atomic"]}),
+    "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
+                                         "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
     "hbao": ("hbao", "ao", D_MAX, {"default": []}),
     "ldi": ("ldi", "indirect", ["--set", "ldi.directions=96", "--set", "ldi.resolution=128"],
             {"paper": ["--set", "ldi.preset=paper"], "default": []}),
@@ -62,7 +64,7 @@ def main():
         for label, extra in labels.items():
             args = [DRY.get(a, a) for a in common] if dry else list(common)
             sz = ["--size", "400x400"] + size[2:] if row == "ldi" and not dry else size
-            d = out / "runs" / f"{row}-{label}"
+            d = out / "runs" / f"{row}-{label.replace(' ', '').replace(',', '-')}"
             cmd = [sys.executable, "-m", "ldbench.harness.cli", "run", "--scene", "atrium", "--scene-set",
                    f"triangles={tris}", "--method", method, "--effect", effect, *sz, *args, *extra, "--out", str(d),
                    "--no-report", "--no-progress", "-q"]
