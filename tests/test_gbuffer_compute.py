@@ -37,7 +37,7 @@ def _tri(name, v, albedo, flip=False):
 
 def grid_meshes(n=8):
     """n × n cells of 2 × 2 pixels at z = -1, vertices on pixel centres, each cell split along a diagonal
-    (alternating), triangles alternately in two meshes (materials)."""
+    (alternating), triangles alternately in two meshes (materials) of opposite windings."""
     px = 2.0 / W
     xs = -0.75 + 0.5 * px + 2 * px * np.arange(n + 1)
     v = np.array([[x, y, -1.0] for y in xs for x in xs], np.float32)
@@ -48,7 +48,7 @@ def grid_meshes(n=8):
             b, c, d = a + 1, a + n + 1, a + n + 2
             pair = ([a, b, d], [a, d, c]) if (i + j) % 2 else ([a, b, c], [b, d, c])
             faces[0].append(pair[0])
-            faces[1].append(pair[1])
+            faces[1].append(pair[1][::-1])  # wound the other way: its normal faces away from the camera
     return [Mesh(f"grid{k}", v, np.array(f, np.int32), alb) for k, (f, alb) in
             enumerate(zip(faces, ((0.2, 0.4, 0.6), (0.6, 0.4, 0.2))))]
 
@@ -56,7 +56,7 @@ def grid_meshes(n=8):
 def hard_scene():
     rng = np.random.default_rng(1)
     ms = grid_meshes()
-    ms.append(_tri("floor", [[-6, -0.6, 2], [6, -0.6, 2], [0, -0.6, -8]], (0.8, 0.7, 0.6)))
+    ms.append(_tri("floor", [[-6, -0.8, 2], [6, -0.8, 2], [0, -0.8, -8]], (0.8, 0.7, 0.6)))
     c, sl = np.array([0.4, 0.3, -1.5]), []
     for k in range(20):
         a = 0.3 * k
@@ -69,7 +69,7 @@ def hard_scene():
     ms.append(_tri("cross_b", [[-0.9, -0.4, -2.6], [-0.2, -0.4, -1.6], [-0.6, 0.05, -2.0]], (0.1, 0.5, 0.5)))
     for k in range(40):
         p = rng.uniform([-0.8, -0.5, -3], [0.8, 0.6, -1.2])
-        ms.append(_tri(f"r{k}", p + rng.normal(0, 0.03, (3, 3)), tuple(rng.uniform(0, 1, 3)), flip=k % 2 == 1))
+        ms.append(_tri(f"r{k}", p + rng.normal(0, 0.08, (3, 3)), tuple(rng.uniform(0, 1, 3)), flip=k % 2 == 1))
     return Scene("gbuffer-hard", ms, Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0, 1, 0), 90.0))
 
 
@@ -98,6 +98,8 @@ def compare(hwb, cpb, eye):
     assert np.array_equal(hm, cm), f"{int((hm != cm).sum())} pixels covered by one raster only"
     for a in (cp, cn, ca):
         assert np.all(a[~cm] == 0.0), "background is not 0"
+    facing = np.einsum("...k,...k", cn[..., :3], eye - cp[..., :3])[cm]
+    assert facing.min() >= 0.0, f"{int((facing < 0).sum())} normals face away from the camera"
     diff = np.any(hn != cn, -1) | np.any(ha != ca, -1)
     dh = np.linalg.norm(hp[..., :3] - eye, axis=-1)
     dc = np.linalg.norm(cp[..., :3] - eye, axis=-1)
@@ -128,12 +130,15 @@ def test_compute_equals_hardware(gpu, hard, max_pixels):
 
 
 def test_scene_has_the_hard_cases(gpu, hard):
-    """The straight view sees both grid materials, both coincident triangles' winner, the floor and the
-    background; the coincident pair resolves to the first (smaller id) on the hardware too."""
+    """The straight view sees both grid materials (one of them flipped), the floor, the background and the
+    first of the coincident pair (the smaller triangle id, as on the hardware)."""
     _, ref = hard
     mats = set(np.unique(ref[0][1][..., 3][ref[0][0][..., 3] > 0.5]).astype(int))
     assert {0, 1, 2, 4} <= mats and 5 not in mats  # grid0, grid1, floor, coincident_a (not _b)
     assert (ref[0][0][..., 3] < 0.5).sum() > 100
+    nrm = ref[0][1]
+    grid1 = nrm[..., 3] == 1  # wound away from the camera: its stored normal is the flipped one
+    assert grid1.sum() >= 60 and np.all(nrm[grid1][:, :3] == (0.0, 0.0, 1.0))
 
 
 def test_bad_choice(gpu, hard):
