@@ -152,7 +152,8 @@ class GBuffer:
             vp = mat_bytes(self.view_proj(view))
             self.clear()
             for p in (0, 1):
-                self.raster_pass(p, vp)
+                self.compute_pass(p, vp)
+                self.large_pass(p, vp)
             self.resolve(view, vp)
             return
         self.prog["view_proj"].write(mat_bytes(self.view_proj(view)))
@@ -174,9 +175,9 @@ class GBuffer:
         fill_uint(self.gpu, self.vis, 2 * w * h, 0xFFFFFFFF)
         fill_uint(self.gpu, self.large, 1, 0)
 
-    def raster_pass(self, p: int, vp: bytes):
-        """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster, then the hardware's draw of
-        the triangles pass 0 left to it."""
+    def compute_pass(self, p: int, vp: bytes):
+        """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the triangles
+        it leaves to the hardware."""
         ctx, (w, h) = self.gpu.ctx, self.size
         cs = self.raster_cs
         cs["view_proj"].write(vp)
@@ -189,6 +190,10 @@ class GBuffer:
         self.large.bind_to_storage_buffer(B.GBUF_LARGE)
         cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT)))
         ctx.memory_barrier()
+
+    def large_pass(self, p: int, vp: bytes):
+        """Pass ``p`` of the hardware's draw of the listed triangles (one indirect draw)."""
+        ctx, (w, h) = self.gpu.ctx, self.size
         prog = self.large_prog
         prog["view_proj"].write(vp)
         prog["vis_size"].value = (w, h)
