@@ -42,6 +42,12 @@ _TABLE = {
     # -- rasters of the scene (methods/gbuffer.py, methods/cdi_vpl/rsm.glsl)
     "ALBEDO": _b("ssbo", 0, "raster", "albedo of each material (mesh), read by the G-buffer and RSM rasters",
                  "Albedo"),
+    "GBUF_VERTICES": _b("ssbo", 1, "raster", "vertices (position, normal, material) read by the compute G-buffer",
+                        "GbufVertices"),
+    "GBUF_VIS": _b("ssbo", 2, "raster", "compute G-buffer: per-pixel depth keys, then per-pixel triangle ids",
+                   "GbufVis"),
+    "GBUF_LARGE": _b("ssbo", 3, "raster", "compute G-buffer: indirect command and triangles left to the hardware",
+                     "GbufLarge"),
     # -- one-kernel utilities, each alone in its program
     "FILL": _b("ssbo", 0, "fill_uint", "the uint buffer fill_uint.glsl clears", "FillData"),
     "SCAN_DATA": _b("ssbo", 0, "scan", "values scanned in place (methods/scan.py)", "ScanData"),
@@ -109,6 +115,10 @@ _TABLE = {
     "HITS": _b("ssbo", 21, "rays", "hit distance of each ray", "RayHits"),
     # -- images
     "OUT_IMAGE": _b("image", 0, "image", "the image a compute pass writes", "out_image", "out_ao"),
+    "GBUF_POSITION": _b("image", 0, "gbuffer", "compute G-buffer resolve: world position", "gb_position"),
+    "GBUF_NORMAL": _b("image", 1, "gbuffer", "compute G-buffer resolve: camera-facing normal, material",
+                      "gb_normal"),
+    "GBUF_ALBEDO": _b("image", 2, "gbuffer", "compute G-buffer resolve: albedo", "gb_albedo"),
 }
 
 #: name -> :class:`Binding`, read-only.

@@ -119,15 +119,16 @@ class Method:
         if getattr(self, "res", None) is not None:
             self.res.release()
 
-    def setup_scene(self, gpu, scene) -> None:
+    def setup_scene(self, gpu, scene, gbuffer: str = "hardware") -> None:
         """The common part of ``setup``: ``self.res`` (memory-accounted allocations), the scene's
-        triangles on the GPU (``self.geo``) and a G-buffer pass (``self.gbuf``)."""
+        triangles on the GPU (``self.geo``) and a G-buffer pass (``self.gbuf``, rasterized by ``gbuffer``:
+        ``hardware`` or ``compute``, :class:`~ldbench.methods.gbuffer.GBuffer`)."""
         from ldbench.methods.gbuffer import GBuffer, SceneGeometry
 
         self.gpu, self.scene = gpu, scene
         self.res = gpu.resources()
         self.geo = SceneGeometry(gpu, scene, self.res)
-        self.gbuf = GBuffer(gpu, self.geo, self.res)
+        self.gbuf = GBuffer(gpu, self.geo, self.res, raster=gbuffer)
 
     def shader(self, name: str) -> Path:
         """``name`` beside the module of this class, else beside a base class's (a subclass elsewhere,

@@ -4,16 +4,19 @@
 *face* (geometric) normal and the material id, so every pass that rasterizes the scene (G-buffer,
 shadow maps, LDM/LDI builds) shares one vertex buffer and sees the same geometric normals as Mitsuba.
 
-:class:`GBuffer` renders position / normal / albedo / depth for a :class:`~ldbench.methods.base.View`.
+:class:`GBuffer` renders position / normal / albedo (and, with the hardware raster, depth) for a
+:class:`~ldbench.methods.base.View`, by the hardware raster or by a compute rasterizer (docs/gbuffer.md).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ldbench.core.bindings import B
+from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import GLSL_DIR, read_texture
 
 VERTEX_ATTRS = (("in_position", 3), ("in_normal", 3), ("in_material", 1))  # float32 each
+LARGE_CMD_WORDS = 8  # DrawElementsIndirectCommand (5 words) padded; the compute G-buffer's indices follow it
 
 
 def face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -74,24 +77,63 @@ def mat_bytes(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(m.T, dtype=np.float32).tobytes()
 
 
-class GBuffer:
-    """Position (w = hit), camera-facing geometric normal (w = material), albedo, depth."""
+RASTERS = ("hardware", "compute")
+GROUP_LIMIT = 65535
 
-    def __init__(self, gpu, geometry: SceneGeometry, res):
+
+class GBuffer:
+    """Position (w = hit), camera-facing geometric normal (w = material), albedo, depth.
+
+    ``raster``: ``"hardware"`` draws the scene into the three textures and a depth texture
+    (``gbuffer.glsl``); ``"compute"`` rasterizes a visibility buffer in compute shaders with the hardware's
+    fill rule (:func:`~ldbench.methods.structures.splat.fill_rule`) and resolves it into the same three
+    textures (``gbuffer_raster.glsl``, ``gbuffer_resolve.glsl``; docs/gbuffer.md). No consumer reads the
+    depth texture, so the compute G-buffer has none. ``max_pixels``: the compute raster gives a triangle
+    whose viewport-clamped bounding box holds more pixel centres than this to the hardware
+    (``gbuffer_large.glsl``), as it does triangles crossing the near or far plane."""
+
+    def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
+        if raster not in RASTERS:
+            raise LdbenchError(f"G-buffer raster {raster!r} is not one of {', '.join(RASTERS)}")
+        if not 1 <= int(max_pixels) <= 64 * 64:
+            raise LdbenchError(f"G-buffer max_pixels {max_pixels} is not in 1 .. 4096")
         self.gpu, self.geo, self.res = gpu, geometry, res
-        self.prog = gpu.program(GLSL_DIR / "gbuffer.glsl")
-        self.vao = geometry.vao(self.prog)
+        self.raster, self.max_pixels = raster, int(max_pixels)
         self.size = None
+        if raster == "hardware":
+            self.prog = gpu.program(GLSL_DIR / "gbuffer.glsl")
+            self.vao = geometry.vao(self.prog)
+            return
+        from ldbench.methods.structures.splat import fill_rule
+
+        r = fill_rule(gpu)
+        defines = {"LS_SUBPIXEL_BITS": r["subpixel_bits"], "SPLAT_TOP": int(r["top"]),
+                   "SPLAT_BOTTOM": int(r["bottom"]), "SPLAT_LEFT": int(r["left"]), "SPLAT_RIGHT": int(r["right"]),
+                   "SPLAT_SNAPPED_PLANE": int(r["snapped_plane"])}
+        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer_raster.glsl", defines)
+        self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer_resolve.glsl")
+        self.large_prog = gpu.program(GLSL_DIR / "gbuffer_large.glsl")
+        n = geometry.triangles
+        self.large = res.buffer("gbuffer.large", reserve=4 * (LARGE_CMD_WORDS + 3 * n))
+        cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)
+        cmd[1], cmd[2] = 1, LARGE_CMD_WORDS  # one instance; the indices follow the command
+        self.large.write(cmd.tobytes())
+        self.vao = gpu.ctx.vertex_array(self.large_prog, [(geometry.vbo, "3f 16x", "in_position")],
+                                        index_buffer=self.large, index_element_size=4)
 
     def _allocate(self, w, h):
         r = self.res
         self.position = r.texture("gbuffer.position", (w, h), 4, "f4")
         self.normal = r.texture("gbuffer.normal", (w, h), 4, "f4")
         self.albedo = r.texture("gbuffer.albedo", (w, h), 4, "f4")
-        self.depth = r.depth_texture("gbuffer.depth", (w, h))
         for t in (self.position, self.normal, self.albedo):
             t.filter = (self.gpu.ctx.NEAREST, self.gpu.ctx.NEAREST)
-        self.fbo = self.gpu.ctx.framebuffer([self.position, self.normal, self.albedo], self.depth)
+        if self.raster == "hardware":
+            self.depth = r.depth_texture("gbuffer.depth", (w, h))
+            self.fbo = self.gpu.ctx.framebuffer([self.position, self.normal, self.albedo], self.depth)
+        else:
+            self.vis = r.buffer("gbuffer.visibility", reserve=8 * w * h)
+            self.fbo = self.gpu.ctx.empty_framebuffer((w, h))  # the hardware path's, attachment-less
         self.size = (w, h)
 
     def view_proj(self, view) -> np.ndarray:
@@ -106,6 +148,14 @@ class GBuffer:
             if self.size is not None:
                 self.fbo.release()
             self._allocate(view.width, view.height)
+        if self.raster == "compute":
+            vp = mat_bytes(self.view_proj(view))
+            self.clear()
+            for p in (0, 1):
+                self.compute_pass(p, vp)
+                self.large_pass(p, vp)
+            self.resolve(view, vp)
+            return
         self.prog["view_proj"].write(mat_bytes(self.view_proj(view)))
         self.prog["eye"].value = tuple(view.camera.origin)
         self.geo.albedo.bind_to_storage_buffer(B.ALBEDO)
@@ -115,6 +165,63 @@ class GBuffer:
         ctx.enable(ctx.DEPTH_TEST)
         self.vao.render()
         ctx.disable(ctx.DEPTH_TEST)
+
+    # ---- the compute G-buffer's passes (render runs them in order; scripts/gpu/gbuffer_bench.py times each)
+    def clear(self):
+        """Visibility buffer to nothing, the hardware path's index count to 0."""
+        from ldbench.methods.structures.core import fill_uint
+
+        w, h = self.size
+        fill_uint(self.gpu, self.vis, 2 * w * h, 0xFFFFFFFF)
+        fill_uint(self.gpu, self.large, 1, 0)
+
+    def compute_pass(self, p: int, vp: bytes):
+        """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the triangles
+        it leaves to the hardware."""
+        ctx, (w, h) = self.gpu.ctx, self.size
+        cs = self.raster_cs
+        cs["view_proj"].write(vp)
+        cs["vis_size"].value = (w, h)
+        cs["vis_pass"].value = p
+        cs["n_triangles"].value = self.geo.triangles
+        cs["max_pixels"].value = self.max_pixels
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
+        self.vis.bind_to_storage_buffer(B.GBUF_VIS)
+        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
+        cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT)))
+        ctx.memory_barrier()
+
+    def large_pass(self, p: int, vp: bytes):
+        """Pass ``p`` of the hardware's draw of the listed triangles (one indirect draw)."""
+        ctx, (w, h) = self.gpu.ctx, self.size
+        prog = self.large_prog
+        prog["view_proj"].write(vp)
+        prog["vis_size"].value = (w, h)
+        prog["vis_pass"].value = p
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, w, h)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
+        self.vao.render_indirect(self.large, ctx.TRIANGLES, 1, 0)
+        ctx.memory_barrier()
+
+    def resolve(self, view, vp: bytes):
+        """Triangle ids to position / normal / albedo."""
+        (w, h), cs = self.size, self.resolve_cs
+        cs["view_proj"].write(vp)
+        cs["eye"].value = tuple(view.camera.origin)
+        cs["vis_size"].value = (w, h)
+        self.geo.albedo.bind_to_storage_buffer(B.ALBEDO)
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
+        self.vis.bind_to_storage_buffer(B.GBUF_VIS)
+        for t, unit in ((self.position, B.GBUF_POSITION), (self.normal, B.GBUF_NORMAL),
+                        (self.albedo, B.GBUF_ALBEDO)):
+            t.bind_to_image(unit, read=False, write=True)
+        cs.run(-(-w // 8), -(-h // 8))
+        self.gpu.ctx.memory_barrier()
+
+    def large_triangles(self) -> int:
+        """Triangles the last compute frame gave to the hardware (a read-back; tests and the bench)."""
+        return int(np.frombuffer(self.gpu.read(self.large, 4), np.uint32)[0]) // 3
 
     def bind(self, first_unit: int = 0):
         """Bind position/normal/albedo to texture units first_unit.. (for sampler2D reads)."""

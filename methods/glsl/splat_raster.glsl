@@ -2,12 +2,9 @@
 // build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
 // stored with the same ls_store as the hardware raster (layered_store.glsl).
 //
-// Coverage is the hardware's: window coordinates snapped to LS_SUBPIXEL_BITS of fixed point (round to
-// nearest even), samples at texel centres, exact integer edge functions, and a sample exactly on an edge
-// covered only when the hardware includes that class of edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1,
-// measured on this context by splat_probe.glsl). With the triangle taken counter-clockwise (GL window
-// coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge
-// going down is a left edge, going up a right edge. Zero-area triangles (after snapping) cover nothing.
+// Coverage is the hardware's (gbuffer_fill_rule.glsl, shared with the compute G-buffer): window coordinates
+// snapped to LS_SUBPIXEL_BITS of fixed point, samples at texel centres, exact integer edge functions, and
+// the edge classes this GPU includes. Zero-area triangles (after snapping) cover nothing.
 // Depth and clip z are the planes through the three vertices evaluated at the texel centre, as the
 // hardware interpolates: through the snapped vertices with SPLAT_SNAPPED_PLANE (NVIDIA), else through the
 // given ones (llvmpipe); a sliver's depths differ by up to ~1 % between the two. A sample outside the
@@ -36,16 +33,7 @@ uniform uint n_layers;
 uniform float splat_scale;   // texels per world unit, the largest of any layer
 uniform float splat_max;     // longest edge (texels) rasterized here
 #include "layered_store.glsl"
-
-const int SP_ONE = 1 << LS_SUBPIXEL_BITS;
-const int SP_HALF = SP_ONE >> 1;
-
-// 0 when a sample exactly on this edge (direction d, counter-clockwise triangle) is covered, else 1
-int sp_bias(ivec2 d) {
-    bool incl = d.y == 0 ? (d.x < 0 ? SPLAT_TOP != 0 : SPLAT_BOTTOM != 0)
-                         : (d.y < 0 ? SPLAT_LEFT != 0 : SPLAT_RIGHT != 0);
-    return incl ? 0 : 1;
-}
+#include "gbuffer_fill_rule.glsl"
 
 void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     mat4 M = ls_layers[k].clip;
@@ -60,9 +48,8 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     int area = a.x * b.y - a.y * b.x;
     if (area == 0) return;
     ivec2 fmin = min(f0, min(f1, f2)), fmax = max(f0, max(f1, f2));
-    // texel centres i * ONE + HALF inside [fmin, fmax] (arithmetic shifts: floor for negatives too)
-    ivec2 i0 = max((fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS, ivec2(0));
-    ivec2 i1 = min((fmax - SP_HALF) >> LS_SUBPIXEL_BITS, ls_size - 1);
+    ivec2 i0, i1;
+    sp_texel_box(fmin, fmax, ls_size, i0, i1);
     if (any(greaterThan(i0, i1))) return;   // no texel centre in the box: most (triangle, layer) pairs
     if (area < 0) {   // counter-clockwise
         ivec2 ti = f1; f1 = f2; f2 = ti;
@@ -88,10 +75,7 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
             ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
-            int E0 = e0.x * (p.y - f0.y) - e0.y * (p.x - f0.x);
-            int E1 = e1.x * (p.y - f1.y) - e1.y * (p.x - f1.x);
-            int E2 = e2.x * (p.y - f2.y) - e2.y * (p.x - f2.x);
-            if (E0 < b0 || E1 < b1 || E2 < b2) continue;
+            if (sp_edge(e0, f0, p) < b0 || sp_edge(e1, f1, p) < b1 || sp_edge(e2, f2, p) < b2) continue;
             vec2 q = vec2(x, y) + 0.5 - w0;
             if (abs(z0 + dot(dz, q)) > 1.0) continue;
             ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, q), normal, material);

@@ -75,6 +75,8 @@ Parameter           Default  Meaning
 ``blur_radius``     2        blur half-width in pixels (σ = (radius + 1)/2)
 ``blur_sharpness``  40       inverse relative tolerance of the blur's tangent-plane distance term
 ``seed``            0        seed of the 4×4 rotation/jitter texture
+``gbuffer``                  the G-buffer's raster: ``hardware`` (the default) or ``compute`` (docs/gbuffer.md;
+                             the same textures, for GPUs whose graphics raster is slow)
 ==================  =======  ==========================================================================
 """
 from __future__ import annotations
@@ -89,7 +91,7 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
 from ldbench.methods.base import Method, Result
-from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.gbuffer import RASTERS, mat_bytes
 from ldbench.methods.uniforms import set_uniforms
 
 INTEGRALS = ("hbao", "cosine")
@@ -117,6 +119,8 @@ class HBAOParams(ParamsBase):
     blur_sharpness: float = param(40.0, "inverse relative tolerance of the blur's plane-distance term",
                                   lo=0.0, hi=1e4)
     seed: int = param(0, "seed of the 4x4 rotation/jitter texture", lo=0)
+    gbuffer: str = param("hardware", "the G-buffer's raster: hardware, or compute (a visibility buffer rasterized "
+                         "in compute shaders; the same textures, docs/gbuffer.md)", choices=RASTERS)
 
     def bias_degrees(self) -> float:
         return DEFAULT_BIAS_DEG[self.integral] if self.angle_bias < 0 else self.angle_bias
@@ -143,7 +147,7 @@ class HBAO(Method):
 
     def setup(self, gpu, scene):
         p = self.params
-        self.setup_scene(gpu, scene)
+        self.setup_scene(gpu, scene, gbuffer=p.gbuffer)
         defines = {"INTEGRAL": INTEGRALS.index(p.integral), "PLANE_FIT": p.plane_fit}
         self.prog = gpu.compute(self.shader("hbao.glsl"), defines)
         self.count_prog = None  # compiled by sample_counts()

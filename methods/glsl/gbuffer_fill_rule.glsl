@@ -1,0 +1,32 @@
+// The hardware's fill rule in integer arithmetic, shared by the compute rasterizers: the splat build of
+// the layered structures (splat_raster.glsl) and the compute G-buffer (gbuffer_raster.glsl).
+//
+// Window coordinates are snapped to LS_SUBPIXEL_BITS of fixed point (round to nearest even); samples sit
+// at texel centres; a sample exactly on an edge is covered only when the hardware includes that class of
+// edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1, measured per context by splat_probe.glsl,
+// methods/structures/splat.py fill_rule). With the triangle taken counter-clockwise (GL window
+// coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge going
+// down is a left edge, going up a right edge. Callers keep coordinate differences below 2^14 (edges of at
+// most 64 texels) so every edge function fits int32.
+
+const int SP_ONE = 1 << LS_SUBPIXEL_BITS;
+const int SP_HALF = SP_ONE >> 1;
+
+// 0 when a sample exactly on this edge (direction d, counter-clockwise triangle) is covered, else 1
+int sp_bias(ivec2 d) {
+    bool incl = d.y == 0 ? (d.x < 0 ? SPLAT_TOP != 0 : SPLAT_BOTTOM != 0)
+                         : (d.y < 0 ? SPLAT_LEFT != 0 : SPLAT_RIGHT != 0);
+    return incl ? 0 : 1;
+}
+
+// the edge function of the edge from f along e at the fixed-point sample p (covered: >= its sp_bias)
+int sp_edge(ivec2 e, ivec2 f, ivec2 p) {
+    return e.x * (p.y - f.y) - e.y * (p.x - f.x);
+}
+
+// texel centres i * ONE + HALF inside the fixed-point box [fmin, fmax], clamped to [0, size): i0 .. i1
+// (arithmetic shifts: floor for negatives too); empty when any(greaterThan(i0, i1))
+void sp_texel_box(ivec2 fmin, ivec2 fmax, ivec2 size, out ivec2 i0, out ivec2 i1) {
+    i0 = max((fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS, ivec2(0));
+    i1 = min((fmax - SP_HALF) >> LS_SUBPIXEL_BITS, size - 1);
+}

@@ -1,0 +1,97 @@
+"""G-buffer timing (docs/gbuffer.md): the hardware pass and the compute G-buffer (methods/gbuffer.py) on
+atrium at 260,000 triangles and 800 × 800, each the median of 20 frames by GL timer query (wall clock
+around glFinish on llvmpipe), with the compute G-buffer's per-pass split and, untimed, how far its
+textures are from the hardware's on this GPU.
+
+    python scripts/gpu/gbuffer_bench.py [--dry] [--max-pixels 64,256,1024] [--frames 20] [--size 800]
+
+--dry: a small atrium at 64 × 64 and 3 frames (llvmpipe); --max-pixels: the compute raster's large-triangle
+thresholds to measure (GBuffer's max_pixels; default: its default).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from ldbench.core.gpu import Gpu
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import View
+from ldbench.methods.gbuffer import GBuffer, SceneGeometry, mat_bytes
+
+
+def timed(gpu, fn) -> float:
+    """ms of ``fn()`` on the GPU: one timer query, or wall clock around glFinish without them."""
+    if gpu.timer_queries:
+        q = gpu.ctx.query(time=True)
+        with q:
+            fn()
+        ms = q.elapsed * 1e-6
+        q.release()
+        return ms
+    gpu.ctx.finish()
+    t0 = time.perf_counter()
+    fn()
+    gpu.ctx.finish()
+    return (time.perf_counter() - t0) * 1e3
+
+
+def passes(g: GBuffer, view, vp):
+    """The compute G-buffer's passes in render's order, as (name, callable)."""
+    out = [("clear", g.clear)]
+    for p in (0, 1):
+        out += [(f"compute{p}", lambda p=p: g.compute_pass(p, vp)), (f"hardware{p}", lambda p=p: g.large_pass(p, vp))]
+    return out + [("resolve", lambda: g.resolve(view, vp))]
+
+
+def differences(ref, out, eye) -> str:
+    (hp, hn, _), (cp, cn, _) = ref, out
+    hm, cm = hp[..., 3] > 0.5, cp[..., 3] > 0.5
+    both = hm & cm
+    tri = both & np.any(hn != cn, -1)
+    d = np.linalg.norm(hp[..., :3] - eye, axis=-1)
+    ok = both & ~tri
+    err = (np.abs(hp[..., :3] - cp[..., :3]).max(-1)[ok] / d[ok]).max() if ok.any() else 0.0
+    gap = np.abs(d - np.linalg.norm(cp[..., :3] - eye, axis=-1))[tri] / d[tri]
+    return (f"covered {int(hm.sum())}: {int((hm != cm).sum())} by one raster only, {int(tri.sum())} another triangle "
+            f"(depth gap over distance: max {gap.max() if tri.any() else 0:.3g}), position error over distance "
+            f"max {err:.3g}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--dry", action="store_true")
+    ap.add_argument("--max-pixels", default="")
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--size", type=int, default=800)
+    a = ap.parse_args(argv)
+    spec, size, frames = ("atrium:triangles=4000", 64, 3) if a.dry else ("atrium:triangles=260000", a.size, a.frames)
+    gpu = Gpu()
+    scene = load_scene(spec)
+    res = gpu.resources()
+    geo = SceneGeometry(gpu, scene, res)
+    view = View(scene.camera, size, size)
+    print(f"{gpu.info.get('GL_RENDERER')}: {spec}, {geo.triangles} triangles, {size} x {size}, median of {frames}")
+    hw = GBuffer(gpu, geo, gpu.resources("hw."))
+    hw.render(view)
+    t = [timed(gpu, lambda: hw.render(view)) for _ in range(frames)]
+    print(f"hardware  {np.median(t):8.3f} ms")
+    ref = [x.copy() for x in hw.read()]
+    for mp in [int(x) for x in a.max_pixels.split(",") if x] or [None]:
+        kw = {} if mp is None else {"max_pixels": mp}
+        g = GBuffer(gpu, geo, gpu.resources(f"c{mp}."), raster="compute", **kw)
+        g.render(view)
+        t = [timed(gpu, lambda: g.render(view)) for _ in range(frames)]
+        vp = mat_bytes(g.view_proj(view))
+        split = {}
+        for _ in range(frames):
+            for name, fn in passes(g, view, vp):
+                split.setdefault(name, []).append(timed(gpu, fn))
+        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}, {g.large_triangles()} triangles to the "
+              f"hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
+        print("          " + differences(ref, g.read(), np.array(scene.camera.origin)))
+
+
+if __name__ == "__main__":
+    main()

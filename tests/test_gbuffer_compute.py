@@ -1,0 +1,176 @@
+"""The compute G-buffer (methods/gbuffer.py, ``raster = "compute"``, docs/gbuffer.md) against the hardware
+pass it replaces, on llvmpipe.
+
+A small scene of hard cases: a grid whose edges (shared ones and its border) pass exactly through pixel
+centres (a 90° camera on the z axis maps x = 1/64 to one pixel of a 64² image exactly), its triangles in
+two materials so a wrong fill-rule class shows; a large floor crossing the near plane (the hardware
+path); slivers; two coincident triangles (same vertices, opposite windings, two materials: the
+smaller triangle id wins, as the hardware's depth test in draw order); two intersecting triangles;
+random small triangles of both windings; background. Compared: the covered mask, the triangle at every
+pixel (normal and material exactly; a pixel may differ only where the two surfaces' depths are within
+``DEPTH_TIE``), positions, albedo, background 0; then HBAO and LDM ambient occlusion with the two
+G-buffers.
+"""
+import numpy as np
+import pytest
+
+from ldbench.core.effects import Effect
+from ldbench.core.errors import LdbenchError
+from ldbench.core.scene import Camera, Mesh, Scene
+from ldbench.methods.base import View
+from ldbench.methods.gbuffer import GBuffer, SceneGeometry
+from ldbench.methods.hbao import HBAO, HBAOParams
+from ldbench.methods.ldm import Ldm, LdmParams
+
+from testkit import cornell_like
+
+W = 64
+#: measured on llvmpipe: no pixel shows another triangle; positions within 4.6e-6 of the eye distance
+DEPTH_TIE = 1e-5      # relative depth gap under which the two rasters may pick different surfaces
+MAX_TIES = 3          # pixels allowed to differ that way per view (measured: 0)
+POS_REL = 6e-6        # position error over the eye distance (measured: 4.6e-6 straight, 2.0e-6 oblique)
+
+
+def _tri(name, v, albedo, flip=False):
+    return Mesh(name, np.asarray(v, np.float32), np.array([[0, 2, 1] if flip else [0, 1, 2]], np.int32), albedo)
+
+
+def grid_meshes(n=8):
+    """n × n cells of 2 × 2 pixels at z = -1, vertices on pixel centres, each cell split along a diagonal
+    (alternating), triangles alternately in two meshes (materials) of opposite windings."""
+    px = 2.0 / W
+    xs = -0.75 + 0.5 * px + 2 * px * np.arange(n + 1)
+    v = np.array([[x, y, -1.0] for y in xs for x in xs], np.float32)
+    faces = [], []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            b, c, d = a + 1, a + n + 1, a + n + 2
+            pair = ([a, b, d], [a, d, c]) if (i + j) % 2 else ([a, b, c], [b, d, c])
+            faces[0].append(pair[0])
+            faces[1].append(pair[1][::-1])  # wound the other way: its normal faces away from the camera
+    return [Mesh(f"grid{k}", v, np.array(f, np.int32), alb) for k, (f, alb) in
+            enumerate(zip(faces, ((0.2, 0.4, 0.6), (0.6, 0.4, 0.2))))]
+
+
+def hard_scene():
+    rng = np.random.default_rng(1)
+    ms = grid_meshes()
+    ms.append(_tri("floor", [[-6, -0.8, 2], [6, -0.8, 2], [0, -0.8, -8]], (0.8, 0.7, 0.6)))
+    c, sl = np.array([0.4, 0.3, -1.5]), []
+    for k in range(20):
+        a = 0.3 * k
+        d = np.array([np.cos(a), np.sin(a), 0.2 * np.sin(3 * a)])
+        sl += [c, c + 0.5 * d, c + 0.5 * d + 0.004 * np.array([-np.sin(a), np.cos(a), 0.0])]
+    ms.append(Mesh("slivers", np.array(sl, np.float32), np.arange(60, dtype=np.int32).reshape(20, 3), (0.9, 0.1, 0.1)))
+    t = [[-0.9, 0.2, -2.0], [-0.3, 0.25, -2.2], [-0.6, 0.8, -1.9]]
+    ms += [_tri("coincident_a", t, (0.1, 0.9, 0.1)), _tri("coincident_b", t, (0.1, 0.1, 0.9), flip=True)]
+    ms.append(_tri("cross_a", [[-0.9, -0.4, -1.6], [-0.2, -0.4, -2.6], [-0.5, 0.1, -2.1]], (0.5, 0.5, 0.1)))
+    ms.append(_tri("cross_b", [[-0.9, -0.4, -2.6], [-0.2, -0.4, -1.6], [-0.6, 0.05, -2.0]], (0.1, 0.5, 0.5)))
+    for k in range(40):
+        p = rng.uniform([-0.8, -0.5, -3], [0.8, 0.6, -1.2])
+        ms.append(_tri(f"r{k}", p + rng.normal(0, 0.08, (3, 3)), tuple(rng.uniform(0, 1, 3)), flip=k % 2 == 1))
+    return Scene("gbuffer-hard", ms, Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0, 1, 0), 90.0))
+
+
+VIEWS = [Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0, 1, 0), 90.0),       # edges through pixel centres
+         Camera((0.7, 0.5, 0.4), (-0.2, -0.1, -2.0), (0, 1, 0), 70.0)]      # oblique
+
+
+@pytest.fixture(scope="module")
+def hard(gpu):
+    sc = hard_scene()
+    res = gpu.resources()
+    geo = SceneGeometry(gpu, sc, res)
+    hw = GBuffer(gpu, geo, gpu.resources("hw."))
+    ref = []
+    for cam in VIEWS:
+        hw.render(View(cam, W, W))
+        ref.append([a.copy() for a in hw.read()])
+    yield geo, ref
+    res.release()
+
+
+def compare(hwb, cpb, eye):
+    """Pixels where the triangle differs and their count; asserts everything else (module docstring)."""
+    (hp, hn, ha), (cp, cn, ca) = hwb, cpb
+    hm, cm = hp[..., 3] > 0.5, cp[..., 3] > 0.5
+    assert np.array_equal(hm, cm), f"{int((hm != cm).sum())} pixels covered by one raster only"
+    for a in (cp, cn, ca):
+        assert np.all(a[~cm] == 0.0), "background is not 0"
+    facing = np.einsum("...k,...k", cn[..., :3], eye - cp[..., :3])[cm]
+    assert facing.min() >= 0.0, f"{int((facing < 0).sum())} normals face away from the camera"
+    diff = np.any(hn != cn, -1) | np.any(ha != ca, -1)
+    dh = np.linalg.norm(hp[..., :3] - eye, axis=-1)
+    dc = np.linalg.norm(cp[..., :3] - eye, axis=-1)
+    ties = diff & (np.abs(dh - dc) <= DEPTH_TIE * dh)
+    assert not np.any(diff & ~ties), f"{int((diff & ~ties).sum())} pixels show another triangle"
+    assert ties.sum() <= MAX_TIES, f"{int(ties.sum())} near-tie pixels differ"
+    same = hm & ~diff
+    err = np.abs(hp[..., :3] - cp[..., :3]).max(-1)[same] / dh[same]
+    assert err.max() <= POS_REL, f"position error {err.max():.3g} of the eye distance"
+    assert np.all(cp[..., 3][cm] == 1.0)
+    return int(diff.sum())
+
+
+@pytest.mark.parametrize("max_pixels", [256, 1])
+def test_compute_equals_hardware(gpu, hard, max_pixels):
+    """Every view, rendered in sequence by one compute G-buffer (its per-frame clear), equals the hardware
+    pass; max_pixels = 1 gives nearly every triangle to the hardware path."""
+    geo, ref = hard
+    g = GBuffer(gpu, geo, gpu.resources(f"c{max_pixels}."), raster="compute", max_pixels=max_pixels)
+    for k in (0, 1, 0):
+        cam = VIEWS[k]
+        g.render(View(cam, W, W))
+        compare(ref[k], g.read(), np.array(cam.origin))
+        large = g.large_triangles()
+        assert large >= 1  # the floor crosses the near plane
+        if max_pixels == 1:
+            assert large > geo.triangles // 2
+
+
+def test_scene_has_the_hard_cases(gpu, hard):
+    """The straight view sees both grid materials (one of them flipped), the floor, the background and the
+    first of the coincident pair (the smaller triangle id, as on the hardware)."""
+    _, ref = hard
+    mats = set(np.unique(ref[0][1][..., 3][ref[0][0][..., 3] > 0.5]).astype(int))
+    assert {0, 1, 2, 4} <= mats and 5 not in mats  # grid0, grid1, floor, coincident_a (not _b)
+    assert (ref[0][0][..., 3] < 0.5).sum() > 100
+    nrm = ref[0][1]
+    grid1 = nrm[..., 3] == 1  # wound away from the camera: its stored normal is the flipped one
+    assert grid1.sum() >= 60 and np.all(nrm[grid1][:, :3] == (0.0, 0.0, 1.0))
+
+
+def test_bad_choice(gpu, hard):
+    with pytest.raises(LdbenchError, match="raster 'vulkan'"):
+        GBuffer(gpu, hard[0], gpu.resources(), raster="vulkan")
+    with pytest.raises(LdbenchError, match="max_pixels"):
+        GBuffer(gpu, hard[0], gpu.resources(), raster="compute", max_pixels=0)
+    with pytest.raises(LdbenchError):
+        HBAOParams.from_dict({"gbuffer": "vulkan"})
+
+
+#: measured on llvmpipe (cornell_like, 64²): HBAO images differ by 1.9e-6 at most (the positions'
+#: rounding), LDM AO images not at all
+AO_TOL = 4e-6
+
+
+def test_hbao_and_ldm_ao_equal(gpu):
+    sc = cornell_like()
+    view = View(sc.camera, 64, 64)
+    out = {}
+    for raster in ("hardware", "compute"):
+        m = HBAO(HBAOParams(gbuffer=raster))
+        m.setup(gpu, sc)
+        out["hbao", raster] = m.frame(view, Effect("ao", 0.5, "step")).resolve()
+        m.release()
+        m = Ldm(LdmParams(directions=16, resolution=32))
+        m.setup(gpu, sc)
+        if raster == "compute":
+            m.gbuf = GBuffer(gpu, m.geo, m.res, raster="compute")
+        out["ldm", raster] = m.frame(view, Effect("ao", 0.5, "step")).resolve()
+        m.release()
+    for name in ("hbao", "ldm"):
+        a, b = out[name, "hardware"], out[name, "compute"]
+        assert np.array_equal(a.mask, b.mask) and a.mask.sum() > 1000
+        assert np.abs(a.image - b.image).max() <= AO_TOL, name
