@@ -1,22 +1,13 @@
-// The hardware's coverage of one triangle in window coordinates, as measured per context by
-// methods/structures/splat.py fill_rule (docs/fast_builds.md, "The fill rule"): vertices snapped to
-// LS_SUBPIXEL_BITS of fixed point (round to nearest even), pixel centres, exact integer edge functions
-// (evaluated in doubles: exact for any image size), a centre exactly on an edge covered when that edge's
-// class (SPLAT_TOP / BOTTOM / LEFT / RIGHT) is included, zero area after snapping covering nothing.
-const int FR_ONE = 1 << LS_SUBPIXEL_BITS;
-const int FR_HALF = FR_ONE >> 1;
+// The hardware's coverage of a triangle of any size in window coordinates (the photon splats: up to
+// max_splat_px across, beyond the int32 range of gbuffer_fill_rule.glsl's edge functions): vertices snapped
+// to LS_SUBPIXEL_BITS of fixed point, the edge functions evaluated in doubles (exact for any image size),
+// the edge classes of gbuffer_fill_rule.glsl's sp_bias, zero area after snapping covering nothing.
+#include "gbuffer_fill_rule.glsl"
 
 struct FrTri { ivec2 f0, f1, f2; ivec2 lo, hi; int b0, b1, b2; bool ok; };
 
-// 0 when a centre exactly on this edge (direction d, the triangle ordered to positive area) is covered
-int fr_bias(ivec2 d) {
-    bool incl = d.y == 0 ? (d.x < 0 ? SPLAT_TOP != 0 : SPLAT_BOTTOM != 0)
-                         : (d.y < 0 ? SPLAT_LEFT != 0 : SPLAT_RIGHT != 0);
-    return incl ? 0 : 1;
-}
-
 FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2) {
-    const float S = float(FR_ONE);
+    const float S = float(SP_ONE);
     FrTri t;
     t.f0 = ivec2(roundEven(w0 * S));
     t.f1 = ivec2(roundEven(w1 * S));
@@ -25,13 +16,13 @@ FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2) {
     double area = double(a.x) * double(b.y) - double(a.y) * double(b.x);
     t.ok = area != 0.0lf;
     if (area < 0.0lf) { ivec2 s = t.f1; t.f1 = t.f2; t.f2 = s; }
-    t.b0 = fr_bias(t.f1 - t.f0);
-    t.b1 = fr_bias(t.f2 - t.f1);
-    t.b2 = fr_bias(t.f0 - t.f2);
+    t.b0 = sp_bias(t.f1 - t.f0);
+    t.b1 = sp_bias(t.f2 - t.f1);
+    t.b2 = sp_bias(t.f0 - t.f2);
     // pixels whose centre i * ONE + HALF lies in the snapped box (arithmetic shifts: floor for negatives)
     ivec2 fmin = min(t.f0, min(t.f1, t.f2)), fmax = max(t.f0, max(t.f1, t.f2));
-    t.lo = (fmin - FR_HALF + (FR_ONE - 1)) >> LS_SUBPIXEL_BITS;
-    t.hi = (fmax - FR_HALF) >> LS_SUBPIXEL_BITS;
+    t.lo = (fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS;
+    t.hi = (fmax - SP_HALF) >> LS_SUBPIXEL_BITS;
     return t;
 }
 
@@ -41,7 +32,7 @@ double fr_edge(ivec2 f, ivec2 g, ivec2 p) {
 }
 
 bool fr_covers(FrTri t, ivec2 pixel) {
-    ivec2 p = pixel * FR_ONE + FR_HALF;
+    ivec2 p = pixel * SP_ONE + SP_HALF;
     return t.ok && fr_edge(t.f0, t.f1, p) >= double(t.b0) && fr_edge(t.f1, t.f2, p) >= double(t.b1) &&
            fr_edge(t.f2, t.f0, p) >= double(t.b2);
 }
