@@ -65,6 +65,11 @@ Parameter                        Default   Paper    Meaning
 ``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
+``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
+                                                    +v_i only, the N directions of the upper hemisphere (ao:
+                                                    the maps facing away give nothing; rays: needs map_lookup = scan)
+``trace.walk``                   early     early    (ao, rays) early_stop: stop at x's depth (§4.1, pre-sorted lists);
+                                                    full: walk the whole list (unsorted lists' walk; same answers)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -112,6 +117,17 @@ class LdmTrace(ParamsBase):
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
                            "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
                            paper="paper")
+    query: str = param("two_way", "two_way: a map answers +v and -v from one walk (2N directions); one_way: "
+                       "+v only (N directions; the ao and rays effects, rays with map_lookup = scan)",
+                       choices=("two_way", "one_way"), paper="two_way")
+    walk: str = param("early_stop", "early_stop: the list walk ends at x's depth (pre-sorted lists); full: "
+                      "the whole list, nearest entry kept (as for unsorted lists; the same answers)",
+                      choices=("early_stop", "full"), paper="early_stop")
+
+    def defines(self) -> dict:
+        """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl)."""
+        return {**({"LDM_ONE_WAY": 1} if self.query == "one_way" else {}),
+                **({"LDM_FULL_WALK": 1} if self.walk == "full" else {})}
 
 
 @dataclass(frozen=True)
@@ -234,7 +250,7 @@ class Ldm(Method):
         if self._out_size != (w, h):
             self.out = self.res.texture("output", (w, h), 1, "f4")
             self._out_size = (w, h)
-        cs = self.gpu.compute(self.shader("ao.glsl"), self.ls.defines())
+        cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines()})
         cs["g_position"].value = 0
         cs["g_normal"].value = 1
         cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
@@ -252,10 +268,14 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _rays_defines(self) -> dict:
+        if self.params.trace.query == "one_way" and self.params.rays.map_lookup == "table":
+            raise LdbenchError("method 'ldm': trace.query = one_way needs rays.map_lookup = scan (the table "
+                               "pairs +v and -v)")
         if self.params.rays.map_lookup == "table" and self.lut_buf is None:
             self.lut_buf = self.res.buffer("ldm.map_table", nearest_axis_table(ldm_axes(self.params.directions),
                                                                                 LUT_RES))
-        return {**self.ls.defines(), **({"LDM_LUT": 1} if self.lut_buf is not None else {})}
+        return {**self.ls.defines(), **self.params.trace.defines(),
+                **({"LDM_LUT": 1} if self.lut_buf is not None else {})}
 
     def _rays(self, batch):
         if batch is None:
@@ -282,6 +302,9 @@ class Ldm(Method):
     def _indirect(self, view):
         from .indirect import IndirectLight
 
+        if self.params.trace.defines():
+            raise LdbenchError("method 'ldm': trace.query and trace.walk apply to the ao and rays effects only "
+                               "(the photon split traces both directions of every map)")
         if self.indirect is None:
             self.indirect = IndirectLight(self)
         with self.gpu.stage("gbuffer"):
