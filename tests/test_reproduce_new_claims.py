@@ -12,7 +12,8 @@ import pytest
 from ldbench.harness.cli import main
 from ldbench.reports.reproduce import FAILS, HOLDS, NOT_MEASURABLE, registry
 
-NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts")
+NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts",
+       "aalund2015-trace")
 VERDICTS = {HOLDS, FAILS, NOT_MEASURABLE}
 
 
