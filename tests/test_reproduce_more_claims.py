@@ -62,3 +62,50 @@ def test_trace_rows_select_the_modes():
     assert m["query-two-way"]["trace.query"] == "two_way" and m["query-one-way"]["trace.query"] == "one_way"
     assert m["walk-early-stop"]["trace.walk"] == "early_stop" and m["walk-full"]["trace.walk"] == "full"
     assert TRACE.claims[0].ratio == (0.0, 1.1)
+
+
+# ---------------------------------------------------------------- archer2019: 2,000 / 8,000 VPLs, 25 M rays in 20 ms
+
+T1 = get_entry("archer2019-table1")
+T3 = get_entry("archer2019-table3")
+AT_COUNTS = {"atrium": "At the paper's VPL counts (2,000 lit, ~20,000 raycast) raycasting is about 1 % of the frame: "
+                       "50–200× (Atrium)",
+             "rungholt": "At the paper's VPL counts (8,000 lit, ~20,000 raycast) raycasting is about 1 % of the "
+                         "frame: 50–200× (Rungholt)"}
+RATE = "Approximately 25 M raycasts in 20 ms at 2048² (Atrium): at least 0.63 G rays/s"
+
+
+def _claim_verdict(tmp_path, key, text, rows, scale="paper"):
+    records.write_results(rows, tmp_path)
+    res = evaluate(get_entry(key), records.read_results(tmp_path), scale)
+    return next(c["verdict"] for c in res["claims"] if c["text"] == text)
+
+
+@pytest.mark.parametrize("scene, frame, ray, verdict", [
+    ("atrium", 20.6, 0.15, HOLDS), ("atrium", 20.6, 1.0, FAILS), ("atrium", 60.0, 0.2, FAILS),
+    ("rungholt", 43.5, 0.4, HOLDS), ("rungholt", 43.5, 2.0, FAILS)])
+def test_archer2019_one_percent_at_the_papers_vpl_counts(tmp_path, scene, frame, ray, verdict):
+    lit = "atrium-2000" if scene == "atrium" else "rungholt-8000"
+    rows = [_row(T1, lit, t=frame, counters={"vpls": 1849}), _row(T1, f"{scene}-vpl-20000", t=ray)]
+    assert _claim_verdict(tmp_path, "archer2019-table1", AT_COUNTS[scene], rows) == verdict
+
+
+def test_archer2019_vpl_count_rows_are_their_own():
+    """The 16,384-VPL Total rows and the 2,000 / 8,000 rows select different runs (the VPL step)."""
+    m = {r["id"]: r["match"] for r in T1.rows}
+    assert m["atrium"]["params"]["indirect.vpl_step"] == 2 and m["atrium-2000"]["params"]["indirect.vpl_step"] == 6
+    assert m["rungholt-8000"]["params"]["indirect.vpl_step"] == 3
+    assert (256 // 6 + 1) ** 2 == 1849 and (256 // 3 + 1) ** 2 == 7396 and 141 ** 2 == 19881
+    assert m["atrium-vpl-20000"]["rsm"] == 141
+
+
+@pytest.mark.parametrize("rate, iqr, device, scale, verdict", [
+    (25.2e6 / 0.0202, 0.01, "nvidia", "paper", HOLDS),      # the paper's 2048² Atrium row: 1.25 G rays/s
+    (6.0e9, 0.01, "nvidia", "paper", HOLDS),                # a faster GPU: no upper limit
+    (0.3e9, 0.01, "nvidia", "paper", FAILS),
+    (0.64e9, 0.5, "nvidia", "paper", INCONCLUSIVE),         # ±2.5 % of the rate straddles 0.625 G
+    (1.25e9, 0.01, "cpu-software", "paper", NOT_MEASURABLE),
+    (1.25e9, 0.01, "nvidia", "ci", "not comparable at scale ci")])
+def test_archer2019_25_million_rays_in_20_ms(tmp_path, rate, iqr, device, scale, verdict):
+    rows = [_row(T3, "atrium-2048", t=20.0, iqr=iqr, device=device, scale=scale, rays_per_s=rate)]
+    assert _claim_verdict(tmp_path, "archer2019-table3", RATE, rows, scale) == verdict
