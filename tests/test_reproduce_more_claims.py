@@ -109,3 +109,41 @@ def test_archer2019_vpl_count_rows_are_their_own():
 def test_archer2019_25_million_rays_in_20_ms(tmp_path, rate, iqr, device, scale, verdict):
     rows = [_row(T3, "atrium-2048", t=20.0, iqr=iqr, device=device, scale=scale, rays_per_s=rate)]
     assert _claim_verdict(tmp_path, "archer2019-table3", RATE, rows, scale) == verdict
+
+
+# ---------------------------------------------------------------- yang2010 Fig. 4: '0 layers' and alpha blending
+
+COSTS = get_entry("yang2010-costs")
+ALPHA_FASTER = "Plain alpha blending is faster than capturing the lists alone ('0 layers')"
+ALPHA_WRONG = "…but alpha blending gives an incorrect image: all layers of the lists beat it in PSNR"
+
+
+def _costs_rows(alpha_t, build_t, alpha_psnr, all_psnr, device="nvidia", iqr=0.01):
+    return [_row(COSTS, "cap-2", t=build_t + 0.5, iqr=iqr, device=device, stages={"build": build_t, "resolve": 0.5},
+                 stage_iqr={"build": iqr, "resolve": iqr}),
+            _row(COSTS, "alpha", t=alpha_t, iqr=iqr, device=device, stages={"blend": alpha_t}, psnr=alpha_psnr),
+            _row(COSTS, "all-layers", t=build_t + 2.0, iqr=iqr, device=device, psnr=all_psnr)]
+
+
+@pytest.mark.parametrize("alpha_t, build_t, iqr, verdict", [(3.11, 5.59, 0.01, HOLDS), (6.0, 5.59, 0.01, FAILS),
+                                                             (5.5, 5.59, 0.2, INCONCLUSIVE)])
+def test_yang2010_alpha_blending_is_faster_than_zero_layers(tmp_path, alpha_t, build_t, iqr, verdict):
+    rows = _costs_rows(alpha_t, build_t, 30.0, 70.0, iqr=iqr)
+    assert _claim_verdict(tmp_path, "yang2010-costs", ALPHA_FASTER, rows) == verdict
+
+
+@pytest.mark.parametrize("alpha_psnr, all_psnr, verdict", [(31.9, 70.5, HOLDS), (70.5, 70.5, FAILS),
+                                                            (80.0, 70.5, FAILS)])
+def test_yang2010_alpha_blending_is_incorrect(tmp_path, alpha_psnr, all_psnr, verdict):
+    rows = _costs_rows(3.0, 5.0, alpha_psnr, all_psnr, device="cpu-software")  # PSNR: a verdict on a CPU
+    assert _claim_verdict(tmp_path, "yang2010-costs", ALPHA_WRONG, rows) == verdict
+    assert _claim_verdict(tmp_path / "t", "yang2010-costs", ALPHA_FASTER, rows) == NOT_MEASURABLE
+
+
+def test_yang2010_zero_layers_is_the_build_stage():
+    rows = {r["id"]: r for r in COSTS.rows}
+    assert rows["zero-layers"]["stage:build"] == pytest.approx(1000 / 179, abs=1e-3)
+    assert rows["alpha"]["time_ms"] == pytest.approx(1000 / 322, abs=1e-3)
+    assert rows["alpha"]["match"]["method"] == "alpha-blend"
+    c = next(c for c in COSTS.claims if c.text == ALPHA_FASTER)
+    assert (c.a, c.b, c.b_quantity) == ("alpha", "zero-layers", "stage:build")
