@@ -25,7 +25,8 @@
 // entry beyond the threshold, as an unsorted list needs: on sorted lists the answer is the same.
 // Query modes (trace.query): by default a map answers both +v and -v (§3.1, the two-way query);
 // LDM_ONE_WAY makes ldm_find_map choose among the N directions +v_k only (sigma = +1), as one-directional
-// maps would (the AO pass then skips the maps facing away from the normal: ao.glsl).
+// maps would, from its own full-cube table (LDM_LUT) or a scan (the AO pass then skips the maps facing away
+// from the normal: ao.glsl).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
 #include "layered.glsl"
@@ -76,16 +77,38 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 #if defined(LDM_LUT)
 layout(std430, binding = B_LDM_LUT) readonly buffer LdmLut { uvec4 ldm_lut[]; };
 uniform int ldm_lut_res;
+// The one-way table's row of d (methods/ldm/__init__.py one_way_axis_table): a full cube, 12 candidates
+// (3 uvec4) per cell; face 2a + (d_a < 0) of the dominant axis a, cell of (d_{a+1}, d_{a+2}) / |d_a|.
+int ldm_one_way_row(vec3 d, int res) {
+    vec3 ad = abs(d);
+    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
+    vec2 uv = vec2(d[(a + 1) % 3], d[(a + 2) % 3]) / ad[a];
+    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(res))), ivec2(0), ivec2(res - 1));
+    return ((2 * a + (d[a] < 0.0 ? 1 : 0)) * res + ij.x) * res + ij.y;
+}
 #endif
 uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     uint best = 0u;
     float bc = -1.0;
     sigma = 1.0;
-#if defined(LDM_ONE_WAY)
-    for (uint k = 0u; k < n_maps; ++k) {  // the nearest of the N directions +v_k (no table: it pairs +-v)
+#if defined(LDM_ONE_WAY)  // the nearest of the N directions +v_k (largest signed d.v)
+#if defined(LDM_LUT)
+    int row = ldm_one_way_row(d, ldm_lut_res);
+    for (int q = 0; q < 3; ++q) {
+        uvec4 cand = ldm_lut[3 * row + q];
+        for (int s = 0; s < 4; ++s) {
+            uint k = cand[s];
+            if (k == 0xFFFFFFFFu) return best;
+            float c = dot(d, ol_axes[k].v.xyz);
+            if (c > bc) { bc = c; best = k; }
+        }
+    }
+#else
+    for (uint k = 0u; k < n_maps; ++k) {
         float c = dot(d, ol_axes[k].v.xyz);
         if (c > bc) { bc = c; best = k; }
     }
+#endif
     return best;
 #endif
 #if defined(LDM_LUT)
