@@ -427,6 +427,9 @@ def _fmt(v, q=None) -> str:
     if v is None:
         return "–"
     unit = quantity(q)[1] if q else ""
+    if unit == "rays/s" and abs(v) >= 1e6:  # rates in M or G rays/s
+        big = abs(v) >= 1e9
+        return f"{v / (1e9 if big else 1e6):.3g} {'G' if big else 'M'} rays/s"
     if q in ("ssim", "flip") or (q == "structure_mb" and abs(v) < 1):
         s = f"{v:.3f}"
     elif q == "relmse":
