@@ -78,7 +78,7 @@ NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software (wall clo
 NOT_AT_SCALE = "not comparable at scale {scale}"  # a claim whose rows only mean something at other scales
 
 CPU_SOFTWARE = "cpu-software"
-TIME_QUANTITIES = ("time_ms",)  # with every stage:NAME: the quantities that get the timing rules
+TIME_QUANTITIES = ("time_ms", "rays_per_s")  # with every stage:NAME: the quantities that get the timing rules
 
 
 @dataclass(frozen=True)
@@ -344,7 +344,11 @@ def _float(v):
 
 def _noise(r, q: str = "time_ms"):
     """Timing noise of a row: its interquartile range of frame times (ms), 0 when unknown; for
-    ``stage:NAME`` (``stage:a+b``) the stages' IQRs (summed), the frame's when the row has none."""
+    ``stage:NAME`` (``stage:a+b``) the stages' IQRs (summed), the frame's when the row has none; for
+    ``rays_per_s`` (rays / frame time) the frame's relative IQR of the rate."""
+    if q == "rays_per_s":
+        rate, t, iqr = _float(r.get("rays_per_s")), _float(r.get("total_ms")), _float(r.get("total_ms_iqr"))
+        return rate * iqr / t if None not in (rate, t, iqr) and t > 0 else 0.0
     if q.startswith("stage:") and isinstance(r.get("stage_iqr"), dict):
         vals = [_float(r["stage_iqr"].get(n)) for n in q[6:].split("+")]
         if all(v is not None for v in vals):
@@ -425,6 +429,9 @@ def _fmt(v, q=None) -> str:
     if v is None:
         return "–"
     unit = quantity(q)[1] if q else ""
+    if unit == "rays/s" and abs(v) >= 1e6:  # rates in M or G rays/s
+        big = abs(v) >= 1e9
+        return f"{v / (1e9 if big else 1e6):.3g} {'G' if big else 'M'} rays/s"
     if q in ("ssim", "flip") or (q == "structure_mb" and abs(v) < 1):
         s = f"{v:.3f}"
     elif q == "relmse":
@@ -490,7 +497,8 @@ KIND_RULES = {
     "gap": "holds if a / b exceeds c / d",
 }
 TIMING_RULE = ("T: times are not measurable here on cpu-software (wall clock on shared cores, between-job spread up to "
-               "2.1×); on a GPU the noise is each row's IQR of frame times (a stage's own IQR for a stage time), "
+               "2.1×); on a GPU the noise is each row's IQR of frame times (a stage's own IQR for a stage time, the "
+               "frame's relative IQR for a rate), "
                "an order claim within the larger IQR is inconclusive")
 
 

@@ -1,5 +1,5 @@
 """The reproduce entries of claims that had none (reports/reproductions: niessner2010-fig7, -rays, -sec7;
-yang2010-costs; archer2019-layouts): each runs at --scale ci on llvmpipe, its table has every row with our
+yang2010-costs; archer2019-layouts; aalund2015-trace): each runs at --scale ci on llvmpipe, its table has every row with our
 value, and every claim gets a verdict (time claims on cpu-software: 'not measurable here' unless beyond the
 spread). The published numbers are checked against the papers' words."""
 from __future__ import annotations
@@ -12,7 +12,8 @@ import pytest
 from ldbench.harness.cli import main
 from ldbench.reports.reproduce import FAILS, HOLDS, NOT_MEASURABLE, registry
 
-NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts")
+NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts",
+       "aalund2015-trace")
 VERDICTS = {HOLDS, FAILS, NOT_MEASURABLE}
 
 

@@ -18,12 +18,22 @@
 // behind x. It is a hit at distance 0, not skipped: skipping it let rays escape through the adjacent
 // wall (bright lines along creases). ldm_crease = 0 is the plain rule (skip everything up to
 // max(s, 0) + bias); larger windows also catch small geometry just behind x (docs/rays.md).
+//
+// Walk modes (trace.walk, methods/ldm/__init__.py): by default the walk stops at x's depth, as soon as
+// the answer is known (aalund2015 §4.1: "the search can be terminated as soon as a geometric intersection
+// is found since the lists are pre-sorted"). LDM_FULL_WALK walks the whole list and keeps the nearest
+// entry beyond the threshold, as an unsorted list needs: on sorted lists the answer is the same.
+// Query modes (trace.query): by default a map answers both +v and -v (§3.1, the two-way query);
+// LDM_ONE_WAY makes ldm_find_map choose among the N directions +v_k only (sigma = +1), as one-directional
+// maps would, from its own full-cube table (LDM_LUT) or a scan (the AO pass then skips the maps facing away
+// from the normal: ao.glsl).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
 #include "layered.glsl"
 #include "ortho_layers.glsl"
 
 uniform float ldm_crease;  // world units (0 = no crease rule)
+#define LDM_FAR 3.0e38
 
 // Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
 // when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
@@ -37,6 +47,14 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
     float thr = max(s_self, -ldm_crease) + bias;
     uint list = ls_list(k, px, ol_size);
     uint bound = ls_bound(), steps = 0u;
+#if defined(LDM_FULL_WALK)
+    float nearest = LDM_FAR;
+    for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
+        float t = sigma > 0.0 ? ls_depth(i) - zx : zx - ls_depth(i);
+        if (t > thr) nearest = min(nearest, t);
+    }
+    return nearest < LDM_FAR ? max(nearest, 0.0) : -1.0;
+#endif
     if (sigma > 0.0) {
         for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
             float t = ls_depth(i) - zx;
@@ -59,11 +77,40 @@ float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
 #if defined(LDM_LUT)
 layout(std430, binding = B_LDM_LUT) readonly buffer LdmLut { uvec4 ldm_lut[]; };
 uniform int ldm_lut_res;
+// The one-way table's row of d (methods/ldm/__init__.py one_way_axis_table): a full cube, 12 candidates
+// (3 uvec4) per cell; face 2a + (d_a < 0) of the dominant axis a, cell of (d_{a+1}, d_{a+2}) / |d_a|.
+int ldm_one_way_row(vec3 d, int res) {
+    vec3 ad = abs(d);
+    int a = (ad.x >= ad.y && ad.x >= ad.z) ? 0 : (ad.y >= ad.z ? 1 : 2);
+    vec2 uv = vec2(d[(a + 1) % 3], d[(a + 2) % 3]) / ad[a];
+    ivec2 ij = clamp(ivec2(floor((uv + 1.0) * 0.5 * float(res))), ivec2(0), ivec2(res - 1));
+    return ((2 * a + (d[a] < 0.0 ? 1 : 0)) * res + ij.x) * res + ij.y;
+}
 #endif
 uint ldm_find_map(vec3 d, uint n_maps, out float sigma) {
     uint best = 0u;
     float bc = -1.0;
     sigma = 1.0;
+#if defined(LDM_ONE_WAY)  // the nearest of the N directions +v_k (largest signed d.v)
+#if defined(LDM_LUT)
+    int row = ldm_one_way_row(d, ldm_lut_res);
+    for (int q = 0; q < 3; ++q) {
+        uvec4 cand = ldm_lut[3 * row + q];
+        for (int s = 0; s < 4; ++s) {
+            uint k = cand[s];
+            if (k == 0xFFFFFFFFu) return best;
+            float c = dot(d, ol_axes[k].v.xyz);
+            if (c > bc) { bc = c; best = k; }
+        }
+    }
+#else
+    for (uint k = 0u; k < n_maps; ++k) {
+        float c = dot(d, ol_axes[k].v.xyz);
+        if (c > bc) { bc = c; best = k; }
+    }
+#endif
+    return best;
+#endif
 #if defined(LDM_LUT)
     uvec4 cand = ldm_lut[ol_table_row(d, ldm_lut_res)];
     for (int s = 0; s < 4; ++s) {

@@ -69,6 +69,11 @@ Parameter                        Default   Paper    Meaning
 ``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
+``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
+                                                    +v_i only, the N directions of the upper hemisphere (ao:
+                                                    the maps facing away give nothing; rays: the nearest +v_i)
+``trace.walk``                   early     early    (ao, rays) early_stop: stop at x's depth (§4.1, pre-sorted lists);
+                                                    full: walk the whole list (unsorted lists' walk; same answers)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -105,6 +110,42 @@ LUT_RES = 128
 FAR = 3.0e38
 
 
+ONE_WAY_SLOTS = 12  # candidates per cell of the one-way table (3 uvec4): the 9 samples never need more
+
+
+def one_way_axis_table(axes: np.ndarray, res: int = LUT_RES) -> np.ndarray:
+    """Candidate nearest +v_k (largest signed d·v: ``trace.query = one_way``) per cell of the full cube:
+    (6·res², :data:`ONE_WAY_SLOTS`) uint32, unused slots 0xFFFFFFFF. Row of d: face 2a + (d_a < 0) of its
+    dominant axis a, cell of (d_{a+1}, d_{a+2}) / |d_a| (``ldm_one_way_row`` in methods/glsl/ldm_trace.glsl).
+    As :func:`~ldbench.methods.directions.nearest_axis_table`: each cell lists the nearest axes of a 3 × 3
+    grid of directions over it, so a lookup finds the true nearest unless a sliver of its Voronoi cell
+    holds none of the samples (then the second nearest)."""
+    from scipy.spatial import cKDTree
+
+    axes = np.asarray(axes, np.float64).reshape(-1, 3)
+    r = int(res)
+    t = np.arange(r + 1) / r * 2.0 - 1.0
+    grid = [t[:-1], (t[:-1] + t[1:]) * 0.5, t[1:]]
+    tree = cKDTree(axes)  # on the unit sphere, nearest = largest d·v
+    out = np.full((6 * r * r, ONE_WAY_SLOTS), 0xFFFFFFFF, np.uint32)
+    for a in range(3):
+        for s in (1.0, -1.0):
+            best = []
+            for gi in grid:
+                for gj in grid:
+                    P, Q = np.meshgrid(gi, gj, indexing="ij")
+                    d = np.zeros((r * r, 3))
+                    d[:, a], d[:, (a + 1) % 3], d[:, (a + 2) % 3] = s, P.reshape(-1), Q.reshape(-1)
+                    best.append(tree.query(d / np.linalg.norm(d, axis=1, keepdims=True))[1])
+            b = np.sort(np.stack(best, 1), 1)
+            first = np.concatenate([np.ones((len(b), 1), bool), b[:, 1:] != b[:, :-1]], 1)
+            rank = np.cumsum(first, 1) - 1
+            rows, cols = np.nonzero(first)
+            face = 2 * a + (s < 0)
+            out[face * r * r + rows, rank[rows, cols]] = b[rows, cols]
+    return out
+
+
 @dataclass(frozen=True)
 class LdmTrace(ParamsBase):
     """The map query every effect traces with (``trace.``)."""
@@ -116,6 +157,17 @@ class LdmTrace(ParamsBase):
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
                            "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
                            paper="paper")
+    query: str = param("two_way", "two_way: a map answers +v and -v from one walk (2N directions); one_way: "
+                       "+v only (N directions; the ao and rays effects)",
+                       choices=("two_way", "one_way"), paper="two_way")
+    walk: str = param("early_stop", "early_stop: the list walk ends at x's depth (pre-sorted lists); full: "
+                      "the whole list, nearest entry kept (as for unsorted lists; the same answers)",
+                      choices=("early_stop", "full"), paper="early_stop")
+
+    def defines(self) -> dict:
+        """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl)."""
+        return {**({"LDM_ONE_WAY": 1} if self.query == "one_way" else {}),
+                **({"LDM_FULL_WALK": 1} if self.walk == "full" else {})}
 
 
 @dataclass(frozen=True)
@@ -248,7 +300,7 @@ class Ldm(Method):
         if self._out_size != (w, h):
             self.out = self.res.texture("output", (w, h), 1, "f4")
             self._out_size = (w, h)
-        cs = self.gpu.compute(self.shader("ao.glsl"), self.ls.defines())
+        cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines()})
         cs["g_position"].value = 0
         cs["g_normal"].value = 1
         cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
@@ -266,10 +318,14 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _rays_defines(self) -> dict:
-        if self.params.rays.map_lookup == "table" and self.lut_buf is None:
-            self.lut_buf = self.res.buffer("ldm.map_table", nearest_axis_table(ldm_axes(self.params.directions),
-                                                                                LUT_RES))
-        return {**self.ls.defines(), **({"LDM_LUT": 1} if self.lut_buf is not None else {})}
+        p = self.params
+        if p.rays.map_lookup == "table" and self.lut_buf is None:
+            axes = ldm_axes(p.directions)
+            table = (nearest_axis_table(axes, LUT_RES) if p.trace.query == "two_way"
+                     else one_way_axis_table(axes, LUT_RES))
+            self.lut_buf = self.res.buffer("ldm.map_table", table)
+        return {**self.ls.defines(), **self.params.trace.defines(),
+                **({"LDM_LUT": 1} if self.lut_buf is not None else {})}
 
     def _rays(self, batch):
         if batch is None:
@@ -296,6 +352,9 @@ class Ldm(Method):
     def _indirect(self, view):
         from .indirect import IndirectLight
 
+        if self.params.trace.defines():
+            raise LdbenchError("method 'ldm': trace.query and trace.walk apply to the ao and rays effects only "
+                               "(the photon split traces both directions of every map)")
         if self.indirect is None:
             self.indirect = IndirectLight(self)
         with self.gpu.stage("gbuffer"):

@@ -3,7 +3,8 @@
 // the camera-facing normal. V = 1 - rho(t) (core/effects/ao.py), weighted by cos(theta).
 // estimator 0 ("ratio"):  A = sum V cos / sum cos   (exact when nothing is hit)
 // estimator 1 ("paper"):  A = 2/N sum V cos          (aalund2015 eq. 2)
-// Background pixels hold 1.
+// Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way): only the maps whose +v_k lies in the
+// hemisphere contribute (about half of them), the sums run over those.
 #include "ldm_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -35,6 +36,9 @@ void main() {
         float c = dot(n, ol_axes[k].v.xyz);
         float ct = abs(c);
         if (ct < 1e-6) continue;
+#if defined(LDM_ONE_WAY)
+        if (c < 0.0) continue;  // a one-way map answers +v_k only: the maps facing away give no direction
+#endif
         float t = ldm_trace(k, c > 0.0 ? 1.0 : -1.0, x, n, bias);
         float V = t >= 0.0 ? 1.0 - rho(t) : 1.0;
         sum_vc += V * ct;

@@ -26,7 +26,7 @@ void main() {   // a 2D grid of workgroups (methods/scan.py groups_2d): any numb
     float sigma;
     uint k = ldm_find_map(d, n_maps, sigma);
 #if defined(LDM_ANGLE_STATS)
-    ldm_angle[r] = degrees(acos(clamp(abs(dot(d, ol_axes[k].v.xyz)), 0.0, 1.0)));
+    ldm_angle[r] = degrees(acos(clamp(sigma * dot(d, ol_axes[k].v.xyz), -1.0, 1.0)));
     return;
 #endif
     float t = ldm_trace(k, sigma, o, n, bias);

@@ -1,0 +1,162 @@
+"""The LDM trace modes (``trace.query``, ``trace.walk``; methods/glsl/ldm_trace.glsl): the full walk of
+unsorted lists answers exactly like the early stop on pre-sorted lists (AO images and per-ray t, both
+layouts); the AO of either query equals the sum over the maps it is meant to use, rebuilt from the
+``rays`` effect's answers along the maps' axes (two_way: every map, along the side of the normal; one_way:
+only the maps whose +v faces the normal); one-way rays are answered by the nearest +v axis."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from testkit import cornell_like as _cornell_like
+from ldbench.core.effects import Effect
+from ldbench.core.effects.rays import RayBatch, RaysParams
+from ldbench.core.errors import LdbenchError
+from ldbench.methods.base import View
+from ldbench.methods.directions import ldm_axes
+from ldbench.methods.ldm import Ldm, LdmParams
+
+N, RES, SIZE = 24, 48, 40
+EFFECT = Effect("ao", d_max=float("inf"), falloff="step")
+
+
+def scene():
+    return _cornell_like(light=False)
+
+
+def run(gpu, sc, effect, batch=None, **params):
+    m = Ldm(LdmParams.from_dict({"directions": N, "resolution": RES, **params}))
+    m.setup(gpu, sc)
+    try:
+        r = m.frame(View(sc.camera, SIZE, SIZE), effect, batch).resolve()
+        gb = m.gbuf.read() if batch is None else None
+    finally:
+        m.release()
+    return r, gb
+
+
+def rays_batch(sc, size=24, k=2):
+    from ldbench.references.rays import make_batch
+
+    return make_batch(sc, size, size, RaysParams(rays_per_pixel=k), 0)
+
+
+def axis_batch(o, n, d) -> RayBatch:
+    f4 = lambda a: np.ascontiguousarray(a, np.float32)  # noqa: E731
+    return RayBatch(f4(o), f4(d), f4(np.full(len(o), np.inf)), f4(n), np.zeros(len(o), np.uint32), 1, 1,
+                    "diffuse", False)
+
+
+@pytest.mark.parametrize("layout", ["linked", "linear"])
+def test_full_walk_equals_early_stop_on_sorted_lists(gpu, layout):
+    sc = scene()
+    eff = Effect("ao", d_max=0.8, falloff="quadratic")
+    base, _ = run(gpu, sc, eff, **{"structure.layout": layout})
+    full, _ = run(gpu, sc, eff, **{"structure.layout": layout, "trace.walk": "full"})
+    assert base.counters["max_list_length"] >= 4
+    assert np.array_equal(full.image, base.image)
+    assert 0.2 < float(base.image[..., 0].mean()) < 0.99  # occlusion present: the test can tell
+    batch = rays_batch(sc)
+    tb = run(gpu, sc, Effect("rays"), batch, **{"structure.layout": layout})[0].arrays["t"]
+    tf = run(gpu, sc, Effect("rays"), batch, **{"structure.layout": layout, "trace.walk": "full"})[0].arrays["t"]
+    assert np.array_equal(tf, tb)
+    assert np.isfinite(tb).mean() > 0.5
+
+
+def test_full_walk_on_unsorted_insert_and_one_way(gpu):
+    """The full walk with the one-way query too; and on lists built unsorted then sorted."""
+    sc = scene()
+    a, _ = run(gpu, sc, EFFECT, **{"trace.query": "one_way"})
+    b, _ = run(gpu, sc, EFFECT, **{"trace.query": "one_way", "trace.walk": "full",
+                                   "structure.sorted_insert": False})
+    assert np.array_equal(a.image, b.image)
+
+
+@pytest.mark.parametrize("query", ["two_way", "one_way"])
+def test_ao_is_the_sum_over_the_maps_of_its_query(gpu, query):
+    """AO (d_max = inf, step) = Σ_used cos·[miss] / Σ_used cos, with each map's answer from the rays
+    effect along exactly that map's axis (two_way rays, scan: the map itself answers)."""
+    sc = scene()
+    img, (pos, nrm, _) = run(gpu, sc, EFFECT, **{"trace.query": query})
+    sel = pos[..., 3] > 0.5
+    x = pos[..., :3][sel]
+    n = nrm[..., :3][sel]
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    v = ldm_axes(N).astype(np.float32)
+    c = n @ v.T  # (P, N)
+    use = np.abs(c) >= 1e-6
+    if query == "one_way":
+        use &= c >= 0
+    sign = np.where(c > 0, 1.0, -1.0)
+    p_i, k_i = np.nonzero(use)
+    d = v[k_i] * sign[p_i, k_i, None]
+    t = run(gpu, sc, Effect("rays"), axis_batch(x[p_i], n[p_i], d), **{"rays.map_lookup": "scan"})[0].arrays["t"]
+    miss = ~np.isfinite(t)
+    w = np.abs(c[p_i, k_i])
+    num = np.bincount(p_i, w * miss, minlength=len(x))
+    den = np.bincount(p_i, w, minlength=len(x))
+    want = np.where(den > 0, num / np.maximum(den, 1e-30), 1.0)
+    got = img.image[..., 0][sel]
+    close = np.abs(got - want) < 1e-4
+    assert close.mean() > 0.99, close.mean()
+    if query == "one_way":  # the ceiling sees no +v axis: A = 1 there; the floor uses every map
+        assert (den == 0).any() and (want[den == 0] == 1.0).all()
+
+
+def test_one_way_rays_take_the_nearest_plus_axis(gpu):
+    sc = scene()
+    batch = rays_batch(sc)
+    v = ldm_axes(N).astype(np.float32)
+    t1, = (run(gpu, sc, Effect("rays"), batch, **{"trace.query": "one_way", "rays.map_lookup": "scan"})[0]
+           .arrays["t"],)
+    k = np.argmax(batch.direction @ v.T, axis=1)
+    snapped = axis_batch(batch.origin, batch.normal, v[k])
+    t2 = run(gpu, sc, Effect("rays"), snapped, **{"rays.map_lookup": "scan"})[0].arrays["t"]
+    ok = (batch.normal * v[k]).sum(1) >= 0  # else the snapped ray points into its own surface (t = 0)
+    same = (t1 == t2) | (np.isinf(t1) & np.isinf(t2))
+    assert same[ok].mean() > 0.999, same[ok].mean()
+    two = run(gpu, sc, Effect("rays"), batch, **{"rays.map_lookup": "scan"})[0].arrays["t"]
+    assert (np.isfinite(two) != np.isfinite(t1)).mean() > 0.02  # the mode changes answers
+
+
+def test_one_way_table_finds_the_nearest_plus_axis():
+    """The full-cube one-way table's best candidate is the nearest +v (largest signed d·v) for all but a
+    sliver of directions, including those pointing away from every axis (all axes have y ≥ 0)."""
+    from ldbench.methods.ldm import LUT_RES, one_way_axis_table
+
+    v = ldm_axes(128)
+    table = one_way_axis_table(v, LUT_RES)
+    d = np.random.default_rng(3).normal(size=(20000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    ad = np.abs(d)
+    a = np.where((ad[:, 0] >= ad[:, 1]) & (ad[:, 0] >= ad[:, 2]), 0, np.where(ad[:, 1] >= ad[:, 2], 1, 2))
+    i = np.arange(len(d))
+    uv = np.stack([d[i, (a + 1) % 3], d[i, (a + 2) % 3]], 1) / ad[i, a][:, None]
+    ij = np.clip(np.floor((uv + 1.0) * 0.5 * LUT_RES).astype(int), 0, LUT_RES - 1)
+    row = ((2 * a + (d[i, a] < 0)) * LUT_RES + ij[:, 0]) * LUT_RES + ij[:, 1]
+    cand = table[row].astype(np.int64)
+    dots = np.where(cand != 0xFFFFFFFF, np.einsum("nk,nsk->ns", d, v[np.minimum(cand, len(v) - 1)]), -np.inf)
+    got = cand[i, dots.argmax(1)]
+    want = (d @ v.T).argmax(1)
+    assert (got == want).mean() > 0.999, (got == want).mean()
+    assert (d[:, 1] < -0.5).sum() > 1000  # directions below every axis were among them
+
+
+def test_one_way_rays_table_equals_the_scan_and_indirect_refuses_the_modes(gpu):
+    sc = scene()
+    batch = rays_batch(sc)
+    t = {lk: run(gpu, sc, Effect("rays"), batch, **{"trace.query": "one_way", "rays.map_lookup": lk})[0].arrays["t"]
+         for lk in ("table", "scan")}
+    same = (t["table"] == t["scan"]) | (np.isinf(t["table"]) & np.isinf(t["scan"]))
+    assert same.mean() > 0.999, same.mean()
+    with pytest.raises(LdbenchError, match="ao and rays effects only"):
+        run(gpu, sc, Effect("indirect"), **{"trace.walk": "full"})
+
+
+def test_defaults_are_the_papers_and_unchanged():
+    p = LdmParams()
+    assert (p.trace.query, p.trace.walk) == ("two_way", "early_stop") and p.trace.defines() == {}
+    assert LdmParams.from_dict({"trace.query": "one_way", "trace.walk": "full"}).trace.defines() == {
+        "LDM_ONE_WAY": 1, "LDM_FULL_WALK": 1}
+    with pytest.raises(LdbenchError):
+        LdmParams.from_dict({"trace.walk": "sometimes"})
