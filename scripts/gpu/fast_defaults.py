@@ -36,7 +36,8 @@ ROWS = {
                                          "splat+sort": ["--set", "cdi-vpl.structure.source=splat"]}),
     "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
                                          "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
-    "hbao": ("hbao", "ao", D_MAX, {"default": []}),
+    "hbao": ("hbao", "ao", D_MAX, {"hardware G-buffer": ["--set", "hbao.gbuffer=hardware"],
+                                   "compute G-buffer": ["--set", "hbao.gbuffer=compute"]}),
     "ldi": ("ldi", "indirect", ["--set", "ldi.directions=96", "--set", "ldi.resolution=128"],
             {"paper": ["--set", "ldi.preset=paper"], "default": []}),
 }
