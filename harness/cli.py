@@ -76,7 +76,8 @@ def _methods(args):
     for name, cls in registry().items():
         also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
         print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
-        print(cls.Params.table())
+        table = cls.Params.table()
+        print(table or "  (no parameters)")
     return 0
 
 
