@@ -138,6 +138,20 @@ def test_compute_equals_hardware(gpu, hard, max_pixels):
             assert large > geo.triangles // 2
 
 
+def test_resize(gpu, hard):
+    """A new image size reallocates the visibility buffer and the textures (48² after 64²)."""
+    geo = hard[0]
+    hw = GBuffer(gpu, geo, gpu.resources("hw48."))
+    g = GBuffer(gpu, geo, gpu.resources("c48."), raster="compute")
+    g.render(View(VIEWS[1], W, W))
+    view = View(VIEWS[1], 48, 40)
+    hw.render(view)
+    g.render(view)
+    out = g.read()
+    assert out[0].shape == (40, 48, 4)
+    compare(hw.read(), out, np.array(VIEWS[1].origin), hw.view_proj(view))
+
+
 def test_scene_has_the_hard_cases(gpu, hard):
     """The straight view sees both grid materials (one of them flipped), the floor, the background and the
     first of the coincident pair (the smaller triangle id, as on the hardware)."""
