@@ -55,11 +55,13 @@ class SceneGeometry:
         return self.gpu.ctx.vertex_array(program, [(pos, "3f", "in_position")], index_buffer=idx,
                                          index_element_size=4)
 
-    def vao(self, program):
-        """A vertex array binding this geometry to ``program`` (attributes it lacks are skipped)."""
+    def vao(self, program, index_buffer=None):
+        """A vertex array binding this geometry to ``program`` (attributes it lacks are skipped);
+        ``index_buffer``: uint32 indices into the triangle list (a subset of its triangles)."""
         used = [(a, k) for a, k in VERTEX_ATTRS if a in program]
         fmt = " ".join(f"{k}f" if (a, k) in used else f"{4 * k}x" for a, k in VERTEX_ATTRS)
-        return self.gpu.ctx.vertex_array(program, [(self.vbo, fmt, *[a for a, _ in used])])
+        return self.gpu.ctx.vertex_array(program, [(self.vbo, fmt, *[a for a, _ in used])],
+                                         index_buffer=index_buffer, index_element_size=4)
 
     def near_far(self, eye: np.ndarray, forward: np.ndarray) -> tuple[float, float]:
         """Clip planes enclosing the scene bounds as seen from ``eye`` along ``forward``."""
@@ -118,8 +120,7 @@ class GBuffer:
         cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)
         cmd[1], cmd[2] = 1, LARGE_CMD_WORDS  # one instance; the indices follow the command
         self.large.write(cmd.tobytes())
-        self.vao = gpu.ctx.vertex_array(self.large_prog, [(geometry.vbo, "3f 16x", "in_position")],
-                                        index_buffer=self.large, index_element_size=4)
+        self.vao = geometry.vao(self.large_prog, index_buffer=self.large)
 
     def _allocate(self, w, h):
         r = self.res

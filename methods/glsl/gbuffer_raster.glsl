@@ -10,6 +10,9 @@
 // the plane through the three vertices at the pixel centre, through the snapped ones with
 // SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones (llvmpipe), as the hardware interpolates.
 //
+// Pass 1 finds a fragment by its depth bits, so the depth is `precise` (no contraction or reordering that
+// could differ between the two passes, e.g. after the compiler unswitched the loop on vis_pass).
+//
 // Large triangles: a window bounding box wider or taller than 64 pixels (int32 edge functions) or with
 // more than max_pixels pixel centres in the viewport is appended by pass 0 to gb_large, the index list
 // of one indirect draw (gb_cmd, gb_cmd[0] counts the indices) that the hardware rasterizes in both
@@ -91,7 +94,8 @@ void gb_triangle(uint t) {
         for (int x = i0.x; x <= i1.x; ++x) {
             ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
             if (sp_edge(e0, f0, p) < b0 || sp_edge(e1, f1, p) < b1 || sp_edge(e2, f2, p) < b2) continue;
-            vis_fragment(t, ivec2(x, y), z0 + dot(dz, vec2(x, y) + 0.5 - w0));
+            precise float z = z0 + dot(dz, vec2(x, y) + 0.5 - w0);   // the same bits in both passes
+            vis_fragment(t, ivec2(x, y), z);
         }
     }
 }

@@ -22,8 +22,6 @@ from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import GLSL_DIR
 
-from ldbench.methods.gbuffer import VERTEX_ATTRS
-
 from .core import B_ALBEDO, fill_uint
 from .sources import FragmentSource, Raster
 
@@ -157,11 +155,7 @@ class Splat(FragmentSource):
     def _large_vao(self, prog):
         key = id(prog)
         if key not in self._vaos:
-            used = [(a, k) for a, k in VERTEX_ATTRS if a in prog]
-            fmt = " ".join(f"{k}f" if (a, k) in used else f"{4 * k}x" for a, k in VERTEX_ATTRS)
-            self._vaos[key] = self.s.gpu.ctx.vertex_array(
-                prog, [(self.s.geo.vbo, fmt, *[a for a, _ in used])], index_buffer=self.large,
-                index_element_size=4)
+            self._vaos[key] = self.s.geo.vao(prog, index_buffer=self.large)
         return self._vaos[key]
 
     def run(self, extra: dict, capacity: int):

@@ -45,18 +45,25 @@ def passes(g: GBuffer, view, vp):
     return out + [("resolve", lambda: g.resolve(view, vp))]
 
 
-def differences(ref, out, eye) -> str:
+def differences(ref, out, eye, vp) -> str:
+    """How far the compute G-buffer's textures are from the hardware's (``out`` and ``ref`` as
+    GBuffer.read): coverage, pixels showing another triangle (normal or material), window-depth gaps in
+    steps of 2^-24, position errors over the eye distance."""
     (hp, hn, _), (cp, cn, _) = ref, out
     hm, cm = hp[..., 3] > 0.5, cp[..., 3] > 0.5
     both = hm & cm
-    tri = both & np.any(hn != cn, -1)
-    d = np.linalg.norm(hp[..., :3] - eye, axis=-1)
-    ok = both & ~tri
-    err = (np.abs(hp[..., :3] - cp[..., :3]).max(-1)[ok] / d[ok]).max() if ok.any() else 0.0
-    gap = np.abs(d - np.linalg.norm(cp[..., :3] - eye, axis=-1))[tri] / d[tri]
-    return (f"covered {int(hm.sum())}: {int((hm != cm).sum())} by one raster only, {int(tri.sum())} another triangle "
-            f"(depth gap over distance: max {gap.max() if tri.any() else 0:.3g}), position error over distance "
-            f"max {err:.3g}")
+
+    def zwin(p):
+        h = np.concatenate([p[:, :3].astype(np.float64), np.ones((len(p), 1))], 1) @ vp.T
+        return h[:, 2] / h[:, 3] * 0.5 + 0.5
+
+    gap = np.abs(zwin(hp[both]) - zwin(cp[both])) * 2.0 ** 24
+    tri = np.any(hn[both] != cn[both], -1)
+    err = np.abs(hp[both][:, :3] - cp[both][:, :3]).max(1) / np.linalg.norm(hp[both][:, :3] - eye, axis=1)
+    q = (lambda a: f"max {a.max():.3g}, 99.9% {np.percentile(a, 99.9):.3g}") if both.any() else (lambda a: "-")
+    return (f"covered {int(hm.sum())}: {int((hm != cm).sum())} by one raster only, {int(tri.sum())} another "
+            f"triangle (their depth gap max {gap[tri].max() if tri.any() else 0:.3g} steps); depth gap {q(gap)} "
+            f"steps of 2^-24; position error over distance {q(err)}")
 
 
 def main(argv=None):
@@ -90,7 +97,7 @@ def main(argv=None):
                 split.setdefault(name, []).append(timed(gpu, fn))
         print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}, {g.large_triangles()} triangles to the "
               f"hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
-        print("          " + differences(ref, g.read(), np.array(scene.camera.origin)))
+        print("          " + differences(ref, g.read(), np.array(scene.camera.origin), g.view_proj(view)))
 
 
 if __name__ == "__main__":
