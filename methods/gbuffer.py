@@ -80,6 +80,16 @@ def mat_bytes(m: np.ndarray) -> bytes:
 
 
 RASTERS = ("hardware", "compute")
+
+
+def gbuffer_param(default: str = "compute"):
+    """The ``gbuffer`` parameter of an adapter that renders the camera G-buffer (hbao, gtao, ldm): which
+    raster fills it (:class:`GBuffer`); both give the same textures (docs/gbuffer.md)."""
+    from ldbench.core.params import param
+
+    return param(default, "the camera G-buffer's raster: compute (a visibility buffer rasterized in compute "
+                 "shaders, then resolved) or hardware (one raster pass); the same textures (docs/gbuffer.md)",
+                 choices=RASTERS, paper="hardware")
 GROUP_LIMIT = 65535
 
 

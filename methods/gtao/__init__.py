@@ -31,6 +31,7 @@ Parameter           Default  Meaning
 ``denoise_passes``  1        3×3 edge-aware denoise passes (XeGTAO "High": 1)
 ``denoise_beta``    1.2      weight of the centre pixel in the denoise (XeGTAO's DenoiseBlurBeta)
 ``seed``            0        offset of the R2 noise sequence
+``gbuffer``         compute  the G-buffer's raster: ``compute`` or ``hardware`` (docs/gbuffer.md; the same textures)
 ==================  =======  ==========================================================================
 """
 from __future__ import annotations
@@ -43,7 +44,7 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
 from ldbench.methods.base import Method, Result
-from ldbench.methods.gbuffer import mat_bytes
+from ldbench.methods.gbuffer import gbuffer_param, mat_bytes
 from ldbench.methods.uniforms import set_uniforms
 
 FALLOFF_MODE = {"step": 0, "quadratic": 1}
@@ -66,6 +67,7 @@ class GTAOParams(ParamsBase):
     denoise_passes: int = param(1, "3x3 edge-aware denoise passes", lo=0, hi=8, paper=1)
     denoise_beta: float = param(1.2, "weight of the centre pixel in the denoise", lo=0.0, hi=100.0, paper=1.2)
     seed: int = param(0, "offset of the R2 noise sequence", lo=0, hi=2**31 - 1)
+    gbuffer: str = gbuffer_param()
 
 
 _set = set_uniforms  # the shared helper (methods/uniforms.py)
@@ -79,7 +81,7 @@ class GTAO(Method):
 
     def setup(self, gpu, scene):
         p = self.params
-        self.setup_scene(gpu, scene)
+        self.setup_scene(gpu, scene, gbuffer=self.params.gbuffer)
         self.prog = gpu.compute(self.shader("gtao.glsl"))
         self.denoise_prog = gpu.compute(self.shader("denoise.glsl"))
         _set(self.prog, slices=p.slices, steps=p.steps, distribution=p.distribution,

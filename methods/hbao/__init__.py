@@ -75,8 +75,8 @@ Parameter           Default  Meaning
 ``blur_radius``     2        blur half-width in pixels (σ = (radius + 1)/2)
 ``blur_sharpness``  40       inverse relative tolerance of the blur's tangent-plane distance term
 ``seed``            0        seed of the 4×4 rotation/jitter texture
-``gbuffer``                  the G-buffer's raster: ``hardware`` (the default) or ``compute`` (docs/gbuffer.md;
-                             the same textures, for GPUs whose graphics raster is slow)
+``gbuffer``         compute  the G-buffer's raster: ``compute`` or ``hardware`` (docs/gbuffer.md; the same
+                             textures, the compute one much faster where the graphics raster is slow)
 ==================  =======  ==========================================================================
 """
 from __future__ import annotations
@@ -91,7 +91,7 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
 from ldbench.methods.base import Method, Result
-from ldbench.methods.gbuffer import RASTERS, mat_bytes
+from ldbench.methods.gbuffer import gbuffer_param, mat_bytes
 from ldbench.methods.uniforms import set_uniforms
 
 INTEGRALS = ("hbao", "cosine")
@@ -119,8 +119,7 @@ class HBAOParams(ParamsBase):
     blur_sharpness: float = param(40.0, "inverse relative tolerance of the blur's plane-distance term",
                                   lo=0.0, hi=1e4)
     seed: int = param(0, "seed of the 4x4 rotation/jitter texture", lo=0)
-    gbuffer: str = param("hardware", "the G-buffer's raster: hardware, or compute (a visibility buffer rasterized "
-                         "in compute shaders; the same textures, docs/gbuffer.md)", choices=RASTERS)
+    gbuffer: str = gbuffer_param()
 
     def bias_degrees(self) -> float:
         return DEFAULT_BIAS_DEG[self.integral] if self.angle_bias < 0 else self.angle_bias

@@ -52,6 +52,7 @@ Parameter                        Default   Paper    Meaning
 ``structure.layout``             linked    linked   layered structure: linked (lists) | linear (arrays)
 ``directions``                   128       512      number of LDMs (axes; each answers ±v)
 ``resolution``                   128       200, 50  texels per side of each LDM
+``gbuffer``                      compute            camera G-buffer: compute | hardware raster (the same textures)
 ``trace.bias``                   0.25               self-intersection bias along the ray, in LDM texels
 ``trace.crease``                 0.5       0        crease window behind the point, in texels (methods/glsl/ldm_trace.glsl)
 ``structure.pool``               lazy               pool sizing: grow | count | fixed | lazy (count: linked only;
@@ -100,6 +101,7 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, Preset, group, param
 from ldbench.methods.base import Method, Result
+from ldbench.methods.gbuffer import gbuffer_param
 from ldbench.methods.directions import ldm_axes, nearest_axis_table
 from ldbench.methods.invariants import layered_invariants
 from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
@@ -218,6 +220,7 @@ LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorte
 class LdmParams(ParamsBase):
     directions: int = param(128, "number of LDMs (axes; each answers +v and -v)", lo=1, hi=4096, paper=512)
     resolution: int = param(128, "texels per side of each LDM", lo=4, hi=4096, paper="200 (Fig. 8), 50 (Fig. 9)")
+    gbuffer: str = gbuffer_param()
     structure: StructureSpec = group(StructureSpec, "the N maps as one layered structure", expose=LDM_STRUCTURE,
                                      choices={"source": ("raster", "one_pass", "splat")},
                                      paper={"layout": "linked", "source": "raster", "sorted_insert": True},
@@ -258,7 +261,7 @@ class Ldm(Method):
 
     def setup(self, gpu, scene):
         p = self.params
-        self.setup_scene(gpu, scene)
+        self.setup_scene(gpu, scene, gbuffer=p.gbuffer)
         self.centre, self.radius = bounding_sphere(scene)
         axes = ldm_axes(p.directions)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)

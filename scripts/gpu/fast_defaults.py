@@ -28,16 +28,15 @@ FIG8 = ["--set", "ldm.directions=512", "--set", "ldm.resolution=200"]
 FIG10 = FIG8 + ["--set", "ldm.indirect.photons=100", "--set", "ldm.indirect.footprint_scale=1.0"]
 #: row -> (method, effect, common args, {label: extra args}); the first label is "before"
 ROWS = {
-    "fig8": ("ldm", "ao", D_MAX + FIG8, {"paper": ["--set", "ldm.preset=paper"], "default": [],
-                                         "default+aggregate": ["--set", "ldm.structure.aggregate=true"]}),
+    "fig8": ("ldm", "ao", D_MAX + FIG8, {"paper": ["--set", "ldm.preset=paper", "--set", "ldm.gbuffer=hardware"],
+                                         "default": []}),
     "cdi": ("cdi-vpl", "vpl_range", [], {"paper": ["--set", "cdi-vpl.preset=paper"], "default": [],
                                          "default, max_list 64": ["--set", "cdi-vpl.structure.max_list=64"],
                                          "default, max_list 128": ["--set", "cdi-vpl.structure.max_list=128"],
                                          "splat+sort": ["--set", "cdi-vpl.structure.source=splat"]}),
     "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
                                          "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
-    "hbao": ("hbao", "ao", D_MAX, {"hardware G-buffer": ["--set", "hbao.gbuffer=hardware"],
-                                   "compute G-buffer": ["--set", "hbao.gbuffer=compute"]}),
+    "hbao": ("hbao", "ao", D_MAX, {"hardware G-buffer": ["--set", "hbao.gbuffer=hardware"], "default": []}),
     "ldi": ("ldi", "indirect", ["--set", "ldi.directions=96", "--set", "ldi.resolution=128"],
             {"paper": ["--set", "ldi.preset=paper"], "default": []}),
 }

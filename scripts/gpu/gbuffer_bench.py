@@ -28,7 +28,8 @@ def timed(gpu, fn) -> float:
         with q:
             fn()
         ms = q.elapsed * 1e-6
-        q.release()
+        if hasattr(q, "release"):  # moderngl < 5.8 has no Query.release
+            q.release()
         return ms
     gpu.ctx.finish()
     t0 = time.perf_counter()
