@@ -59,7 +59,7 @@ def test_registered_and_params():
     assert CdiVpl.effects == frozenset({"vpl_range", "indirect", "rays"})
     p = CdiVplParams()
     assert (p.directions, p.resolution, p.structure.source, p.direction_set) == (169, 64, "one_pass", "stacks_slices")
-    assert (p.structure.layout, p.structure.max_list, p.structure.instanced) == ("linear", 32, False)
+    assert (p.structure.layout, p.structure.max_list, p.structure.instanced) == ("linear", 128, False)
     with pytest.raises(LdbenchError, match="build"):
         CdiVplParams.from_dict({"build": "voxels"})
     with pytest.raises(LdbenchError, match="structure.source='peel' not one of"):

@@ -29,7 +29,7 @@ def test_paper_preset_is_the_paper_build():
     assert (fast.source, fast.sorted_insert, fast.pool) == ("splat", False, "lazy")
     assert (paper.layout, paper.source, paper.sorted_insert, paper.pool) == ("linked", "raster", True, "grow")
     c = CdiVplParams.from_dict({"preset": "paper"}).structure
-    assert (c.source, c.assembly, c.pool) == ("one_pass", "direct", "grow")
+    assert (c.source, c.assembly, c.pool, c.max_list) == ("one_pass", "direct", "grow", 32)
     assert (CdiVplParams().structure.assembly, CdiVplParams().structure.pool) == ("sort", "lazy")
     i = LdiParams.from_dict({"preset": "paper"}).structure
     assert (i.source, i.assembly) == ("peel", "direct") and LdiParams().structure.source == "splat"
@@ -132,8 +132,9 @@ def test_ldm_and_cdi_rays_answer_as_the_paper_build(gpu, cornell):
 
 
 def test_cdi_default_ranges_equal_the_paper_build(gpu, cornell):
-    """The one-pass CDI assembled as sorted pairs without a read-back: the same arrays, so the same ranges
-    bit for bit."""
+    """The one-pass CDI assembled as sorted pairs without a read-back, its lists sorted in registers up to
+    128 fragments (the paper preset: count + fill, 32, longer lists by the exact slow path): the same arrays,
+    so the same ranges bit for bit."""
     e = Effect("vpl_range", rsm=32)
     batch = e.spec.inputs(cornell, 8, 8, e.params, 0, exact=EXACT)
     a = _frame(gpu, cornell, "cdi-vpl", e, batch, size=8)

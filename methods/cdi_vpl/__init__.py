@@ -59,7 +59,7 @@ Parameter                  Default         Paper           Meaning
 ``structure.assembly``     sort            direct          count + fill passes | one pass of pairs sorted by list
 ``structure.pool``         lazy            grow            lazy: sized from the previous build (no read-back) | grow
 ``structure.pass_layers``  0                               one_pass: directions per raster pass (0 = all)
-``structure.max_list``     32                              register-sort length (longer lists: exact slow path)
+``structure.max_list``     128             (32: preset)    register-sort length (longer lists: exact slow path)
 ``cdi``                    frame           frame           build the CDI every frame | once in setup (static)
 ``trace.bias``             0.25                            self-intersection bias, in CDI texels
 ``trace.lookup``           auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
@@ -163,15 +163,17 @@ class CdiVplParams(ParamsBase):
         expose=("source", "instanced", "assembly", "pool", "pass_layers", "max_list"),
         choices={"source": ("one_pass", "raster", "splat")},
         paper={"source": "one_pass (raster, instanced = false: the baseline)"},
-        layout="linear", source="one_pass", instanced=False, max_list=32, assembly="sort", pool="lazy")
+        layout="linear", source="one_pass", instanced=False, max_list=128, assembly="sort", pool="lazy")
     trace: CdiTrace = group(CdiTrace, "the walk of a ray through the CDI")
     vpl: CdiVplRanges = group(CdiVplRanges, "effects vpl_range and indirect: the VPL ranges")
     indirect: CdiVplIndirect = group(CdiVplIndirect, "effect indirect: RSM, VPLs, light grid")
 
     presets = {"paper": Preset(
-        "the paper's assembly of the one-pass CDI (count and fill passes, the arrays sized by a read-back); the "
-        "default stores the same arrays (one pass of (list, depth) pairs sorted by list, no read-back)",
-        {"structure.source": "one_pass", "structure.assembly": "direct", "structure.pool": "grow"})}
+        "the paper's assembly of the one-pass CDI (count and fill passes, the arrays sized by a read-back; lists "
+        "sorted in registers up to 32 fragments); the default stores the same arrays (one pass of (list, depth) "
+        "pairs sorted by list, no read-back, up to 128 fragments in registers: the one-pass lists reach ~120)",
+        {"structure.source": "one_pass", "structure.assembly": "direct", "structure.pool": "grow",
+         "structure.max_list": 32})}
 
     renamed = {"build": "structure.source", "assembly": "structure.assembly", "pass_directions": "structure.pass_layers",
                "max_list": "structure.max_list", "bias": "trace.bias", "lookup": "trace.lookup",
