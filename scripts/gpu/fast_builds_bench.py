@@ -165,8 +165,6 @@ def measure(gpu, geo, scene_label, maps, res, name, kw, frames, bw, rows: Rows, 
         if extra:
             row.update(extra)
         rows.add(row)
-        if s.splat is not None:
-            s.splat.release()
     except Exception as e:  # noqa: BLE001 - one variant failing (e.g. memory) must not stop the sweep
         rows.add(dict(scene=scene_label, triangles=geo.triangles, maps=maps, resolution=res, variant=name,
                       build_ms=float("nan"), status=f"failed: {type(e).__name__}: {str(e)[:200]}"))
