@@ -1,8 +1,9 @@
 """The LDM trace modes (``trace.query``, ``trace.walk``; methods/glsl/ldm_trace.glsl): the full walk of
 unsorted lists answers exactly like the early stop on pre-sorted lists (AO images and per-ray t, both
 layouts); the AO of either query equals the sum over the maps it is meant to use, rebuilt from the
-``rays`` effect's answers along the maps' axes (two_way: every map, along the side of the normal; one_way:
-only the maps whose +v faces the normal); one-way rays are answered by the nearest +v axis."""
+``rays`` effect's answers along the maps' axes (two_way: the N maps, each along the side of the normal;
+one_way: the 2N maps along ±v, those whose axis faces the normal); the 2N one-way maps answer every ray
+as the N two-way maps do, from twice the fragments."""
 from __future__ import annotations
 
 import numpy as np
@@ -83,7 +84,9 @@ def test_ao_is_the_sum_over_the_maps_of_its_query(gpu, query):
     n = nrm[..., :3][sel]
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
     v = ldm_axes(N).astype(np.float32)
-    c = n @ v.T  # (P, N)
+    if query == "one_way":  # 2N one-directional maps along +v and -v
+        v = np.concatenate([v, -v])
+    c = n @ v.T  # (P, maps)
     use = np.abs(c) >= 1e-6
     if query == "one_way":
         use &= c >= 0
@@ -99,32 +102,39 @@ def test_ao_is_the_sum_over_the_maps_of_its_query(gpu, query):
     got = img.image[..., 0][sel]
     close = np.abs(got - want) < 1e-4
     assert close.mean() > 0.99, close.mean()
-    if query == "one_way":  # the ceiling sees no +v axis: A = 1 there; the floor uses every map
-        assert (den == 0).any() and (want[den == 0] == 1.0).all()
+    assert (den > 0).all()  # every pixel has maps facing its normal (one-way: the -v maps for the ceiling)
+    if query == "one_way":  # the same AO as the two-way maps, with either estimator (eq. 2's 2/N: N directions)
+        for est in ("ratio", "paper"):
+            one = run(gpu, sc, EFFECT, **{"trace.query": query, "trace.estimator": est})[0].image
+            two = run(gpu, sc, EFFECT, **{"trace.estimator": est})[0].image
+            assert np.abs(one - two).max() < 1e-5, est
+        assert img.counters["maps"] == 2 * N
 
 
-def test_one_way_rays_take_the_nearest_plus_axis(gpu):
+def test_one_way_maps_answer_as_the_two_way_maps(gpu):
+    """The same 2N directions, so the same answers to float rounding (the -v maps store depths along -v),
+    from twice the fragments; the table of the 2N axes answers as the scan."""
     sc = scene()
     batch = rays_batch(sc)
-    v = ldm_axes(N).astype(np.float32)
-    t1, = (run(gpu, sc, Effect("rays"), batch, **{"trace.query": "one_way", "rays.map_lookup": "scan"})[0]
-           .arrays["t"],)
-    k = np.argmax(batch.direction @ v.T, axis=1)
-    snapped = axis_batch(batch.origin, batch.normal, v[k])
-    t2 = run(gpu, sc, Effect("rays"), snapped, **{"rays.map_lookup": "scan"})[0].arrays["t"]
-    ok = (batch.normal * v[k]).sum(1) >= 0  # else the snapped ray points into its own surface (t = 0)
-    same = (t1 == t2) | (np.isinf(t1) & np.isinf(t2))
-    assert same[ok].mean() > 0.999, same[ok].mean()
-    two = run(gpu, sc, Effect("rays"), batch, **{"rays.map_lookup": "scan"})[0].arrays["t"]
-    assert (np.isfinite(two) != np.isfinite(t1)).mean() > 0.02  # the mode changes answers
+    one = run(gpu, sc, Effect("rays"), batch, **{"trace.query": "one_way", "rays.map_lookup": "scan"})[0]
+    two = run(gpu, sc, Effect("rays"), batch, **{"rays.map_lookup": "scan"})[0]
+    t1, t2 = one.arrays["t"], two.arrays["t"]
+    assert np.array_equal(np.isinf(t1), np.isinf(t2)) and np.isfinite(t2).mean() > 0.5
+    fin = np.isfinite(t2)
+    np.testing.assert_allclose(t1[fin], t2[fin], rtol=2e-5, atol=2e-6)
+    # twice the fragments but for texel centres on an edge, which the fill rule decides in the mirrored
+    # maps the other way (measured: 18 of 117,040)
+    f1, f2 = one.counters["fragments_stored"], 2 * two.counters["fragments_stored"]
+    assert abs(f1 - f2) <= 1e-3 * f2, (f1, f2)
+    assert (one.counters["maps"], two.counters["maps"]) == (2 * N, N)
 
 
 def test_one_way_table_finds_the_nearest_plus_axis():
-    """The full-cube one-way table's best candidate is the nearest +v (largest signed d·v) for all but a
-    sliver of directions, including those pointing away from every axis (all axes have y ≥ 0)."""
+    """The full-cube one-way table's best candidate is the nearest axis (largest signed d·v) of the 2N
+    one-way maps for all but a sliver of directions, those of the lower hemisphere (the -v maps) included."""
     from ldbench.methods.ldm import LUT_RES, one_way_axis_table
 
-    v = ldm_axes(128)
+    v = np.concatenate([ldm_axes(128), -ldm_axes(128)])
     table = one_way_axis_table(v, LUT_RES)
     d = np.random.default_rng(3).normal(size=(20000, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
@@ -139,7 +149,7 @@ def test_one_way_table_finds_the_nearest_plus_axis():
     got = cand[i, dots.argmax(1)]
     want = (d @ v.T).argmax(1)
     assert (got == want).mean() > 0.999, (got == want).mean()
-    assert (d[:, 1] < -0.5).sum() > 1000  # directions below every axis were among them
+    assert (d[:, 1] < -0.5).sum() > 1000  # directions of the lower hemisphere were among them
 
 
 def test_one_way_rays_table_equals_the_scan_and_indirect_refuses_the_modes(gpu):

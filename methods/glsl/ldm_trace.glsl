@@ -24,9 +24,9 @@
 // is found since the lists are pre-sorted"). LDM_FULL_WALK walks the whole list and keeps the nearest
 // entry beyond the threshold, as an unsorted list needs: on sorted lists the answer is the same.
 // Query modes (trace.query): by default a map answers both +v and -v (§3.1, the two-way query);
-// LDM_ONE_WAY makes ldm_find_map choose among the N directions +v_k only (sigma = +1), as one-directional
-// maps would, from its own full-cube table (LDM_LUT) or a scan (the AO pass then skips the maps facing away
-// from the normal: ao.glsl).
+// LDM_ONE_WAY: one-directional maps (the adapter builds 2N, along +v_i and -v_i), so ldm_find_map chooses
+// the nearest axis with sigma = +1 only, from its own full-cube table (LDM_LUT) or a scan (the AO pass skips
+// the maps facing away from the normal: ao.glsl).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
 #include "layered.glsl"

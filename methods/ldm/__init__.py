@@ -71,8 +71,8 @@ Parameter                        Default   Paper    Meaning
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
 ``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
-                                                    +v_i only, the N directions of the upper hemisphere (ao:
-                                                    the maps facing away give nothing; rays: the nearest +v_i)
+                                                    2N maps along ±v_i, each answering its own axis only (the
+                                                    same 2N directions: the same answers from twice the maps)
 ``trace.walk``                   early     early    (ao, rays) early_stop: stop at x's depth (§4.1, pre-sorted lists);
                                                     full: walk the whole list (unsorted lists' walk; same answers)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
@@ -159,8 +159,8 @@ class LdmTrace(ParamsBase):
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
                            "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
                            paper="paper")
-    query: str = param("two_way", "two_way: a map answers +v and -v from one walk (2N directions); one_way: "
-                       "+v only (N directions; the ao and rays effects)",
+    query: str = param("two_way", "two_way: N maps, each answering +v and -v from one walk; one_way: 2N maps "
+                       "along +v and -v, each answering its own axis (the same 2N directions; ao and rays)",
                        choices=("two_way", "one_way"), paper="two_way")
     walk: str = param("early_stop", "early_stop: the list walk ends at x's depth (pre-sorted lists); full: "
                       "the whole list, nearest entry kept (as for unsorted lists; the same answers)",
@@ -263,12 +263,13 @@ class Ldm(Method):
         p = self.params
         self.setup_scene(gpu, scene, gbuffer=p.gbuffer)
         self.centre, self.radius = bounding_sphere(scene)
-        axes = ldm_axes(p.directions)
+        axes = self._axes()
+        self.n_maps = len(axes)
         clip, rows, (u, w, v) = ortho_layers(axes, self.centre, self.radius)
-        self.ls = make_structure(p.structure, gpu, self.geo, self.res, layers=p.directions, width=p.resolution,
+        self.ls = make_structure(p.structure, gpu, self.geo, self.res, layers=self.n_maps, width=p.resolution,
                                  prefix="ldm.")
         self.ls.set_layers(clip, rows)
-        basis = np.zeros((p.directions, 3, 4), np.float32)
+        basis = np.zeros((self.n_maps, 3, 4), np.float32)
         basis[:, 0, :3], basis[:, 1, :3], basis[:, 2, :3] = u, w, v
         self.axes_buf = self.res.buffer("ldm.axes", basis)
         self.lut_buf = None  # built by the first `rays` frame, outside its stages (CPU, < 1 s)
@@ -278,9 +279,16 @@ class Ldm(Method):
         self._batch = None
         self.indirect = None
 
+    def _axes(self) -> np.ndarray:
+        """The maps' axes: N two-way maps along v_i, each answering +v_i and -v_i; with ``trace.query =
+        one_way``, 2N one-way maps along +v_i and -v_i, each answering its own axis: the same 2N directions
+        from twice the maps."""
+        axes = ldm_axes(self.params.directions)
+        return np.concatenate([axes, -axes]) if self.params.trace.query == "one_way" else axes
+
     def _bind_maps(self, cs):
         p = self.params
-        for name, v in (("n_maps", p.directions), ("bias", p.trace.bias * self.texel),
+        for name, v in (("n_maps", self.n_maps), ("bias", p.trace.bias * self.texel),
                         ("ldm_crease", p.trace.crease * self.texel)):
             if name in cs:  # a statistics variant may not use all of them
                 cs[name].value = v
@@ -323,7 +331,7 @@ class Ldm(Method):
     def _rays_defines(self) -> dict:
         p = self.params
         if p.rays.map_lookup == "table" and self.lut_buf is None:
-            axes = ldm_axes(p.directions)
+            axes = self._axes()
             table = (nearest_axis_table(axes, LUT_RES) if p.trace.query == "two_way"
                      else one_way_axis_table(axes, LUT_RES))
             self.lut_buf = self.res.buffer("ldm.map_table", table)
@@ -394,7 +402,7 @@ class Ldm(Method):
 
     def _counters(self) -> dict:
         c = self.ls.stats()
-        c.update(directions=self.params.directions, resolution=self.params.resolution,
+        c.update(directions=self.params.directions, maps=self.n_maps, resolution=self.params.resolution,
                  texel_world=self.texel, bounding_radius=self.radius)
         if self._batch is not None:
             c["mean_ray_map_angle_deg"] = self._mean_ray_angle()

@@ -3,8 +3,8 @@
 // the camera-facing normal. V = 1 - rho(t) (core/effects/ao.py), weighted by cos(theta).
 // estimator 0 ("ratio"):  A = sum V cos / sum cos   (exact when nothing is hit)
 // estimator 1 ("paper"):  A = 2/N sum V cos          (aalund2015 eq. 2)
-// Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way): only the maps whose +v_k lies in the
-// hemisphere contribute (about half of them), the sums run over those.
+// Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way: 2N maps along +-v_i, each answering its own
+// axis): only the maps whose axis lies in the hemisphere contribute, the same N directions as two-way maps.
 #include "ldm_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -44,6 +44,11 @@ void main() {
         sum_vc += V * ct;
         sum_c += ct;
     }
-    float A = estimator == 0 ? (sum_c > 0.0 ? sum_vc / sum_c : 1.0) : 2.0 / float(n_maps) * sum_vc;
+#if defined(LDM_ONE_WAY)
+    float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
+#else
+    float n_dirs = float(n_maps);
+#endif
+    float A = estimator == 0 ? (sum_c > 0.0 ? sum_vc / sum_c : 1.0) : 2.0 / n_dirs * sum_vc;
     imageStore(out_image, p, vec4(A));
 }
