@@ -119,7 +119,7 @@ def test_glossy_matches_reference(gpu, mitsuba, exponent, bias, psnr):
     ratio = r.image[m].mean() / ref.mean[m].mean()
     assert abs(ratio - 1) < bias, ratio
     assert metrics.psnr(r.image, ref.mean, mask=m) > psnr
-    assert "filter" not in stages and {"gbuffer", "shadow", "peel", "trace"} <= set(stages)
+    assert "filter" not in stages and {"gbuffer", "shadow", "emit", "trace"} <= set(stages)  # the default single pass
 
 
 def test_indirect_on_cornell(gpu, mitsuba):
