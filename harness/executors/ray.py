@@ -450,7 +450,8 @@ class RayExecutor:
         out = Path(out)
         keys = plan.keys()
         cluster = None
-        if self.address is None and not ray.is_initialized():  # a local cluster: start it meanwhile
+        if self.address is None and not os.environ.get("RAY_ADDRESS") and not ray.is_initialized():
+            # a local cluster: started by a thread while the driver renders references
             cluster = _LocalCluster(ray, self._init_kw()).start()
             started = True
         else:
@@ -467,7 +468,7 @@ class RayExecutor:
             (root / TOKEN).write_text(token)
             spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "",
                             save_arrays=plan.save_arrays)
-            start: dict = {}  # what the workers' start gives: options, groups, ready refs
+            start: dict = {}  # once the workers are asked for: their job groups, kind and `ready` refs
 
             def start_workers(block: bool) -> bool:
                 """Ask for the workers once the cluster is up (their processes then start on their own)."""
@@ -517,6 +518,8 @@ class RayExecutor:
                 metas[key], preps[key] = dict(getattr(prep.reference, "meta", {}) or {}), ray.put(prep)
             n_local = len(local)
             local.clear()
+            if n_local or local_failed:
+                self._free_driver_memory()
             # references not done yet first (each unlocks its jobs), then the groups in suite order
             queue = deque([_Work(k) for k in keys if k not in preps and k not in local_failed]
                           + [_Work(k, items) for k, items in groups])
@@ -611,6 +614,17 @@ class RayExecutor:
                 cluster.stop()
             elif started:
                 ray.shutdown()
+
+    @staticmethod
+    def _free_driver_memory() -> None:
+        """Give back the device memory Dr.Jit keeps cached after the driver's references (on a GPU that a
+        worker uses for the rest of the run)."""
+        dr = sys.modules.get("drjit")
+        if dr is not None:
+            try:
+                dr.flush_malloc_cache()
+            except Exception:  # noqa: BLE001 - only memory held longer
+                pass
 
     @staticmethod
     def _prepare_here(plan, key):
