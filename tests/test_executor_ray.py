@@ -262,6 +262,10 @@ def test_driver_references_then_workers_each_reference_once(cluster, serial3, tm
         assert ex.stats["driver_references"] == 1
     assert ex.stats["driver_references"] + by_workers == 3, ex.stats  # none rendered twice, none skipped
     assert ex.stats["calls"] == by_workers + 6, ex.stats  # one call per job (group_size=1)
+    # each worker opened its GL context and chose Mitsuba's variant when it started, before its first call
+    from ldbench.references.variant import choose_variant
+
+    assert all(p["warmed"] == {"gl": True, "mitsuba": choose_variant()} for p in ex.stats["processes"]), ex.stats
 
 
 def test_reference_failing_in_the_driver_reads_as_in_a_worker(cluster, tmp_path, monkeypatch):

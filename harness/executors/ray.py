@@ -187,6 +187,7 @@ class Worker:
         os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
         self.gpu = self.machine = None
         self.calls, self.references, self.busy_s = 0, 0, 0.0
+        self.warmed: dict = {}  # what _warm opened before the first call
         self._warm()
 
     def _warm(self) -> None:
@@ -205,12 +206,13 @@ class Worker:
                 self.machine, self.gpu = machine_of(gpu), gpu
             except Exception:  # noqa: BLE001 - likewise
                 gpu.release()
+        self.warmed["gl"] = self.gpu is not None
         try:
             from ldbench.references.variant import choose_variant
 
-            choose_variant()
+            self.warmed["mitsuba"] = choose_variant()
         except Exception:  # noqa: BLE001 - the first reference or trace reports it
-            pass
+            self.warmed["mitsuba"] = None
 
     def ready(self) -> bool:
         """Answers once the worker has started (its constructor, with :meth:`_warm`, has returned)."""
@@ -218,6 +220,7 @@ class Worker:
 
     def identity(self) -> dict:
         return {"pid": os.getpid(), "calls": self.calls, "references": self.references, "busy_s": self.busy_s,
+                "warmed": self.warmed,
                 "omp_threads": os.environ.get("OMP_NUM_THREADS"),
                 "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES")}
 
