@@ -291,9 +291,26 @@ def test_reference_failing_in_the_driver_is_retried_by_a_worker(cluster, serial,
     assert once.read_text().strip() == str(os.getpid()), "the driver made the first attempt"
     assert (df["status"] == "ok").all() and differences(serial[0], out) == []
     assert ex.stats["driver_references"] == 0 and sum(p["references"] for p in ex.stats["processes"]) == 1
+    assert ex.stats["calls"] == 3, ex.stats  # the retry, then one call per job: none before the reference existed
 
 
 def test_driver_references_checked():
     for bad in (-1, 1.5, True, "2"):
         with pytest.raises(Exception, match="driver references must be an integer >= 0"):
             RayExecutor(driver_references=bad)
+
+
+def test_jobs_wait_for_their_reference(cluster, serial3, tmp_path, monkeypatch):
+    """The first reference call (the first job's reference) takes two seconds longer: the other worker
+    renders the other two meanwhile and then runs their jobs, not the first job, whose reference does not
+    exist yet."""
+    from ldbench.harness.runner import prepare_key
+
+    jobs = _suite(d_max=(0.25, 0.5, "inf")).jobs
+    assert sorted({prepare_key(j) for j in jobs}, key=str)[0] == prepare_key(jobs[0])  # the first call's
+    monkeypatch.setenv("LDBENCH_FAULT", f"delay:reference:{tmp_path / 'delayed'}")
+    out = tmp_path / "ray"
+    ex = RayExecutor(group_size=1, driver_references=0)
+    df = run_jobs(_suite(d_max=(0.25, 0.5, "inf")), out, progress=False, report=False, executor=ex)
+    assert (df["status"] == "ok").all() and differences(serial3[0], out) == []
+    assert sum(p["references"] for p in ex.stats["processes"]) == 3 and ex.stats["calls"] == 9, ex.stats

@@ -47,7 +47,7 @@ The run directory (lock, partial folder, results, commit) stays with the driver
 
 Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
 TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
-(RuntimeError) or ``sleep`` (ten minutes); with FILE, only while FILE does not exist (the worker creates it,
+(RuntimeError), ``sleep`` (ten minutes) or ``delay`` (two seconds, then on as usual); with FILE, only while FILE does not exist (the worker creates it,
 writing its pid), so that a retry succeeds. The driver, rendering a reference, honours ``raise`` and ``sleep``
 (``exit`` would end the run's own process).
 """
@@ -159,6 +159,8 @@ def _inject_fault(name: str, *, driver: bool = False) -> None:
         raise RuntimeError(f"injected fault in {name}")
     if kind == "sleep":
         time.sleep(600)
+    if kind == "delay":
+        time.sleep(2)
 
 
 def _stage_dir(spec: TaskSpec) -> tuple[Path, bool]:
@@ -488,25 +490,13 @@ class RayExecutor:
                 return True
 
             def worker_ready() -> bool:
+                """Has a worker answered ``ready``? (Asks for the workers first, once the cluster is up.)"""
                 if not start_workers(block=False):
                     return False
                 done, _ = ray.wait(start["ready"], num_returns=1, timeout=0)
                 return bool(done)
 
-            # the driver renders references while the cluster and the workers start (nothing else runs)
-            local: dict = {}  # key -> Prepared rendered here
-            local_failed: dict = {}  # key -> the exception
-            for key in keys[:limit]:
-                if (local or local_failed) and worker_ready():
-                    break
-                start_workers(block=False)
-                try:
-                    _inject_fault("reference", driver=True)
-                    local[key] = self._prepare_here(plan, key)
-                except LdbenchError:
-                    raise  # bad input, as in a local run: the run stops
-                except Exception as e:  # noqa: BLE001 - counts as a failed reference call
-                    local_failed[key] = e
+            local, local_failed = self._render_in_driver(plan, keys[:limit], worker_ready)
             start_workers(block=True)
             groups, kind, n = start["groups"], start["kind"], len(workers)
             scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
@@ -630,11 +620,26 @@ class RayExecutor:
                 pass
 
     @staticmethod
-    def _prepare_here(plan, key):
-        """A reference rendered by the driver, on the serial run's code path."""
+    def _render_in_driver(plan, keys: list, worker_ready) -> tuple[dict, dict]:
+        """References rendered here, one after the other, while the cluster and the workers start (nothing
+        else runs meanwhile): ``keys`` in order until ``worker_ready()`` (asked before each, so that it asks
+        for the workers as soon as the cluster is up; the first is always rendered). Returns ({key: Prepared}, {key: the exception of a reference that failed}); bad input
+        (LdbenchError) stops the run, as in a local run."""
         from ..runner import prepare
 
-        return prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=False)
+        local: dict = {}
+        local_failed: dict = {}
+        for key in keys:
+            if worker_ready() and (local or local_failed):
+                break
+            try:
+                _inject_fault("reference", driver=True)
+                local[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=False)
+            except LdbenchError:
+                raise
+            except Exception as e:  # noqa: BLE001 - counts as a failed reference call
+                local_failed[key] = e
+        return local, local_failed
 
     @staticmethod
     def _processes(ray, workers) -> list:
