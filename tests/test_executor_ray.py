@@ -236,3 +236,81 @@ def test_ctrl_c_during_the_report_of_a_ray_run_never_commits(cluster, tmp_path, 
         run_jobs(_suite(d_max=("inf",)), out, progress=False, report=True,
                  executor=RayExecutor())
     assert not out.exists() and not list(tmp_path.glob(".run*")), list(tmp_path.iterdir())
+
+
+# ---- the driver renders references while the workers start ------------------------------------------
+@pytest.fixture(scope="module")
+def serial3(tmp_path_factory):
+    """A serial run of three references (d_max 0.25, 0.5, inf), two jobs each."""
+    out = tmp_path_factory.mktemp("serial3") / "run"
+    return out, run_jobs(_suite(d_max=(0.25, 0.5, "inf")), out, progress=False, report=False)
+
+
+@pytest.mark.parametrize("driver", [0, 1, 3])
+def test_driver_references_then_workers_each_reference_once(cluster, serial3, tmp_path, driver):
+    """The driver renders the first ``driver`` references at most (the first always, the others while no
+    worker is ready), the workers the rest: every reference once, and the rows and images equal the
+    serial run's."""
+    out = tmp_path / "ray"
+    ex = RayExecutor(group_size=1, driver_references=driver)
+    df = run_jobs(_suite(d_max=(0.25, 0.5, "inf")), out, progress=False, report=False, executor=ex)
+    assert (df["status"] == "ok").all() and differences(serial3[0], out) == []
+    assert not list(out.glob(".*"))
+    by_workers = sum(p["references"] for p in ex.stats["processes"])
+    assert 1 <= ex.stats["driver_references"] <= 3 if driver else ex.stats["driver_references"] == 0, ex.stats
+    if driver == 1:
+        assert ex.stats["driver_references"] == 1
+    assert ex.stats["driver_references"] + by_workers == 3, ex.stats  # none rendered twice, none skipped
+    assert ex.stats["calls"] == by_workers + 6, ex.stats  # one call per job (group_size=1)
+    # each worker opened its GL context and chose Mitsuba's variant when it started, before its first call
+    from ldbench.references.variant import choose_variant
+
+    assert all(p["warmed"] == {"gl": True, "mitsuba": choose_variant()} for p in ex.stats["processes"]), ex.stats
+
+
+def test_reference_failing_in_the_driver_reads_as_in_a_worker(cluster, tmp_path, monkeypatch):
+    """Every reference raises; without retries its jobs' rows say the same whether the driver or a worker
+    tried it."""
+    monkeypatch.setenv("LDBENCH_FAULT", "raise:reference")
+    st = {}
+    for driver in (1, 0):
+        ex = RayExecutor(retries=0, driver_references=driver)
+        df = run_jobs(_suite(d_max=("inf",)), tmp_path / f"run{driver}", progress=False, report=False, executor=ex)
+        st[driver] = df["status"].tolist()
+        assert ex.stats["driver_references"] == 0, ex.stats
+    assert st[1] == st[0] == ["error: reference task failed: RuntimeError: injected fault in reference"] * 2, st
+
+
+def test_reference_failing_in_the_driver_is_retried_by_a_worker(cluster, serial, tmp_path, monkeypatch):
+    """The driver's attempt fails once: it counts as the first call, a worker's retry renders it."""
+    once = tmp_path / "fired"
+    monkeypatch.setenv("LDBENCH_FAULT", f"raise:reference:{once}")
+    out = tmp_path / "run"
+    ex = RayExecutor(retries=1, driver_references=1)
+    df = run_jobs(_suite(d_max=("inf",)), out, progress=False, report=False, executor=ex)
+    assert once.read_text().strip() == str(os.getpid()), "the driver made the first attempt"
+    assert (df["status"] == "ok").all() and differences(serial[0], out) == []
+    assert ex.stats["driver_references"] == 0 and sum(p["references"] for p in ex.stats["processes"]) == 1
+    assert ex.stats["calls"] == 3, ex.stats  # the retry, then one call per job: none before the reference existed
+
+
+def test_driver_references_checked():
+    for bad in (-1, 1.5, True, "2"):
+        with pytest.raises(Exception, match="driver references must be an integer >= 0"):
+            RayExecutor(driver_references=bad)
+
+
+def test_jobs_wait_for_their_reference(cluster, serial3, tmp_path, monkeypatch):
+    """The first reference call (the first job's reference) takes two seconds longer: the other worker
+    renders the other two meanwhile and then runs their jobs, not the first job, whose reference does not
+    exist yet."""
+    from ldbench.harness.runner import prepare_key
+
+    jobs = _suite(d_max=(0.25, 0.5, "inf")).jobs
+    assert sorted({prepare_key(j) for j in jobs}, key=str)[0] == prepare_key(jobs[0])  # the first call's
+    monkeypatch.setenv("LDBENCH_FAULT", f"delay:reference:{tmp_path / 'delayed'}")
+    out = tmp_path / "ray"
+    ex = RayExecutor(group_size=1, driver_references=0)
+    df = run_jobs(_suite(d_max=(0.25, 0.5, "inf")), out, progress=False, report=False, executor=ex)
+    assert (df["status"] == "ok").all() and differences(serial3[0], out) == []
+    assert sum(p["references"] for p in ex.stats["processes"]) == 3 and ex.stats["calls"] == 9, ex.stats

@@ -2,16 +2,26 @@
 
 =====================  ==========================================================================
 cluster                ``--address ADDR`` joins a running cluster (``auto``, ``HOST:6379``,
-                       ``ray://HOST:10001``); without it a local cluster is started and shut down
-                       at the end. A process that already called ``ray.init`` keeps its cluster.
+                       ``ray://HOST:10001``); without it a local cluster is started (in a background
+                       thread, see *start*) and shut down at the end. A process that already called
+                       ``ray.init`` keeps its cluster.
                        A HOST:PORT that accepts no TCP connection within :data:`CONNECT_TIMEOUT_S`
                        is one line, exit 2, before anything is written.
+start                  while a local cluster and its workers start (several seconds in which no worker
+                       can take a call), the driver renders references itself, one after the other, on
+                       the serial run's code path (``driver_references``: by default all of them while
+                       no worker is ready, only when this run starts the local cluster; checked after
+                       each reference). It stops once a worker is ready; the references it rendered go
+                       into the object store like a worker's, and only then is any call given to a
+                       worker, so no job is timed while the driver uses the GPU.
 workers                one Ray actor per GPU of the cluster (``num_gpus=1``; on a cluster without
                        GPUs, one per CPU: llvmpipe), alive for the whole run. Like the serial run's
                        process, a worker keeps its GL context, compiled shaders and Mitsuba's compiled
                        kernels from one call to the next; its GPU (``CUDA_VISIBLE_DEVICES``, and the
-                       EGL device chosen from it) is fixed for its life. The driver gives each idle
-                       worker the next call whose inputs exist: references first, then job groups.
+                       EGL device chosen from it) is fixed for its life. It opens its GL context and
+                       chooses Mitsuba's variant (a first kernel) when it starts, before its first call.
+                       The driver gives each idle worker the next call whose inputs exist: references
+                       first, then job groups.
 references             one call per (scene, effect, size, spp, seed) builds the effect's inputs and
                        renders (or loads) the reference into the cache (references/cache.py, atomic);
                        its job groups are given out once it exists: it is never rendered twice.
@@ -23,7 +33,9 @@ images                 a worker writes into ``<run>/.stage/<id>/`` when it sees 
 faults                 a call that raises or whose worker dies (worker killed, GPU fault, out of memory:
                        Ray restarts the worker, a fresh process on the same GPU) is made again up to
                        ``retries`` times; a group that still fails is re-run job by job, and a job that
-                       still fails gets the row ``error: <reason>``. The run completes.
+                       still fails gets the row ``error: <reason>``. The run completes. A reference that
+                       raises in the driver counts as one failed call: a worker makes it again, or its
+                       jobs say ``error: reference task failed: ...``, as for a worker's.
 Ctrl-C                 kills every worker, waits for their calls to end, and re-raises: the runner
                        deletes the partial run directory.
 environment            the driver's ``LDBENCH_*`` variables are set in every worker (reference cache,
@@ -35,8 +47,9 @@ The run directory (lock, partial folder, results, commit) stays with the driver
 
 Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
 TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
-(RuntimeError) or ``sleep`` (ten minutes); with FILE, only while FILE does not exist (the worker creates it,
-writing its pid), so that a retry succeeds.
+(RuntimeError), ``sleep`` (ten minutes) or ``delay`` (two seconds, then on as usual); with FILE, only while FILE does not exist (the worker creates it,
+writing its pid), so that a retry succeeds. The driver, rendering a reference, honours ``raise`` and ``sleep``
+(``exit`` would end the run's own process).
 """
 from __future__ import annotations
 
@@ -44,7 +57,10 @@ import logging
 import math
 import os
 import shutil
+import signal
+import sys
 import tempfile
+import threading
 import time
 import uuid
 from dataclasses import dataclass
@@ -122,13 +138,13 @@ def cpus_per_gpu(nodes: list) -> int:
     return max(1, min(shares)) if shares else 1
 
 
-def _inject_fault(name: str) -> None:
+def _inject_fault(name: str, *, driver: bool = False) -> None:
     """Test hook (module docstring): fail like a dying worker, a raising task or a hung one."""
     spec = os.environ.get("LDBENCH_FAULT")
     if not spec:
         return
     kind, target, once = (spec.split(":", 2) + ["", ""])[:3]
-    if target != name:
+    if target != name or (driver and kind == "exit"):
         return
     if once:
         try:
@@ -143,6 +159,8 @@ def _inject_fault(name: str) -> None:
         raise RuntimeError(f"injected fault in {name}")
     if kind == "sleep":
         time.sleep(600)
+    if kind == "delay":
+        time.sleep(2)
 
 
 def _stage_dir(spec: TaskSpec) -> tuple[Path, bool]:
@@ -170,10 +188,41 @@ class Worker:
     def __init__(self, env=()):
         os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
         self.gpu = self.machine = None
-        self.calls, self.busy_s = 0, 0.0
+        self.calls, self.references, self.busy_s = 0, 0, 0.0
+        self.warmed: dict = {}  # what _warm opened before the first call
+        self._warm()
+
+    def _warm(self) -> None:
+        """Open the GL context and choose Mitsuba's variant (its device context, a first kernel) now, while
+        the driver renders references, instead of in the first call. Best effort: what fails here is
+        tried again, and reported, by the call that needs it."""
+        from ldbench.core.gpu import Gpu
+        from ..runner import machine_of
+
+        try:
+            gpu = Gpu()
+        except Exception:  # noqa: BLE001 - the first jobs call opens it again and reports why not
+            gpu = None
+        if gpu is not None:
+            try:
+                self.machine, self.gpu = machine_of(gpu), gpu
+            except Exception:  # noqa: BLE001 - likewise
+                gpu.release()
+        self.warmed["gl"] = self.gpu is not None
+        try:
+            from ldbench.references.variant import choose_variant
+
+            self.warmed["mitsuba"] = choose_variant()
+        except Exception:  # noqa: BLE001 - the first reference or trace reports it
+            self.warmed["mitsuba"] = None
+
+    def ready(self) -> bool:
+        """Answers once the worker has started (its constructor, with :meth:`_warm`, has returned)."""
+        return True
 
     def identity(self) -> dict:
-        return {"pid": os.getpid(), "calls": self.calls, "busy_s": self.busy_s,
+        return {"pid": os.getpid(), "calls": self.calls, "references": self.references, "busy_s": self.busy_s,
+                "warmed": self.warmed,
                 "omp_threads": os.environ.get("OMP_NUM_THREADS"),
                 "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES")}
 
@@ -190,6 +239,7 @@ class Worker:
             return {"error": str(e)}, None
         finally:
             self.busy_s += time.perf_counter() - t0
+        self.references += 1
         return {"meta": dict(getattr(prep.reference, "meta", {}) or {})}, prep
 
     def jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
@@ -248,6 +298,72 @@ def _reason(e: BaseException) -> str:
     return text[:300]
 
 
+class _LocalCluster:
+    """A local Ray cluster started by a background thread, so that the driver renders references while
+    it starts. The thread lives until :meth:`stop` and shuts the cluster down itself: Ray's processes end
+    when the thread that started them ends (seen with Ray 2.60: the GCS died with the thread)."""
+
+    def __init__(self, ray, init_kw: dict):
+        self.up = threading.Event()
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._sigterm = None  # the handler start() replaced, given back by stop()
+        self._thread = threading.Thread(target=self._main, args=(ray, init_kw), name="ldbench-ray-cluster",
+                                        daemon=True)
+
+    def start(self) -> "_LocalCluster":
+        if threading.current_thread() is threading.main_thread():
+            # what ray.init does on the main thread (it cannot on this one): SIGTERM -> SystemExit, so
+            # that a terminated run still deletes its partial run directory
+            self._sigterm = signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(signum))
+        self._thread.start()
+        return self
+
+    def _main(self, ray, init_kw: dict) -> None:
+        quiet = _DropRecords("SIGTERM handler is not set")  # handled by start()
+        log = logging.getLogger("ray._private.worker")
+        log.addFilter(quiet)
+        try:
+            ray.init(**init_kw)
+        except BaseException as e:  # noqa: BLE001 - raised in the driver by wait()
+            self.error = e
+            self.up.set()
+            return
+        finally:
+            log.removeFilter(quiet)
+        self.up.set()
+        self._stop.wait()
+        ray.shutdown()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """True once the cluster is up (False: not yet, after ``timeout`` seconds); a failed start is
+        one line (exit 2)."""
+        if not self.up.wait(timeout):
+            return False
+        if self.error is not None:
+            e, self.error = self.error, None  # reported once
+            raise LdbenchError(f"cannot start or join the Ray cluster (local): {_reason(e)}") from None
+        return True
+
+    def stop(self, timeout: float = 60.0) -> None:
+        """Shut the cluster down (in its thread) and wait for it, bounded."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+        if self._sigterm is not None:
+            signal.signal(signal.SIGTERM, self._sigterm)
+            self._sigterm = None
+
+
+class _DropRecords(logging.Filter):
+    def __init__(self, prefix: str):
+        super().__init__()
+        self.prefix = prefix
+
+    def filter(self, record) -> bool:
+        return not str(record.msg).startswith(self.prefix)
+
+
 @dataclass
 class _Work:
     """One call to a worker: a reference (``items`` None) or a group of jobs sharing ``key``'s reference."""
@@ -263,7 +379,12 @@ class RayExecutor:
     uses_driver_gpu = False
 
     def __init__(self, address: str | None = None, retries: int = 1, group_size: int | None = None,
-                 stage_in_run_dir: bool = True):
+                 stage_in_run_dir: bool = True, driver_references: int | None = None):
+        if driver_references is not None and (not isinstance(driver_references, int)
+                                              or isinstance(driver_references, bool) or driver_references < 0):
+            raise LdbenchError(f"driver references must be an integer >= 0, got {driver_references!r}")
+        self.driver_references = driver_references  # most references the driver renders while workers
+        # start; None: all, when this run starts the local cluster, else none
         if not isinstance(retries, int) or isinstance(retries, bool) or retries < 0:
             raise LdbenchError(f"--retries must be an integer >= 0, got {retries!r}")
         if retries > MAX_RETRIES:
@@ -294,13 +415,17 @@ class RayExecutor:
             raise LdbenchError(f"cannot join the Ray cluster at {addr}: {why} within {CONNECT_TIMEOUT_S:.0f} s "
                                f"(is a head node running there? ray start --head)") from None
 
+    def _init_kw(self) -> dict:
+        kw = dict(address=self.address, log_to_driver=False, logging_level=logging.WARNING)
+        if self.address is None:
+            kw["include_dashboard"] = False
+        return kw
+
     def _connect(self, ray) -> bool:
         """Join or start a cluster; True when this call started (and so must shut down) one."""
         if ray.is_initialized():
             return False
-        kw = dict(address=self.address, log_to_driver=False, logging_level=logging.WARNING)
-        if self.address is None:
-            kw["include_dashboard"] = False
+        kw = self._init_kw()
         try:
             ray.init(**kw)
         except (ConnectionError, RuntimeError, ValueError) as e:
@@ -328,32 +453,69 @@ class RayExecutor:
 
         ray = import_ray()
         out = Path(out)
-        started = self._connect(ray)
+        keys = plan.keys()
+        cluster = None
+        if self.address is None and not os.environ.get("RAY_ADDRESS") and not ray.is_initialized():
+            # a local cluster: started by a thread while the driver renders references
+            cluster = _LocalCluster(ray, self._init_kw()).start()
+            started = True
+        else:
+            started = self._connect(ray)
+        limit = self.driver_references
+        if limit is None:
+            limit = len(keys) if cluster is not None else 0
         workers: list = []
         running: dict = {}  # object ref -> (worker index, _Work, prep ref of a reference call)
         try:
-            opts, slots, kind = self._worker_options(ray)
             root = out / STAGE
             root.mkdir()
             token = uuid.uuid4().hex
             (root / TOKEN).write_text(token)
             spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "",
                             save_arrays=plan.save_arrays)
-            keys = plan.keys()
-            groups = group_jobs(plan.jobs, slots, self.group_size)
-            # references first (each unlocks its jobs), then the groups in suite order
-            queue = deque([_Work(k) for k in keys] + [_Work(k, items) for k, items in groups])
-            n = max(1, min(slots, len(queue)))
-            worker_cls = ray.remote(**opts)(Worker)
-            env = forwarded_env()
-            workers = [worker_cls.remote(env) for _ in range(n)]
+            start: dict = {}  # once the workers are asked for: their job groups, kind and `ready` refs
+
+            def start_workers(block: bool) -> bool:
+                """Ask for the workers once the cluster is up (their processes then start on their own)."""
+                if not workers:
+                    if cluster is not None and not cluster.wait(None if block else 0):
+                        return False
+                    opts, slots, kind = self._worker_options(ray)
+                    groups = group_jobs(plan.jobs, slots, self.group_size)
+                    n = max(1, min(slots, len(keys) + len(groups)))
+                    worker_cls = ray.remote(**opts)(Worker)
+                    env = forwarded_env()
+                    workers.extend(worker_cls.remote(env) for _ in range(n))
+                    start.update(groups=groups, kind=kind, ready=[a.ready.remote() for a in workers])
+                return True
+
+            def worker_ready() -> bool:
+                """Has a worker answered ``ready``? (Asks for the workers first, once the cluster is up.)"""
+                if not start_workers(block=False):
+                    return False
+                done, _ = ray.wait(start["ready"], num_returns=1, timeout=0)
+                return bool(done)
+
+            local, local_failed = self._render_in_driver(plan, keys[:limit], worker_ready)
+            start_workers(block=True)
+            groups, kind, n = start["groups"], start["kind"], len(workers)
             scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
             logging.getLogger(__name__).info(f"ray: {len(plan.jobs)} jobs in {len(groups)} groups, "
-                                             f"{len(keys)} references, {n} {kind} workers")
+                                             f"{len(keys)} references ({len(local) + len(local_failed)} in the "
+                                             f"driver while the workers started), {n} {kind} workers")
 
             rows: list = [None] * len(plan.jobs)
             metas: dict = {}
             preps: dict = {}  # key -> prep object ref, once its reference is done
+            for key, prep in local.items():
+                metas[key], preps[key] = dict(getattr(prep.reference, "meta", {}) or {}), ray.put(prep)
+            n_local = len(local)
+            local.clear()
+            if n_local or local_failed:
+                self._free_driver_memory()
+            # references not done yet first (each unlocks its jobs), then the groups in suite order
+            queue = deque([_Work(k) for k in keys if k not in preps and k not in local_failed]
+                          + [_Work(k, items) for k, items in groups])
             idle = list(range(n))
             calls = 0
             bar = progress_bar(None, len(plan.jobs), "runs", progress) if progress else None
@@ -398,6 +560,8 @@ class RayExecutor:
                     t = self.retries + 1
                     settle(work.items, work.key, status=f"error: {_reason(e)} (task failed {t} time{'s' * (t > 1)})")
 
+            for key, e in local_failed.items():  # the driver's attempt was the first call
+                failed(_Work(key), e)
             dispatch()
             while running:
                 done, _ = ray.wait(list(running), num_returns=1, timeout=1.0)
@@ -422,22 +586,60 @@ class RayExecutor:
             if bar is not None:
                 bar.close()
             self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
-                          "processes": self._processes(ray, workers)}
+                          "driver_references": n_local, "processes": self._processes(ray, workers)}
             logging.getLogger(__name__).info("ray: " + "; ".join(
-                f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
-                f"{p['omp_threads']} OpenMP threads): "
-                f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]))
+                [f"driver: {n_local} references"] +
+                [f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
+                 f"{p['omp_threads']} OpenMP threads): "
+                 f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]]))
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:
-            self._cancel(ray, workers, running)
+            if ray.is_initialized():
+                self._cancel(ray, workers, running)
             workers = []
             raise
         finally:
-            for a in workers:
-                ray.kill(a, no_restart=True)
-            if started:
+            if ray.is_initialized():
+                for a in workers:
+                    ray.kill(a, no_restart=True)
+            if cluster is not None:
+                cluster.stop()
+            elif started:
                 ray.shutdown()
+
+    @staticmethod
+    def _free_driver_memory() -> None:
+        """Give back the device memory Dr.Jit keeps cached after the driver's references (on a GPU that a
+        worker uses for the rest of the run)."""
+        dr = sys.modules.get("drjit")
+        if dr is not None:
+            try:
+                dr.flush_malloc_cache()
+            except Exception:  # noqa: BLE001 - only memory held longer
+                pass
+
+    @staticmethod
+    def _render_in_driver(plan, keys: list, worker_ready) -> tuple[dict, dict]:
+        """References rendered here, one after the other, while the cluster and the workers start (nothing
+        else runs meanwhile): ``keys`` in order until ``worker_ready()`` (asked before each, so that it asks
+        for the workers as soon as the cluster is up; the first is always rendered). Returns ({key: Prepared}, {key: the exception of a reference that failed}); bad input
+        (LdbenchError) stops the run, as in a local run."""
+        from ..runner import prepare
+
+        local: dict = {}
+        local_failed: dict = {}
+        for key in keys:
+            if worker_ready() and (local or local_failed):
+                break
+            try:
+                _inject_fault("reference", driver=True)
+                local[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=False)
+            except LdbenchError:
+                raise
+            except Exception as e:  # noqa: BLE001 - counts as a failed reference call
+                local_failed[key] = e
+        return local, local_failed
 
     @staticmethod
     def _processes(ray, workers) -> list:

@@ -9,7 +9,9 @@
 #     ray      ldbench run SUITE --executor ray  over all GPUs (runs/ray-executor-speedup/ray-N)
 #     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
-#              run (ldbench.harness.executors.check), and per row the EGL device, CUDA device and PCI bus id
+#              run (ldbench.harness.executors.check), per row the EGL device, CUDA device and PCI bus id, and
+#              each Ray run's own log lines (references the driver rendered while the workers started, calls
+#              and busy time per worker)
 #              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
 # The runs stay in runs/ray-executor-speedup/ (ignored by git), so steps can be split over several
 # commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
@@ -164,6 +166,10 @@ for name, r in runs.items():
     lines.append(f"  {df['pci_bus_id'].nunique()} distinct PCI bus ids over {ok.sum()} rows that ran "
                  f"({dict(df['pci_bus_id'].value_counts())}); EGL devices {sorted(df['egl_device'].dropna().unique().tolist())}; "
                  f"selection {sorted(set(s for s in sel if s))}")
+    log = work / f"{name}.log"  # the executor's own lines: references in the driver, each worker's calls
+    for ln in (log.read_text(errors="replace").splitlines() if log.is_file() else []):
+        if ln.startswith("ldbench: ray: "):
+            lines.append(f"  `{ln[len('ldbench: ray: '):]}`")
     cons = per.dropna(subset=["cuda_device"]).groupby("cuda_device")["pci_bus_id"].nunique()
     if len(cons) and (cons > 1).any():
         lines.append(f"  WARNING: one CUDA device with several PCI bus ids: {dict(cons)}")
