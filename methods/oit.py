@@ -70,6 +70,16 @@ class OITMethod(Method):
     def resize(self, w: int, h: int):
         """Per-size allocations of a subclass (called by :meth:`output` on a new size)."""
 
+    def camera_program(self, view, shader: str, defines=None):
+        """The adapter's ``shader`` with the camera's clip transform and (where it uses it) depth row set;
+        returns (program, clip, near, far)."""
+        clip, row, near, far = camera_transform(self.geo, view)
+        prog = self.gpu.program(self.shader(shader), defines)
+        prog["clip"].write(np.ascontiguousarray(clip.T, np.float32).tobytes())
+        if "depth_row" in prog:  # optimised away by some variants
+            prog["depth_row"].value = tuple(float(x) for x in row)
+        return prog, clip, near, far
+
     def set_common_uniforms(self, prog, view):
         for name, value in (("background", tuple(float(x) for x in BACKGROUND)),
                             ("size", (view.width, view.height))):
@@ -110,15 +120,6 @@ class PeelingMethod(OITMethod):
         for f in getattr(self, "_fbos", []):
             f.release()
         self._fbos = list(fbos)
-
-    def peel_program(self, view, defines=None):
-        """The adapter's ``peel.glsl`` with the camera's clip transform and depth row set; returns (program,
-        clip, near, far)."""
-        clip, row, near, far = camera_transform(self.geo, view)
-        prog = self.gpu.program(self.shader("peel.glsl"), defines)
-        prog["clip"].write(np.ascontiguousarray(clip.T, np.float32).tobytes())
-        prog["depth_row"].value = tuple(float(x) for x in row)
-        return prog, clip, near, far
 
     def release(self):
         self.own()

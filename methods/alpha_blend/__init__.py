@@ -22,7 +22,7 @@ from ldbench.core.effects.oit import BACKGROUND
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase
 from ldbench.methods.base import Result
-from ldbench.methods.oit import OITMethod, camera_transform
+from ldbench.methods.oit import OITMethod
 
 
 @dataclass(frozen=True)
@@ -50,11 +50,7 @@ class AlphaBlend(OITMethod):
         gpu, ctx = self.gpu, self.gpu.ctx
         w, h = view.width, view.height
         self.output(w, h)
-        clip, row, _, _ = camera_transform(self.geo, view)
-        prog = gpu.program(self.shader("blend.glsl"))
-        prog["clip"].write(clip.T.astype("f4").tobytes())
-        if "depth_row" in prog:  # unused here (optimised away)
-            prog["depth_row"].value = tuple(float(x) for x in row)
+        prog, _, _, _ = self.camera_program(view, "blend.glsl")
         vao = self.geo.vao(prog)
         with gpu.stage("blend"):
             self._fbos[1].clear(*(float(x) for x in BACKGROUND), 0.0)  # the over operator starts from it

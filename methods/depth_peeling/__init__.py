@@ -71,7 +71,7 @@ class DepthPeeling(PeelingMethod):
         gpu, ctx, p = self.gpu, self.gpu.ctx, self.params
         w, h = view.width, view.height
         self.output(w, h)
-        peel, _, near, far = self.peel_program(view)
+        peel, _, near, far = self.camera_program(view, "peel.glsl")
         comp = gpu.program(self.shader("composite.glsl"))
         final = gpu.program(self.shader("composite.glsl"), {"OIT_FINAL": 1})
         peel["depth_map"].value = (float(near), float(1.0 / (far - near)))

@@ -90,7 +90,7 @@ class DualDepthPeeling(PeelingMethod):
         w, h = view.width, view.height
         self.output(w, h)
         through = self.params.pass_through
-        peel, clip, _, _ = self.peel_program(view, {"DDP_PASS_THROUGH": 1} if through else None)
+        peel, clip, _, _ = self.camera_program(view, "peel.glsl", {"DDP_PASS_THROUGH": 1} if through else None)
         blend = gpu.program(self.shader("blend.glsl"))
         final = gpu.program(self.shader("blend.glsl"), {"DDP_FINAL": 1})
         peel["depth_prev"].value, peel["front_prev"].value = 0, 1

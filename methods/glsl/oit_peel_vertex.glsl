@@ -1,6 +1,6 @@
 // The vertex stage of both peeling methods (depth_peeling/peel.glsl, dual_depth_peeling/peel.glsl; include
 // it inside their VERTEX_SHADER section): the camera's clip position, the linear view depth
-// dot(depth_row, p) and the material index (uniforms set by methods/oit.py PeelingMethod.peel_program).
+// dot(depth_row, p) and the material index (uniforms set by methods/oit.py OITMethod.camera_program).
 uniform mat4 clip;
 uniform vec4 depth_row;
 in vec3 in_position;

@@ -39,7 +39,7 @@ from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
-from ldbench.methods.oit import OITMethod, camera_transform, complexity_counters
+from ldbench.methods.oit import OITMethod, complexity_counters
 
 SYNCS = ("auto", "interlock", "spinlock")
 MAX_SPIN = 1 << 16  # lock tries per fragment before it is counted as lost
@@ -89,12 +89,8 @@ class MLAB(OITMethod):
         gpu, ctx, k = self.gpu, self.gpu.ctx, self.params.k
         w, h = view.width, view.height
         self.output(w, h)
-        clip, row, _, _ = camera_transform(self.geo, view)
         d = {"K": k, "SYNC": int(self.sync == "interlock"), "MAX_SPIN": MAX_SPIN}
-        ins = gpu.program(self.shader("insert.glsl"), d)
-        ins["clip"].write(clip.T.astype("f4").tobytes())
-        if "depth_row" in ins:  # unused by some variants (optimised away)
-            ins["depth_row"].value = tuple(float(x) for x in row)
+        ins, _, _, _ = self.camera_program(view, "insert.glsl", d)
         res = gpu.program(self.shader("resolve.glsl"), {"K": k})
         clear = gpu.compute(self.shader("count.glsl"), {"CLEAR": 1})
         geo_vao, full = self.geo.vao(ins), ctx.vertex_array(res, [])

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
-from ldbench.methods.oit import OITMethod, camera_transform, complexity_counters
+from ldbench.methods.oit import OITMethod, complexity_counters
 
 WEIGHTS = {"eq7": 7, "eq8": 8, "eq9": 9, "eq10": 10, "constant": 0}
 
@@ -57,11 +57,7 @@ class WBOIT(OITMethod):
         gpu, ctx = self.gpu, self.gpu.ctx
         w, h = view.width, view.height
         self.output(w, h)
-        clip, row, _, _ = camera_transform(self.geo, view)
-        acc = gpu.program(self.shader("accumulate.glsl"), {"WEIGHT": WEIGHTS[self.params.weight]})
-        acc["clip"].write(clip.T.astype("f4").tobytes())
-        if "depth_row" in acc:  # unused by some variants (optimised away)
-            acc["depth_row"].value = tuple(float(x) for x in row)
+        acc, _, _, _ = self.camera_program(view, "accumulate.glsl", {"WEIGHT": WEIGHTS[self.params.weight]})
         res = gpu.program(self.shader("resolve.glsl"))
         geo_vao, full = self.geo.vao(acc), ctx.vertex_array(res, [])
         with gpu.stage("accumulate"):
