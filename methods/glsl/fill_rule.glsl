@@ -6,7 +6,7 @@
 
 struct FrTri { ivec2 f0, f1, f2; ivec2 lo, hi; int b0, b1, b2; bool ok; };
 
-FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2) {
+FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2, ivec2 size) {
     const float S = float(SP_ONE);
     FrTri t;
     t.f0 = ivec2(roundEven(w0 * S));
@@ -19,10 +19,7 @@ FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2) {
     t.b0 = sp_bias(t.f1 - t.f0);
     t.b1 = sp_bias(t.f2 - t.f1);
     t.b2 = sp_bias(t.f0 - t.f2);
-    // pixels whose centre i * ONE + HALF lies in the snapped box (arithmetic shifts: floor for negatives)
-    ivec2 fmin = min(t.f0, min(t.f1, t.f2)), fmax = max(t.f0, max(t.f1, t.f2));
-    t.lo = (fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS;
-    t.hi = (fmax - SP_HALF) >> LS_SUBPIXEL_BITS;
+    sp_texel_box(min(t.f0, min(t.f1, t.f2)), max(t.f0, max(t.f1, t.f2)), size, t.lo, t.hi);  // clamped to size
     return t;
 }
 

@@ -24,6 +24,15 @@ int sp_edge(ivec2 e, ivec2 f, ivec2 p) {
     return e.x * (p.y - f.y) - e.y * (p.x - f.x);
 }
 
+// the window-space gradient of the plane through (w_i, z_i), i = 0, 1, 2 (0 for a zero-area triangle): how the
+// hardware interpolates depth and any other affine quantity across the triangle
+vec2 sp_plane_gradient(vec2 w0, vec2 w1, vec2 w2, float z0, float z1, float z2) {
+    vec2 A = w1 - w0, B = w2 - w0;
+    float af = A.x * B.y - A.y * B.x;
+    if (af == 0.0) return vec2(0.0);
+    return vec2((z1 - z0) * B.y - (z2 - z0) * A.y, (z2 - z0) * A.x - (z1 - z0) * B.x) / af;
+}
+
 // texel centres i * ONE + HALF inside the fixed-point box [fmin, fmax], clamped to [0, size): i0 .. i1
 // (arithmetic shifts: floor for negatives too); empty when any(greaterThan(i0, i1))
 void sp_texel_box(ivec2 fmin, ivec2 fmax, ivec2 size, out ivec2 i0, out ivec2 i1) {

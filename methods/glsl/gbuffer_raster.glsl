@@ -86,10 +86,7 @@ void gb_triangle(uint t) {
 #endif
     ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
     int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
-    vec2 A = w1 - w0, B = w2 - w0;
-    float af = A.x * B.y - A.y * B.x;
-    vec2 dz = vec2(0.0);
-    if (af != 0.0) dz = vec2((z1 - z0) * B.y - (z2 - z0) * A.y, (z2 - z0) * A.x - (z1 - z0) * B.x) / af;
+    vec2 dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
             ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;

@@ -65,13 +65,7 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     vec4 row = ls_layers[k].depth_row;
     float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
     float z0 = c0.z, z1 = c1.z, z2 = c2.z;
-    vec2 A = w1 - w0, B = w2 - w0;
-    float af = A.x * B.y - A.y * B.x;
-    vec2 dd = vec2(0.0), dz = vec2(0.0);
-    if (af != 0.0) {
-        dd = vec2((d1 - d0) * B.y - (d2 - d0) * A.y, (d2 - d0) * A.x - (d1 - d0) * B.x) / af;
-        dz = vec2((z1 - z0) * B.y - (z2 - z0) * A.y, (z2 - z0) * A.x - (z1 - z0) * B.x) / af;
-    }
+    vec2 dd = sp_plane_gradient(w0, w1, w2, d0, d1, d2), dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
             ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;

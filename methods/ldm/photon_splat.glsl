@@ -108,18 +108,15 @@ void main() {   // one invocation per photon (grid-stride)
 // splat's screen rectangle: a 400-pixel splat is not left to one thread. The pixels the raster path
 // shades: the quad as the geometry shader's strip, triangles (q0, q1, q2) and (q2, q1, q3), covered by the
 // hardware's rule (fill_rule.glsl), each shared-edge centre once, samples beyond the near or far plane
-// dropped as clipping would; so the two paths differ by the order of their sums only.
+// dropped as clipping would; so the two paths differ by the order of their sums (and at a pixel where the
+// GPU's own viewport transform rounds a corner across a sub-pixel step: tests/test_ldm_indirect.py).
 #include "fill_rule.glsl"
 layout(std430, binding = B_PHOTON_ACCUM) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;
 // z_ndc at window point p on the plane through (w_i, z_i): affine in window space
 float plane_z(vec2 w0, vec2 w1, vec2 w2, vec3 z, vec2 p) {
-    vec2 A = w1 - w0, B = w2 - w0;
-    float af = A.x * B.y - A.y * B.x;
-    if (af == 0.0) return z.x;
-    vec2 dz = vec2((z.y - z.x) * B.y - (z.z - z.x) * A.y, (z.z - z.x) * A.x - (z.y - z.x) * B.x) / af;
-    return z.x + dot(dz, p - w0);
+    return z.x + dot(sp_plane_gradient(w0, w1, w2, z.x, z.y, z.z), p - w0);
 }
 void main() {
     for (uint i = gl_WorkGroupID.x; i < n_photons; i += gl_NumWorkGroups.x) {
@@ -137,9 +134,10 @@ void main() {
             q[j] = (c[j].xy / c[j].w * 0.5 + 0.5) * image_size;
             z[j] = c[j].z / c[j].w;
         }
-        FrTri ta = fr_setup(q[0], q[1], q[2]), tb = fr_setup(q[2], q[1], q[3]);
+        ivec2 size = ivec2(image_size);
+        FrTri ta = fr_setup(q[0], q[1], q[2], size), tb = fr_setup(q[2], q[1], q[3], size);
         bool clip = any(greaterThan(abs(z), vec4(1.0)));
-        ivec2 a = max(min(ta.lo, tb.lo), ivec2(0)), b = min(max(ta.hi, tb.hi) + 1, ivec2(image_size));
+        ivec2 a = min(ta.lo, tb.lo), b = max(ta.hi, tb.hi) + 1;   // each box clamped to the image
         int w = b.x - a.x, n = w * (b.y - a.y);
         for (int j = int(gl_LocalInvocationID.x); j < n && w > 0; j += 64) {
             int px = a.x + j % w, py = a.y + j / w;
