@@ -116,13 +116,9 @@ class GBuffer:
             self.prog = gpu.program(GLSL_DIR / "gbuffer.glsl")
             self.vao = geometry.vao(self.prog)
             return
-        from ldbench.methods.structures.splat import fill_rule
+        from ldbench.methods.structures.splat import fill_rule, rule_defines
 
-        r = fill_rule(gpu)
-        defines = {"LS_SUBPIXEL_BITS": r["subpixel_bits"], "SPLAT_TOP": int(r["top"]),
-                   "SPLAT_BOTTOM": int(r["bottom"]), "SPLAT_LEFT": int(r["left"]), "SPLAT_RIGHT": int(r["right"]),
-                   "SPLAT_SNAPPED_PLANE": int(r["snapped_plane"])}
-        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer_raster.glsl", defines)
+        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer_raster.glsl", rule_defines(fill_rule(gpu)))
         self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer_resolve.glsl")
         self.large_prog = gpu.program(GLSL_DIR / "gbuffer_large.glsl")
         n = geometry.triangles
