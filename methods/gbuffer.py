@@ -14,6 +14,7 @@ import numpy as np
 from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import GLSL_DIR, read_texture
+from ldbench.core.params import param
 
 VERTEX_ATTRS = (("in_position", 3), ("in_normal", 3), ("in_material", 1))  # float32 each
 LARGE_CMD_WORDS = 8  # DrawElementsIndirectCommand (5 words) padded; the compute G-buffer's indices follow it
@@ -85,8 +86,6 @@ RASTERS = ("hardware", "compute")
 def gbuffer_param(default: str = "compute"):
     """The ``gbuffer`` parameter of an adapter that renders the camera G-buffer (hbao, gtao, ldm): which
     raster fills it (:class:`GBuffer`); both give the same textures (docs/gbuffer.md)."""
-    from ldbench.core.params import param
-
     return param(default, "the camera G-buffer's raster: compute (a visibility buffer rasterized in compute "
                  "shaders, then resolved) or hardware (one raster pass); the same textures (docs/gbuffer.md)",
                  choices=RASTERS, paper="hardware")
