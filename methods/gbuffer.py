@@ -89,6 +89,8 @@ def gbuffer_param(default: str = "compute"):
     return param(default, "the camera G-buffer's raster: compute (a visibility buffer rasterized in compute "
                  "shaders, then resolved) or hardware (one raster pass); the same textures (docs/gbuffer.md)",
                  choices=RASTERS, paper="hardware")
+
+
 GROUP_LIMIT = 65535
 
 
