@@ -4,8 +4,12 @@
 # build), the copy bandwidth it divides by, and the default build's time against triangles (65k … 4M) and
 # against maps (32 … 1024) with scripts/gpu/fast_builds_bench.py.
 #
+# Also the Figure 8 build alone for the splat's two schedules (the workgroup queue, the default, and each
+# invocation storing its own texels), and the compute G-buffer's timing and textures (gbuffer_bench.py).
+#
 # Usage, from the project root with its Python environment set up:
 #     OUT=/some/dir bash scripts/gpu/fast-defaults.sh [ROWS]      ROWS: e.g. fig8,cdi (default: all)
+# LDBENCH_GPU_SWEEPS: which build sweeps to run (default "triangles maps"; "" for none).
 # Output: "$OUT/fast-defaults.tgz" (CSVs, the Markdown table, the runs' results, logs). Each step runs under
 # `timeout` and a failing step does not stop the script. LDBENCH_GPU_DRY=1: a CPU-sized dry run.
 set -u
@@ -26,9 +30,15 @@ step() {  # step SECONDS NAME CMD...
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >> "$W/log.txt" 2>&1
 step 60 bandwidth "$PY" scripts/gpu/fast_builds_bench.py "$W" bandwidth "${DRY[@]}"
 step 330 before-after "$PY" scripts/gpu/fast_defaults.py "$W" "${DRY[@]}" "${ONLY[@]}"
-V=splat/linked-yang,splat/linked-yang-aggregate
-step 150 triangles "$PY" scripts/gpu/fast_builds_bench.py "$W" triangles "${DRY[@]}" --variants "$V"
-step 90 maps "$PY" scripts/gpu/fast_builds_bench.py "$W" maps "${DRY[@]}" --variants "$V"
+F8=splat/linked-yang,splat/linked-yang-own,splat/linear-sort,splat/linear-sort-own
+step 120 fig8-build "$PY" scripts/gpu/fast_builds_bench.py "$W" fig8 "${DRY[@]}" --variants "$F8"
+GB=()
+[ "${LDBENCH_GPU_DRY:-0}" = 1 ] && GB=(--dry)
+step 90 gbuffer "$PY" scripts/gpu/gbuffer_bench.py "${GB[@]}"
+V=splat/linked-yang
+for sweep in ${LDBENCH_GPU_SWEEPS-triangles maps}; do
+    step 150 "$sweep" "$PY" scripts/gpu/fast_builds_bench.py "$W" "$sweep" "${DRY[@]}" --variants "$V"
+done
 cat "$W/fast-defaults.md" 2>/dev/null
 mkdir -p "${OUT:-/tmp/ldbench-gpu}"
 tar czf "${OUT:-/tmp/ldbench-gpu}/fast-defaults.tgz" --exclude='*.exr' --exclude='*.npz' -C "$(dirname "$W")" fast-defaults
