@@ -196,8 +196,6 @@ VARIANTS = {
     "splat-sort": ("linear", dict(source="splat", assembly="sort")),
     "raster-sort": ("linear", dict(assembly="sort")),
     "splat-batch2-max2.5": ("linear", dict(source="splat", splat_batch=2, splat_max=2.5)),
-    "splat-own-texels": ("linked", dict(source="splat", sorted_insert=False, splat_queue=False)),
-    "splat-max64": ("linear", dict(source="splat", splat_max=64.0)),   # boxes beyond the queue's
     "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
     "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),

@@ -27,8 +27,6 @@ from .sources import FragmentSource, Raster
 
 B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
-WG = 128                   # invocations per workgroup of splat_raster.glsl
-QUEUE_BOX = 16             # texel boxes up to this size go through the workgroup queue
 _RULES: dict = {}          # id(ctx) -> fill rule
 
 
@@ -138,13 +136,11 @@ class Splat(FragmentSource):
     """The ``splat`` source of one structure: the compute pass and the hardware draw of large triangles.
 
     The spec's ``splat_max`` (texels, ≤ 64): longest edge rasterized in the compute pass;
-    ``splat_batch``: layers per invocation; ``splat_queue``: the covered texels of a workgroup's
-    triangles stored by full warps from a queue in shared memory (False: each invocation stores its own)."""
+    ``splat_batch``: layers per invocation."""
 
     def __init__(self, structure):
         super().__init__(structure)
         self.splat_max, self.batch = structure.spec.splat_max, structure.spec.splat_batch
-        self.queue = structure.spec.splat_queue
         self.rule = fill_rule(structure.gpu)
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
@@ -154,8 +150,7 @@ class Splat(FragmentSource):
         self._vaos: dict = {}
 
     def defines(self, extra: dict) -> dict:
-        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_WG": WG,
-                "SPLAT_QUEUE": int(self.queue), "SPLAT_QUEUE_BOX": QUEUE_BOX, **rule_defines(self.rule)}
+        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
         key = id(prog)
@@ -182,7 +177,7 @@ class Splat(FragmentSource):
             s.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         self.large.bind_to_storage_buffer(B_LARGE)
-        groups = max(1, min(-(-s.geo.triangles // WG), 65535))
+        groups = max(1, min(-(-s.geo.triangles // 64), 65535))
         cs.run(groups, -(-s.layers // self.batch))
         ctx.memory_barrier()
         prog = gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})

@@ -46,11 +46,6 @@ VARIANTS = {
     "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                         aggregate=True),
-    # the splat's earlier schedule: each invocation stores its own triangle's texels
-    "splat/linked-yang-own": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
-                                  splat_queue=False),
-    "splat/linear-sort-own": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
-                                  splat_queue=False),
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
