@@ -196,6 +196,8 @@ VARIANTS = {
     "splat-sort": ("linear", dict(source="splat", assembly="sort")),
     "raster-sort": ("linear", dict(assembly="sort")),
     "splat-batch2-max2.5": ("linear", dict(source="splat", splat_batch=2, splat_max=2.5)),
+    "splat-linked-yang-per-fragment": ("linked", dict(source="splat", sorted_insert=False, splat_bulk=False)),
+    "splat-sort-per-fragment": ("linear", dict(source="splat", assembly="sort", splat_bulk=False)),
     "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
     "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),
@@ -296,8 +298,14 @@ def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scen
         assert reads and not any(reads), f"{layout}: {sum(reads)} read-backs inside a build stage"
 
 
-def test_sort_assembly_overflow_is_reported(scene_geo, reference):
-    s = build(scene_geo, "linear", "sortfixed", assembly="sort", pool="fixed", pool_capacity=500)
+@pytest.mark.parametrize("layout, kw", [("linear", dict(assembly="sort")),
+                                        ("linear", dict(assembly="sort", source="splat")),
+                                        ("linked", dict(sorted_insert=False, source="splat"))],
+                         ids=["sort", "splat-sort", "splat-linked-yang"])
+def test_overflow_is_reported(scene_geo, reference, layout, kw):
+    """A fixed pool of 500 nodes: 500 stored, every other fragment counted as overflow (the splat's bulk
+    reservations refuse exactly what single stores would)."""
+    s = build(scene_geo, layout, "fixed" + layout + str(len(kw)), pool="fixed", pool_capacity=500, **kw)
     st = s.stats()
     assert st["fragments"] == reference[1]["fragments"] and st["fragments_stored"] == 500
     assert st["overflow"] == st["fragments"] - 500 and st["linked_nodes"] == 500
