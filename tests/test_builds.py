@@ -196,8 +196,6 @@ VARIANTS = {
     "splat-sort": ("linear", dict(source="splat", assembly="sort")),
     "raster-sort": ("linear", dict(assembly="sort")),
     "splat-batch2-max2.5": ("linear", dict(source="splat", splat_batch=2, splat_max=2.5)),
-    "splat-linked-yang-per-fragment": ("linked", dict(source="splat", sorted_insert=False, splat_bulk=False)),
-    "splat-sort-per-fragment": ("linear", dict(source="splat", assembly="sort", splat_bulk=False)),
     "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
     "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),
@@ -303,8 +301,7 @@ def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scen
                                         ("linked", dict(sorted_insert=False, source="splat"))],
                          ids=["sort", "splat-sort", "splat-linked-yang"])
 def test_overflow_is_reported(scene_geo, reference, layout, kw):
-    """A fixed pool of 500 nodes: 500 stored, every other fragment counted as overflow (the splat's bulk
-    reservations refuse exactly what single stores would)."""
+    """A fixed pool of 500 nodes: 500 stored, every other fragment counted as overflow."""
     s = build(scene_geo, layout, "fixed" + layout + str(len(kw)), pool="fixed", pool_capacity=500, **kw)
     st = s.stats()
     assert st["fragments"] == reference[1]["fragments"] and st["fragments_stored"] == 500

@@ -3,8 +3,6 @@
 // (layered_build_one_pass.glsl). Include after layered.glsl, with LL_WRITABLE / LA_WRITABLE defined.
 //
 //   void ls_store(uint list, float depth, vec3 normal, uint material)
-//   uint ls_reserve_n(uint count, uint capacity, out uint usable), ls_store_at(slot, list, depth, normal,
-//   material): the same stores with their slots reserved at once (LS_BULK: yang2010 insert, sort assembly)
 //
 // LS_PASS_COUNT   count only: linked = the total (pool sizing), linear = per list (la_off[list]++)
 // LS_EMIT         linear, sort assembly (methods/structures/linear.py): append (list, depth, payload) to the
@@ -31,65 +29,6 @@ uint ls_reserve_pair() {   // next pair slot
 }
 #endif
 
-#if LS_PAYLOAD > 0
-void ls_payload_words(vec3 normal, uint material, out uint w[LS_PAYLOAD]) {
-    for (int k = 0; k < LS_PAYLOAD; ++k) w[k] = 0u;
-#if defined(LS_PL_NORMAL)
-    w[LS_PL_NORMAL] = ls_pack_normal(normalize(normal));
-#endif
-#if defined(LS_PL_ALBEDO)
-    w[LS_PL_ALBEDO] = packUnorm4x8(ls_albedo[material]);
-#endif
-#if defined(LS_PL_MATERIAL)
-    w[LS_PL_MATERIAL] = material;
-#endif
-}
-#endif
-
-#if (LS_LAYOUT == 1 && !defined(LL_SORTED) && !defined(LS_PASS_COUNT)) || (defined(LS_EMIT) && LS_LAYOUT == 2)
-// Bulk stores (yang2010's insert, the sort assembly's pairs): a caller that knows how many fragments it
-// will store reserves their slots with one atomicAdd, then stores each with ls_store_at. The counters end
-// as `count` calls of ls_store would leave them: nodes saturate at the capacity, the refused are overflow.
-#define LS_BULK 1
-uint ls_reserve_n(uint count, uint capacity, out uint usable) {
-#if LS_LAYOUT == 1
-    uint base = atomicAdd(ll_counters[LL_C_NODES], count);
-    usable = base >= capacity ? 0u : min(count, capacity - base);
-    if (usable < count) {
-        atomicAdd(ll_counters[LL_C_NODES], usable - count);   // undo the refused: saturate at the capacity
-        atomicAdd(ll_counters[LL_C_OVERFLOW], count - usable);
-    }
-#else
-    uint base = atomicAdd(la_counters[LA_C_EMITTED], count);
-    usable = base >= capacity ? 0u : min(count, capacity - base);
-    if (usable < count) atomicAdd(la_counters[LA_C_OVERFLOW], count - usable);
-#endif
-    return base;
-}
-
-// store one fragment in a slot of ls_reserve_n (a usable one)
-void ls_store_at(uint slot, uint list, float depth, vec3 normal, uint material) {
-#if LS_PAYLOAD > 0
-    uint w[LS_PAYLOAD];
-    ls_payload_words(normal, material, w);
-#endif
-#if LS_LAYOUT == 1
-    ll_set_node(slot, depth, atomicExchange(ll_head[list], slot));
-#if LS_PAYLOAD > 0
-    ll_set_payload(slot, w);
-#endif
-#else
-    atomicAdd(la_off[list], 1u);
-    uint s = slot * uint(LS_PAIR_WORDS);
-    ls_pairs[s] = list;
-    ls_pairs[s + 1u] = floatBitsToUint(depth);
-#if LS_PAYLOAD > 0
-    for (int k = 0; k < LS_PAYLOAD; ++k) ls_pairs[s + 2u + uint(k)] = w[k];
-#endif
-#endif
-}
-#endif
-
 void ls_store(uint list, float depth, vec3 normal, uint material) {
 #if defined(LS_PASS_COUNT)
 #if LS_LAYOUT == 1
@@ -100,7 +39,16 @@ void ls_store(uint list, float depth, vec3 normal, uint material) {
 #else
 #if LS_PAYLOAD > 0
     uint w[LS_PAYLOAD];
-    ls_payload_words(normal, material, w);
+    for (int k = 0; k < LS_PAYLOAD; ++k) w[k] = 0u;
+#if defined(LS_PL_NORMAL)
+    w[LS_PL_NORMAL] = ls_pack_normal(normalize(normal));
+#endif
+#if defined(LS_PL_ALBEDO)
+    w[LS_PL_ALBEDO] = packUnorm4x8(ls_albedo[material]);
+#endif
+#if defined(LS_PL_MATERIAL)
+    w[LS_PL_MATERIAL] = material;
+#endif
 #endif
 #if LS_LAYOUT == 1
 #if defined(LL_SORTED)

@@ -19,12 +19,7 @@
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT,
-// SPLAT_SNAPPED_PLANE (0 or 1), SPLAT_BULK (0 or 1).
-//
-// SPLAT_BULK, with a store that allows it (LS_BULK: yang2010's insert, the sort assembly's pairs): the
-// invocation counts the texels its triangle covers in the layer, reserves their slots with one atomicAdd
-// (ls_reserve_n) and then stores them (ls_store_at), instead of one returning atomicAdd on the shared
-// counter per fragment. The same fragments, in other slots.
+// SPLAT_SNAPPED_PLANE (0 or 1).
 #include "layered_write.glsl"
 
 layout(local_size_x = 64) in;
@@ -71,32 +66,15 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
     float z0 = c0.z, z1 = c1.z, z2 = c2.z;
     vec2 dd = sp_plane_gradient(w0, w1, w2, d0, d1, d2), dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
-#define SP_COVERED(x, y) (sp_edge(e0, f0, ivec2(x, y) * SP_ONE + SP_HALF) >= b0 && \
-    sp_edge(e1, f1, ivec2(x, y) * SP_ONE + SP_HALF) >= b1 && sp_edge(e2, f2, ivec2(x, y) * SP_ONE + SP_HALF) >= b2 && \
-    abs(z0 + dot(dz, vec2(x, y) + 0.5 - w0)) <= 1.0)
-#if defined(LS_BULK) && SPLAT_BULK
-    uint count = 0u;   // the covered texels first: one reservation for all of them
-    for (int y = i0.y; y <= i1.y; ++y)
-        for (int x = i0.x; x <= i1.x; ++x)
-            if (SP_COVERED(x, y)) ++count;
-    if (count == 0u) return;
-    uint usable;
-    uint slot = ls_reserve_n(count, ls_capacity, usable);
-    uint end = slot + usable;
-    for (int y = i0.y; y <= i1.y && slot < end; ++y) {
-        for (int x = i0.x; x <= i1.x && slot < end; ++x) {
-            if (!SP_COVERED(x, y)) continue;
-            ls_store_at(slot++, ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, vec2(x, y) + 0.5 - w0), normal, material);
-        }
-    }
-#else
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
-            if (!SP_COVERED(x, y)) continue;
-            ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, vec2(x, y) + 0.5 - w0), normal, material);
+            ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
+            if (sp_edge(e0, f0, p) < b0 || sp_edge(e1, f1, p) < b1 || sp_edge(e2, f2, p) < b2) continue;
+            vec2 q = vec2(x, y) + 0.5 - w0;
+            if (abs(z0 + dot(dz, q)) > 1.0) continue;
+            ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, q), normal, material);
         }
     }
-#endif
 }
 
 void main() {

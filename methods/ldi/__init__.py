@@ -47,7 +47,6 @@ Parameter                       Default      Paper       Meaning
 ``share_opposite``              True         False       one LDI answers v and −v (3k² LDIs stored)
 ``structure.source``            splat        peel        peel | raster | splat (single pass: the same structure)
 ``structure.assembly``          sort                     raster, splat: count + fill | one pass of pairs sorted by list
-``structure.splat_bulk``        True                     splat + sort: one atomicAdd per (triangle, LDI) for its pairs
 ``prebuild``                    False                    build once in setup (untimed); frames only trace
 ``trace.epsilon``               1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
 ``trace.bias``                  0.25                     tangent-plane bias of the self-hit test, LDI pixels
@@ -157,7 +156,7 @@ class LdiParams(ParamsBase):
     structure: StructureSpec = group(
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
         "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
-        expose=("source", "assembly", "max_layers", "splat_bulk"), choices={"source": ("peel", "raster", "splat")},
+        expose=("source", "assembly", "max_layers"), choices={"source": ("peel", "raster", "splat")},
         paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct"}}}, layout="linear",
         source="splat", assembly="sort", payload=PAYLOAD, indexed=False, max_list=64, canonical=True)
     trace: LdiTrace = group(LdiTrace, "the walk of every ray")

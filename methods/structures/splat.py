@@ -136,13 +136,11 @@ class Splat(FragmentSource):
     """The ``splat`` source of one structure: the compute pass and the hardware draw of large triangles.
 
     The spec's ``splat_max`` (texels, ≤ 64): longest edge rasterized in the compute pass;
-    ``splat_batch``: layers per invocation; ``splat_bulk``: where the store allows it (yang2010's insert,
-    the sort assembly), one reservation for all the texels of a (triangle, layer)."""
+    ``splat_batch``: layers per invocation."""
 
     def __init__(self, structure):
         super().__init__(structure)
         self.splat_max, self.batch = structure.spec.splat_max, structure.spec.splat_batch
-        self.bulk = structure.spec.splat_bulk
         self.rule = fill_rule(structure.gpu)
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
@@ -152,8 +150,7 @@ class Splat(FragmentSource):
         self._vaos: dict = {}
 
     def defines(self, extra: dict) -> dict:
-        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_BULK": int(self.bulk),
-                **rule_defines(self.rule)}
+        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
         key = id(prog)

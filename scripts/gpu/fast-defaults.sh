@@ -4,8 +4,8 @@
 # build), the copy bandwidth it divides by, and the default build's time against triangles (65k … 4M) and
 # against maps (32 … 1024) with scripts/gpu/fast_builds_bench.py.
 #
-# Also the Figure 8 build alone (the linked default and the linear sort assembly, each also with a slot
-# reserved per fragment), and the compute G-buffer's timing and textures (gbuffer_bench.py).
+# Also the Figure 8 build alone (the linked default and the linear sort assembly), and the compute G-buffer's
+# timing and textures (gbuffer_bench.py).
 #
 # Usage, from the project root with its Python environment set up:
 #     OUT=/some/dir bash scripts/gpu/fast-defaults.sh [ROWS]      ROWS: e.g. fig8,cdi (default: all)
@@ -30,7 +30,7 @@ step() {  # step SECONDS NAME CMD...
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >> "$W/log.txt" 2>&1
 step 60 bandwidth "$PY" scripts/gpu/fast_builds_bench.py "$W" bandwidth "${DRY[@]}"
 step 330 before-after "$PY" scripts/gpu/fast_defaults.py "$W" "${DRY[@]}" "${ONLY[@]}"
-F8=splat/linked-yang,splat/linked-yang-per-fragment,splat/linear-sort,splat/linear-sort-per-fragment
+F8=splat/linked-yang,splat/linear-sort
 step 120 fig8-build "$PY" scripts/gpu/fast_builds_bench.py "$W" fig8 "${DRY[@]}" --variants "$F8"
 GB=()
 [ "${LDBENCH_GPU_DRY:-0}" = 1 ] && GB=(--dry)

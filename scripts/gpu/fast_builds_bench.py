@@ -45,12 +45,7 @@ VARIANTS = {
     "splat/linear": dict(layout="linear", pool="lazy", source="splat"),
     "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
-                                        aggregate=True, splat_bulk=False),
-    # a slot per fragment (the splat before bulk reservations)
-    "splat/linked-yang-per-fragment": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
-                                           splat_bulk=False),
-    "splat/linear-sort-per-fragment": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
-                                           splat_bulk=False),
+                                        aggregate=True),
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 

@@ -26,25 +26,22 @@ from ldbench.harness import read_results
 D_MAX = ["--falloff", "quadratic", "--d-max", "10.32"]
 FIG8 = ["--set", "ldm.directions=512", "--set", "ldm.resolution=200"]
 FIG10 = FIG8 + ["--set", "ldm.indirect.photons=100", "--set", "ldm.indirect.footprint_scale=1.0"]
-#: the splat reserving a slot per fragment (structure.splat_bulk = false: the default before bulk reservations)
-PER = ["--set", "ldm.structure.splat_bulk=false"]
 #: row -> (method, effect, common args, {label: extra args}); the first label is "before"
 ROWS = {
     "fig8": ("ldm", "ao", D_MAX + FIG8, {"paper": ["--set", "ldm.preset=paper", "--set", "ldm.gbuffer=hardware"],
-                                         "per-fragment slots, hardware G-buffer": PER + ["--set", "ldm.gbuffer=hardware"],
-                                         "per-fragment slots": PER, "default": [],
+                                         "default, hardware G-buffer": ["--set", "ldm.gbuffer=hardware"],
+                                         "default": [],
                                          "default, linear sort": ["--set", "ldm.structure.layout=linear", "--set",
                                                                   "ldm.structure.assembly=sort"]}),
     "cdi": ("cdi-vpl", "vpl_range", [], {"paper": ["--set", "cdi-vpl.preset=paper"], "default": [],
-                                         "splat+sort, per-fragment slots": ["--set", "cdi-vpl.structure.source=splat",
-                                                                            "--set", "cdi-vpl.structure.splat_bulk=false"],
+                                         "default, max_list 64": ["--set", "cdi-vpl.structure.max_list=64"],
+                                         "default, max_list 128": ["--set", "cdi-vpl.structure.max_list=128"],
                                          "splat+sort": ["--set", "cdi-vpl.structure.source=splat"]}),
     "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
                                          "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
     "hbao": ("hbao", "ao", D_MAX, {"hardware G-buffer": ["--set", "hbao.gbuffer=hardware"], "default": []}),
     "ldi": ("ldi", "indirect", ["--set", "ldi.directions=96", "--set", "ldi.resolution=128"],
-            {"paper": ["--set", "ldi.preset=paper"],
-             "per-fragment slots": ["--set", "ldi.structure.splat_bulk=false"], "default": []}),
+            {"paper": ["--set", "ldi.preset=paper"], "default": []}),
 }
 #: --dry: small structures instead of the papers' sizes
 DRY = {"ldm.directions=512": "ldm.directions=16", "ldm.resolution=200": "ldm.resolution=32",
