@@ -85,6 +85,66 @@ def test_ray_run_equals_serial_run(cluster, serial, tmp_path):
     assert len({p["pid"] for p in procs}) == 2 and sum(p["calls"] for p in procs) == 3, procs
 
 
+def _calls(procs, phase):
+    return sum(p["phases"].get(phase, [0.0, 0])[1] for p in procs)
+
+
+def test_ray_workers_log_where_their_time_went(cluster, tmp_path, caplog):
+    """Each worker's split (harness/phases.py) counts what it did: one reference, two groups of one job
+    (each taken from the object store, set up, rendered, scored, saved), and it accounts for most of the
+    worker's busy time but never more; the first call's wait is apart from the idle time between calls.
+    The driver logs one split line per worker."""
+    import logging
+
+    caplog.set_level(logging.INFO, logger="ldbench")
+    ex = RayExecutor(group_size=1)
+    run_jobs(_suite(d_max=("inf",)), tmp_path / "ray", progress=False, report=False, executor=ex)
+    procs = ex.stats["processes"]
+    assert _calls(procs, "reference render") + _calls(procs, "reference cache") == 1, procs
+    for phase in ("receive", "setup", "frames", "release", "score", "save", "row", "files"):
+        assert _calls(procs, phase) == 2, (phase, procs)
+    for p in procs:
+        timed = sum(s for s, _ in p["phases"].values())
+        assert 0.98 * p["busy_s"] <= timed <= p["busy_s"] + 1e-6, p  # measured 0.9997 of it
+        assert p["first_wait_s"] is not None and p["first_wait_s"] >= 0 and p["idle_s"] >= 0, p
+        if p["calls"] == 1:
+            assert p["idle_s"] == 0, p
+    lines = [r.getMessage() for r in caplog.records if " split: " in r.getMessage()]
+    assert sum(ln.startswith("ray: worker ") for ln in lines) == 2, lines
+    assert any(ln.startswith("ray: driver split: ") for ln in lines), lines
+
+
+def test_serial_run_logs_where_its_time_went(tmp_path, monkeypatch, caplog):
+    """The serial run logs the same split: a reference rendered, then the same one from the cache."""
+    import logging
+    import re
+
+    monkeypatch.setenv("LDBENCH_CACHE", str(tmp_path / "cache"))
+    caplog.set_level(logging.INFO, logger="ldbench")
+    for run, ref in (("a", "reference render 1×"), ("b", "reference cache 1×")):
+        caplog.clear()
+        run_jobs(_suite(d_max=("inf",)), tmp_path / run, progress=False, report=False)
+        line = next(r.getMessage() for r in caplog.records if r.getMessage().startswith("local: "))
+        assert line.startswith("local: 1 references, 2 jobs in "), line
+        assert ref in line and "reference " not in line.replace(ref, ""), line
+        for phase in ("setup", "frames", "score", "save", "row"):
+            assert re.search(rf"\b{phase} 2× \d+\.\d s", line), (phase, line)
+
+
+def test_phases_text_in_order():
+    from ldbench.harness.phases import Phases
+
+    ph = Phases()
+    ph.add("save", 0.25)
+    ph.add("custom", 1.0)
+    with ph("setup"):
+        pass
+    ph.add("save", 0.5)
+    assert ph.calls == {"save": 2, "custom": 1, "setup": 1} and ph.seconds["save"] == 0.75
+    assert Phases.text(ph.as_dict()) == "setup 1× 0.0 s, save 2× 0.8 s, custom 1× 1.0 s"
+    assert Phases.text({}) == "nothing timed"
+
+
 def test_group_jobs_by_reference():
     jobs = [j for j in _suite(d_max=(0.25, 0.5, "inf"), methods=("hbao", "ldm")).jobs]  # 6 jobs, 3 references
     groups = group_jobs(jobs, workers=1)  # 6 / (2 * 1) = 3 per task: one task per reference

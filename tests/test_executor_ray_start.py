@@ -47,6 +47,9 @@ def test_driver_renders_references_while_the_local_cluster_starts(tmp_path):
     assert ex.stats["driver_references"] >= 1, ex.stats
     assert ex.stats["driver_references"] + sum(p["references"] for p in ex.stats["processes"]) == 2, ex.stats
     assert signal.getsignal(signal.SIGTERM) is term
+    # the workers run at the driver's priority, not Ray's worker niceness (15)
+    nice = os.getpriority(os.PRIO_PROCESS, 0)
+    assert ex.stats["processes"] and all(p["nice"] == nice for p in ex.stats["processes"]), ex.stats
 
 
 def test_ctrl_c_while_the_driver_renders_and_the_cluster_starts(tmp_path, monkeypatch):
