@@ -10,8 +10,8 @@
 #     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
 #              run (ldbench.harness.executors.check), per row the EGL device, CUDA device and PCI bus id, and
-#              each Ray run's own log lines (references the driver rendered while the workers started, calls
-#              and busy time per worker)
+#              each run's own log lines (references the driver rendered while the workers started, calls
+#              and busy time per worker; where the serial process's and each worker's time went, by phase)
 #              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
 # The runs stay in runs/ray-executor-speedup/ (ignored by git), so steps can be split over several
 # commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
@@ -103,7 +103,7 @@ run() {  # run NAME [K]: one `ldbench run` into $W/NAME, wall clock into $W/NAME
     echo "$t0 $t1 $rc ${k:-0}" > "$W/$name.wall"
     log "   $name: rc=$rc (0: all ok, 1: some row not ok, 124: timed out) in $(awk "BEGIN {printf \"%.1f\", $t1 - $t0}") s"
     tail -n 3 "$W/$name.log" >> "$O/log.txt"
-    grep "^ldbench: ray" "$W/$name.log" >> "$O/log.txt"
+    grep "^ldbench: \(ray\|local\):" "$W/$name.log" >> "$O/log.txt"  # where each process's time went
 }
 
 summary() {
@@ -139,6 +139,10 @@ md = ["| " + " | ".join(tim.columns) + " |", "|" + "---|" * len(tim.columns)]
 md += ["| " + " | ".join(str(v) for v in r) + " |" for r in tim.itertuples(index=False)]
 lines += ["## Wall clock (whole `ldbench run`, references included)", "", *md, "", "## Results and devices", ""]
 rows, diffs = [], []
+log = work / "serial.log"  # the serial process's split, to hold against each worker's
+for ln in (log.read_text(errors="replace").splitlines() if log.is_file() else []):
+    if ln.startswith("ldbench: local: "):
+        lines.append(f"- **serial**: `{ln[len('ldbench: '):]}`")
 for name, r in runs.items():
     if name == "serial" or not r["done"]:
         continue
