@@ -40,6 +40,11 @@ Ctrl-C                 kills every worker, waits for their calls to end, and re-
                        deletes the partial run directory.
 environment            the driver's ``LDBENCH_*`` variables are set in every worker (reference cache,
                        Mitsuba variant).
+priority               a local cluster the run starts runs its workers at niceness 0 (Ray's default, 15, made
+                       a worker's CPU side yield to every other process: the driver, Ray's own).
+time split             at the end, one line for the driver and one per worker: where its time went, by phase
+                       (:mod:`ldbench.harness.phases`, as the serial run logs it), its idle time between calls
+                       and its niceness.
 =====================  ==========================================================================
 
 The run directory (lock, partial folder, results, commit) stays with the driver
