@@ -179,6 +179,19 @@ for name, r in runs.items():
         lines.append(f"  WARNING: one CUDA device with several PCI bus ids: {dict(cons)}")
 if rows:
     pd.concat(rows).to_csv(out / "rows.csv", index=False)
+# the measured frames per method, summed over its jobs' medians: GPU time (timer queries) and wall clock. Equal
+# GPU times and a larger wall clock in a Ray run: the worker's CPU side, not the GPU, is slower
+frames = []
+for name, r in runs.items():
+    if r["done"]:
+        df = read_results(work / name)
+        frames.append(df.groupby("method")[["total_ms", "wall_ms"]].sum().round(1).assign(run=name).reset_index())
+if frames:
+    ft = pd.concat(frames).pivot(index="method", columns="run", values=["total_ms", "wall_ms"])
+    ft.columns = [f"{a} {b}" for a, b in ft.columns]
+    lines += ["", "## Frame times per method (sum over its jobs of the median frame, ms)", "",
+              "| method | " + " | ".join(ft.columns) + " |", "|---|" + "---|" * len(ft.columns)]
+    lines += [f"| {m} | " + " | ".join(str(v) for v in row) + " |" for m, row in zip(ft.index, ft.values.tolist())]
 (out / "diffs.txt").write_text("\n".join(diffs) + ("\n" if diffs else "no differences\n"))
 (out / "summary.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
