@@ -109,7 +109,7 @@ run() {  # run NAME [K]: one `ldbench run` into $W/NAME, wall clock into $W/NAME
 summary() {
     nvidia-smi --query-gpu=index,name,pci.bus_id,uuid,driver_version --format=csv > "$O/gpu.txt" 2>&1
     "$PY" - "$W" "$O" <<'EOF'
-import json, sys
+import json, re, sys
 from pathlib import Path
 
 import pandas as pd
@@ -186,6 +186,29 @@ for name, r in runs.items():
     if r["done"]:
         df = read_results(work / name)
         frames.append(df.groupby("method")[["total_ms", "wall_ms"]].sum().round(1).assign(run=name).reset_index())
+# the split lines (harness/phases.py) as one table: per phase, seconds and ms per call of the serial process
+# and of all workers of each Ray run (its driver's references apart)
+split = {}
+for name in runs:
+    log = work / f"{name}.log"
+    for ln in (log.read_text(errors="replace").splitlines() if log.is_file() else []):
+        m = re.match(r"ldbench: (local: .*? s: |ray: worker \d+ split: |ray: driver split: )(.*)", ln)
+        if not m:
+            continue
+        col = name + (" driver" if "driver" in m.group(1) else "")
+        for k, n, sec in re.findall(r"([a-z][a-z ]*?) (\d+)× ([0-9.]+) s", m.group(2).split(";")[0]):
+            c, t = split.setdefault(k, {}).get(col, (0, 0.0))
+            split[k][col] = (c + int(n), t + float(sec))
+        idle = re.search(r"idle between calls ([0-9.]+) s, ([0-9.]+) s before its first", ln)
+        for k, sec in zip(("(idle between calls)", "(idle before the first call)"), idle.groups() if idle else ()):
+            c, t = split.setdefault(k, {}).get(col, (0, 0.0))
+            split[k][col] = (c + 1, t + float(sec))
+if split:
+    cols = sorted({c for v in split.values() for c in v})
+    lines += ["", "## Where the time went, by phase (seconds; ms per call)", "",
+              "| phase | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+    lines += [f"| {k} | " + " | ".join(f"{v[c][1]:.1f} ({1e3 * v[c][1] / max(v[c][0], 1):.0f})" if c in v else ""
+                                       for c in cols) + " |" for k, v in split.items()]
 if frames:
     ft = pd.concat(frames).pivot(index="method", columns="run", values=["total_ms", "wall_ms"])
     ft.columns = [f"{a} {b}" for a, b in ft.columns]
