@@ -18,6 +18,8 @@ than the serial process shows which phase grew.
 ``row``                the rest of a job: the method object, the row's columns
 ``files``              (Ray worker) a group's staging folder, and its files read back when the driver
                        cannot see it
+``put``, ``merge``     (Ray driver) what it puts into the object store; a group's files moved or written
+                       into the run directory
 =====================  =========================================================================
 """
 from __future__ import annotations
@@ -26,7 +28,7 @@ import time
 from contextlib import contextmanager
 
 ORDER = ("inputs", "reference render", "reference cache", "checks", "receive", "setup", "frames", "release",
-         "score", "save", "row", "files")
+         "score", "save", "row", "files", "put", "merge")
 
 
 class Phases:

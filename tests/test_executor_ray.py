@@ -8,6 +8,7 @@ task asks for one CPU, so two run at a time), on llvmpipe.
 * without Ray installed, ``--executor ray`` is one line, exit 2.
 """
 import os
+import re
 import signal
 import sys
 import threading
@@ -85,18 +86,27 @@ def test_ray_run_equals_serial_run(cluster, serial, tmp_path):
     assert len({p["pid"] for p in procs}) == 2 and sum(p["calls"] for p in procs) == 3, procs
 
 
+@pytest.fixture
+def ldb_log(caplog, monkeypatch):
+    """The package's INFO records in caplog (also after a CLI test, whose logging setup stops propagation)."""
+    import logging
+
+    monkeypatch.setattr(logging.getLogger("ldbench"), "propagate", True)
+    caplog.set_level(logging.INFO, logger="ldbench")
+    return caplog
+
+
 def _calls(procs, phase):
     return sum(p["phases"].get(phase, [0.0, 0])[1] for p in procs)
 
 
-def test_ray_workers_log_where_their_time_went(cluster, tmp_path, caplog):
+def test_ray_workers_log_where_their_time_went(cluster, tmp_path, ldb_log):
     """Each worker's split (harness/phases.py) counts what it did: one reference, two groups of one job
     (each taken from the object store, set up, rendered, scored, saved), and it accounts for most of the
     worker's busy time but never more; the first call's wait is apart from the idle time between calls.
-    The driver logs one split line per worker."""
-    import logging
-
-    caplog.set_level(logging.INFO, logger="ldbench")
+    The driver logs its split (what it put into the object store, the groups' files it moved) and one per
+    worker, and warns that this cluster's workers ran at a lower priority than the driver."""
+    caplog = ldb_log
     ex = RayExecutor(group_size=1)
     run_jobs(_suite(d_max=("inf",)), tmp_path / "ray", progress=False, report=False, executor=ex)
     procs = ex.stats["processes"]
@@ -111,16 +121,18 @@ def test_ray_workers_log_where_their_time_went(cluster, tmp_path, caplog):
             assert p["idle_s"] == 0, p
     lines = [r.getMessage() for r in caplog.records if " split: " in r.getMessage()]
     assert sum(ln.startswith("ray: worker ") for ln in lines) == 2, lines
-    assert any(ln.startswith("ray: driver split: ") for ln in lines), lines
+    driver = [ln for ln in lines if ln.startswith("ray: driver split: ")]
+    assert len(driver) == 1 and re.fullmatch(r"ray: driver split: put 1× \d+\.\d s, merge 2× \d+\.\d s", driver[0]), lines
+    # this cluster (the fixture's ray.init) runs its workers at Ray's niceness, 15: the run says so
+    assert all(p["nice"] == 15 for p in procs), procs
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "niceness" in r.getMessage()]
+    assert len(warned) == 1 and "niceness 15, below this process (0)" in warned[0], warned
 
 
-def test_serial_run_logs_where_its_time_went(tmp_path, monkeypatch, caplog):
+def test_serial_run_logs_where_its_time_went(tmp_path, monkeypatch, ldb_log):
     """The serial run logs the same split: a reference rendered, then the same one from the cache."""
-    import logging
-    import re
-
+    caplog = ldb_log
     monkeypatch.setenv("LDBENCH_CACHE", str(tmp_path / "cache"))
-    caplog.set_level(logging.INFO, logger="ldbench")
     for run, ref in (("a", "reference render 1×"), ("b", "reference cache 1×")):
         caplog.clear()
         run_jobs(_suite(d_max=("inf",)), tmp_path / run, progress=False, report=False)

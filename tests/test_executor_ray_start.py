@@ -34,9 +34,14 @@ def no_cluster():
     assert not ray.is_initialized() and not _cluster_threads(), "the run's local cluster was not shut down"
 
 
-def test_driver_renders_references_while_the_local_cluster_starts(tmp_path):
+def test_driver_renders_references_while_the_local_cluster_starts(tmp_path, caplog, monkeypatch):
     """No worker is ready before the driver's first reference: the driver renders at least that one, the
-    rows and images equal the serial run's, and the SIGTERM handler is given back."""
+    rows and images equal the serial run's, and the SIGTERM handler is given back. The workers run at the
+    driver's priority: no warning about their niceness."""
+    import logging
+
+    monkeypatch.setattr(logging.getLogger("ldbench"), "propagate", True)
+    caplog.set_level(logging.INFO, logger="ldbench")
     serial = tmp_path / "serial"
     run_jobs(_suite(), serial, progress=False, report=False)
     term = signal.getsignal(signal.SIGTERM)
@@ -50,6 +55,8 @@ def test_driver_renders_references_while_the_local_cluster_starts(tmp_path):
     # the workers run at the driver's priority, not Ray's worker niceness (15)
     nice = os.getpriority(os.PRIO_PROCESS, 0)
     assert ex.stats["processes"] and all(p["nice"] == nice for p in ex.stats["processes"]), ex.stats
+    assert any(r.getMessage().startswith("ray: worker ") for r in caplog.records)  # the lines are seen here
+    assert not [r for r in caplog.records if "niceness" in r.getMessage() and r.levelname == "WARNING"]
 
 
 def test_ctrl_c_while_the_driver_renders_and_the_cluster_starts(tmp_path, monkeypatch):

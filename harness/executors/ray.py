@@ -623,24 +623,15 @@ class RayExecutor:
                     elif value.error is not None:
                         settle(work.items, work.key, status=f"error: {value.error}")
                     else:
-                        self._merge(value, out)
+                        with phases("merge"):
+                            self._merge(value, out)
                         settle(work.items, work.key, new_rows=value.rows)
                 dispatch()
             if bar is not None:
                 bar.close()
             self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
                           "driver_references": n_local, "processes": self._processes(ray, workers)}
-            log = logging.getLogger(__name__)
-            log.info("ray: " + "; ".join(
-                [f"driver: {n_local} references"] +
-                [f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
-                 f"{p['omp_threads']} OpenMP threads): "
-                 f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]]))
-            log.info(f"ray: driver split: {Phases.text(phases.as_dict())}")
-            for p in self.stats["processes"]:  # where each worker's time went (harness/phases.py)
-                log.info(f"ray: worker {p['pid']} split: {Phases.text(p.get('phases') or {})}; idle between "
-                         f"calls {p.get('idle_s', 0.0):.1f} s, {p.get('first_wait_s') or 0.0:.1f} s before its "
-                         f"first; niceness {p.get('nice')}")
+            self._log_times(n_local, phases)
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:
@@ -656,6 +647,28 @@ class RayExecutor:
                 cluster.stop()
             elif started:
                 ray.shutdown()
+
+    def _log_times(self, n_local: int, phases) -> None:
+        """The run's last lines: each worker's calls and busy time, then where the driver's and each worker's
+        time went (harness/phases.py), and a warning when the workers ran at a lower priority than this
+        process (Ray's ``worker_niceness``, on a cluster joined with ``--address``)."""
+        log = logging.getLogger(__name__)
+        log.info("ray: " + "; ".join(
+            [f"driver: {n_local} references"] +
+            [f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
+             f"{p['omp_threads']} OpenMP threads): "
+             f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]]))
+        log.info(f"ray: driver split: {Phases.text(phases.as_dict())}")
+        for p in self.stats["processes"]:  # where each worker's time went (harness/phases.py)
+            log.info(f"ray: worker {p['pid']} split: {Phases.text(p.get('phases') or {})}; idle between "
+                     f"calls {p.get('idle_s', 0.0):.1f} s, {p.get('first_wait_s') or 0.0:.1f} s before its "
+                     f"first; niceness {p.get('nice')}")
+        mine = os.getpriority(os.PRIO_PROCESS, 0)
+        niced = sorted({p["nice"] for p in self.stats["processes"] if p.get("nice") is not None and p["nice"] > mine})
+        if niced:
+            log.warning(f"ray: the workers ran at niceness {', '.join(map(str, niced))}, below this process ({mine}): "
+                        f"their CPU side yields to every other process of their node; start the cluster with "
+                        f"RAY_worker_niceness=0 ray start ... to run them as a serial run does")
 
     @staticmethod
     def _free_driver_memory() -> None:
