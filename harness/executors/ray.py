@@ -85,8 +85,8 @@ CONNECT_TIMEOUT_S = 10.0
 MAX_RETRIES = 100
 #: Ray settings of a local cluster the run starts. Ray starts its workers at niceness 15 (its
 #: ``worker_niceness``), below every other process of the machine: a worker's CPU side (FLIP's OpenMP
-#: loops, SSIM, image files, the GL driver's thread) then yields to whatever else runs, the driver and
-#: Ray's own processes included, where the serial run's process does not. 0: the driver's priority.
+#: loops, SSIM, image files) then yields to whatever else runs, the driver and Ray's own processes
+#: included, where the serial run's process does not. 0: the driver's priority.
 LOCAL_SYSTEM_CONFIG = {"worker_niceness": 0}
 
 
@@ -197,8 +197,6 @@ class Worker:
     next; Ray restarts it (a fresh process, same GPU) when it dies."""
 
     def __init__(self, env=()):
-        from ..phases import Phases
-
         os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
         self.gpu = self.machine = None
         self.calls, self.references, self.busy_s = 0, 0, 0.0
