@@ -66,11 +66,15 @@ def test_ctrl_c_while_the_driver_renders_and_the_cluster_starts(tmp_path, monkey
     monkeypatch.setenv("LDBENCH_FAULT", f"sleep:reference:{fired}")
     out = tmp_path / "run"
 
+    main = threading.main_thread().ident
+
     def interrupt():
         deadline = time.monotonic() + 60
         while not fired.is_file() and time.monotonic() < deadline:
             time.sleep(0.05)
-        os.kill(os.getpid(), signal.SIGINT)
+        # to the main thread, which sleeps in the fault: os.kill may hand the signal to one of Ray's threads,
+        # and the main thread's sleep (ten minutes) would not wake for it (seen once)
+        signal.pthread_kill(main, signal.SIGINT)
 
     t = threading.Thread(target=interrupt, daemon=True)
     t.start()
