@@ -29,6 +29,7 @@ from pathlib import Path
 from ldbench.core.errors import LdbenchError
 from .naming import slug as _slug
 from .checks import camera_sees_geometry, finite_reference, unique_scene_names
+from .phases import Phases
 from .suite import Job, Suite, resolve_sizes
 
 REPO = Path(__file__).resolve().parent.parent
@@ -77,6 +78,7 @@ class RunContext:
     suite_name: str
     out: Path  # the (temporary) run directory being written, or a task's staging folder
     save_arrays: bool = False  # --save-arrays: per-ray / per-VPL inputs and answers (harness/arrays.py)
+    phases: Phases | None = None  # where the jobs' time goes (harness/phases.py), or not recorded
 
 
 @dataclass
@@ -148,17 +150,25 @@ def _ldbench_git() -> dict:
     return {"commit": info["commit"], "dirty": info["dirty"], "branch": None}
 
 
-def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False) -> Prepared:
+def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False, phases: Phases | None = None) -> Prepared:
     """The effect's inputs and reference of one :func:`prepare_key` (the reference from the cache, or
-    rendered into it)."""
+    rendered into it); its phases timed into ``phases`` (harness/phases.py) when given."""
     from ldbench.references import EXACT, render_effect
 
+    ph = phases if phases is not None else Phases()
     _, effect, w, h, spp, seed = key
-    inputs = effect.spec.inputs(scene, w, h, effect.params, seed, exact=EXACT)
-    ref = render_effect(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs, cache=cache,
-                        progress=progress)
-    camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
-    finite_reference(scene, ref, f"{effect.label()} at {w}x{h}")  # likewise
+    with ph("inputs"):
+        inputs = effect.spec.inputs(scene, w, h, effect.params, seed, exact=EXACT)
+    t0, ref = time.perf_counter(), None
+    try:
+        ref = render_effect(scene, effect, width=w, height=h, spp=spp, seed=seed, inputs=inputs, cache=cache,
+                            progress=progress)
+    finally:
+        cached = ref is not None and (getattr(ref, "meta", None) or {}).get("cached")
+        ph.add("reference cache" if cached else "reference render", time.perf_counter() - t0)
+    with ph("checks"):
+        camera_sees_geometry(scene, ref, w, h)  # else every metric is NaN
+        finite_reference(scene, ref, f"{effect.label()} at {w}x{h}")  # likewise
     return Prepared(scene, inputs, ref)
 
 
@@ -177,12 +187,16 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     run completes, as it does on the Ray executor. Only KeyboardInterrupt and SystemExit pass."""
     from . import records
 
+    ph = ctx.phases if ctx.phases is not None else Phases()
+    t0, before = time.perf_counter(), ph.total()
     try:
-        return _run_job(ctx, job, prep)
+        return _run_job(ctx, job, prep, ph)
     except LdbenchError as e:
         status = f"error: {e}"
     except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
         status = f"error: {error_text(e)}"
+    finally:  # what the phases inside did not time
+        ph.add("row", time.perf_counter() - t0 - (ph.total() - before))
     return records.make_row(**_job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, prep.scene,
                                           getattr(prep.reference, "meta", {}), status))
 
@@ -193,7 +207,7 @@ def error_text(e: BaseException) -> str:
     return f"{type(e).__name__}: {lines[0] if lines else ''}".rstrip(": ")[:300]
 
 
-def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
+def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
     from ldbench.methods.base import View, get_method
     from ldbench.references import trace
 
@@ -210,24 +224,27 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     totals, walls = [], []
     status, result = "ok", None
     try:
-        method.setup(ctx.gpu, scene)
-        if hasattr(prep.inputs, "upload"):
-            prep.inputs.upload(ctx.gpu)  # harness inputs on the GPU, before the timed frames
-        for i in range(job.warmup + job.frames):
-            ctx.gpu.begin_frame()
-            result = method.frame(view, job.effect, prep.inputs)
-            stages, wall = ctx.gpu.end_frame()
-            result.stages_ms = stages
-            if i >= job.warmup:
-                for k, v in stages.items():
-                    samples.setdefault(k, []).append(v)
-                totals.append(sum(stages.values()))
-                walls.append(wall)
-        result.resolve()
+        with ph("setup"):
+            method.setup(ctx.gpu, scene)
+            if hasattr(prep.inputs, "upload"):
+                prep.inputs.upload(ctx.gpu)  # harness inputs on the GPU, before the timed frames
+        with ph("frames"):
+            for i in range(job.warmup + job.frames):
+                ctx.gpu.begin_frame()
+                result = method.frame(view, job.effect, prep.inputs)
+                stages, wall = ctx.gpu.end_frame()
+                result.stages_ms = stages
+                if i >= job.warmup:
+                    for k, v in stages.items():
+                        samples.setdefault(k, []).append(v)
+                    totals.append(sum(stages.values()))
+                    walls.append(wall)
+            result.resolve()
     except LdbenchError as e:
         status = f"error: {e}"
     finally:
-        method.release()
+        with ph("release"):
+            method.release()
 
     row = _job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, scene, getattr(ref, "meta", {}),
                       status)
@@ -236,19 +253,22 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     if result.invariants:
         row["status"] = "degraded: " + "; ".join(result.invariants)
     timing = records.timing_fields({**samples, "total": totals, "wall": walls})
-    scores = spec.score(result, ref, scene=scene, inputs=prep.inputs, stage_ms=timing["stage_ms"])
+    with ph("score"):
+        scores = spec.score(result, ref, scene=scene, inputs=prep.inputs, stage_ms=timing["stage_ms"])
     folder = ctx.out / "images" / scene_dir(scene)
-    images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
-    rel = f"images/{scene_dir(scene)}/"
-    images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v) for k, v in images.items()}
-    if ctx.save_arrays:
-        from .arrays import answer_arrays, save_arrays
+    with ph("save"):
+        images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
+        rel = f"images/{scene_dir(scene)}/"
+        images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
+                  for k, v in images.items()}
+        if ctx.save_arrays:
+            from .arrays import answer_arrays, save_arrays
 
-        arrays = answer_arrays(spec, result, ref, prep.inputs)
-        if arrays is not None:
-            name = f"{job_label(job, scene)}-arrays.npz"
-            save_arrays(folder / name, arrays)
-            images["arrays"] = rel + name
+            arrays = answer_arrays(spec, result, ref, prep.inputs)
+            if arrays is not None:
+                name = f"{job_label(job, scene)}-arrays.npz"
+                save_arrays(folder / name, arrays)
+                images["arrays"] = rel + name
     mem = {k: int(v) for k, v in result.memory_bytes.items()}
     row.update(**timing, memory_bytes=int(sum(mem.values())), memory=mem,
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},

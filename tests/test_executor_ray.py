@@ -8,6 +8,7 @@ task asks for one CPU, so two run at a time), on llvmpipe.
 * without Ray installed, ``--executor ray`` is one line, exit 2.
 """
 import os
+import re
 import signal
 import sys
 import threading
@@ -83,6 +84,77 @@ def test_ray_run_equals_serial_run(cluster, serial, tmp_path):
     procs = ex.stats["processes"]
     assert ex.stats["workers"] == 2 and ex.stats["calls"] == 3, ex.stats
     assert len({p["pid"] for p in procs}) == 2 and sum(p["calls"] for p in procs) == 3, procs
+
+
+@pytest.fixture
+def ldb_log(caplog, monkeypatch):
+    """The package's INFO records in caplog (also after a CLI test, whose logging setup stops propagation)."""
+    import logging
+
+    monkeypatch.setattr(logging.getLogger("ldbench"), "propagate", True)
+    caplog.set_level(logging.INFO, logger="ldbench")
+    return caplog
+
+
+def _calls(procs, phase):
+    return sum(p["phases"].get(phase, [0.0, 0])[1] for p in procs)
+
+
+def test_ray_workers_log_where_their_time_went(cluster, tmp_path, ldb_log):
+    """Each worker's split (harness/phases.py) counts what it did: one reference, two groups of one job
+    (each taken from the object store, set up, rendered, scored, saved), and it accounts for most of the
+    worker's busy time but never more; the first call's wait is apart from the idle time between calls.
+    The driver logs its split (what it put into the object store, the groups' files it moved) and one per
+    worker, and warns that this cluster's workers ran at a lower priority than the driver."""
+    caplog = ldb_log
+    ex = RayExecutor(group_size=1)
+    run_jobs(_suite(d_max=("inf",)), tmp_path / "ray", progress=False, report=False, executor=ex)
+    procs = ex.stats["processes"]
+    assert _calls(procs, "reference render") + _calls(procs, "reference cache") == 1, procs
+    for phase in ("receive", "setup", "frames", "release", "score", "save", "row", "files"):
+        assert _calls(procs, phase) == 2, (phase, procs)
+    for p in procs:
+        timed = sum(s for s, _ in p["phases"].values())
+        assert 0.98 * p["busy_s"] <= timed <= p["busy_s"] + 1e-6, p  # measured 0.9997 of it
+        assert p["first_wait_s"] is not None and p["first_wait_s"] >= 0 and p["idle_s"] >= 0, p
+        if p["calls"] == 1:
+            assert p["idle_s"] == 0, p
+    lines = [r.getMessage() for r in caplog.records if " split: " in r.getMessage()]
+    assert sum(ln.startswith("ray: worker ") for ln in lines) == 2, lines
+    driver = [ln for ln in lines if ln.startswith("ray: driver split: ")]
+    assert len(driver) == 1 and re.fullmatch(r"ray: driver split: put 1× \d+\.\d s, merge 2× \d+\.\d s", driver[0]), lines
+    # this cluster (the fixture's ray.init) runs its workers at Ray's niceness, 15: the run says so
+    assert all(p["nice"] == 15 for p in procs), procs
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "niceness" in r.getMessage()]
+    assert len(warned) == 1 and "niceness 15, below this process (0)" in warned[0], warned
+
+
+def test_serial_run_logs_where_its_time_went(tmp_path, monkeypatch, ldb_log):
+    """The serial run logs the same split: a reference rendered, then the same one from the cache."""
+    caplog = ldb_log
+    monkeypatch.setenv("LDBENCH_CACHE", str(tmp_path / "cache"))
+    for run, ref in (("a", "reference render 1×"), ("b", "reference cache 1×")):
+        caplog.clear()
+        run_jobs(_suite(d_max=("inf",)), tmp_path / run, progress=False, report=False)
+        line = next(r.getMessage() for r in caplog.records if r.getMessage().startswith("local: "))
+        assert line.startswith("local: 1 references, 2 jobs in "), line
+        assert ref in line and "reference " not in line.replace(ref, ""), line
+        for phase in ("setup", "frames", "score", "save", "row"):
+            assert re.search(rf"\b{phase} 2× \d+\.\d s", line), (phase, line)
+
+
+def test_phases_text_in_order():
+    from ldbench.harness.phases import Phases
+
+    ph = Phases()
+    ph.add("save", 0.25)
+    ph.add("custom", 1.0)
+    with ph("setup"):
+        pass
+    ph.add("save", 0.5)
+    assert ph.calls == {"save": 2, "custom": 1, "setup": 1} and ph.seconds["save"] == 0.75
+    assert Phases.text(ph.as_dict()) == "setup 1× 0.0 s, save 2× 0.8 s, custom 1× 1.0 s"
+    assert Phases.text({}) == "nothing timed"
 
 
 def test_group_jobs_by_reference():

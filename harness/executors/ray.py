@@ -40,6 +40,11 @@ Ctrl-C                 kills every worker, waits for their calls to end, and re-
                        deletes the partial run directory.
 environment            the driver's ``LDBENCH_*`` variables are set in every worker (reference cache,
                        Mitsuba variant).
+priority               a local cluster the run starts runs its workers at niceness 0 (Ray's default, 15, made
+                       a worker's CPU side yield to every other process: the driver, Ray's own).
+time split             at the end, one line for the driver and one per worker: where its time went, by phase
+                       (:mod:`ldbench.harness.phases`, as the serial run logs it), its idle time between calls
+                       and its niceness.
 =====================  ==========================================================================
 
 The run directory (lock, partial folder, results, commit) stays with the driver
@@ -67,6 +72,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
+from ..phases import Phases
 
 INSTALL_HINT = "the Ray executor needs Ray: pip install 'ldbench[ray]'"
 STAGE = ".stage"  # inside the partial run directory; gone before the commit
@@ -77,6 +83,11 @@ CANCEL_WAIT_S = 20.0
 CONNECT_TIMEOUT_S = 10.0
 #: ``--retries`` at most: a call that failed 100 times will not succeed on the 101st.
 MAX_RETRIES = 100
+#: Ray settings of a local cluster the run starts. Ray starts its workers at niceness 15 (its
+#: ``worker_niceness``), below every other process of the machine: a worker's CPU side (FLIP's OpenMP
+#: loops, SSIM, image files) then yields to whatever else runs, the driver and Ray's own processes
+#: included, where the serial run's process does not. 0: the driver's priority.
+LOCAL_SYSTEM_CONFIG = {"worker_niceness": 0}
 
 
 def import_ray():
@@ -189,8 +200,26 @@ class Worker:
         os.environ.update(dict(env))  # before anything reads them: reference cache, Mitsuba variant
         self.gpu = self.machine = None
         self.calls, self.references, self.busy_s = 0, 0, 0.0
+        self.phases = Phases()  # where the busy time goes (harness/phases.py)
+        self.idle_s = 0.0  # between the end of a call and the start of the next
+        self.first_wait_s = None  # from the end of the start (__init__) to the first call
         self.warmed: dict = {}  # what _warm opened before the first call
         self._warm()
+        self._last = time.perf_counter()
+
+    def _begin(self) -> float:
+        """Count one call and the time the worker waited for it; returns the call's start time."""
+        t0 = time.perf_counter()
+        if self.first_wait_s is None:
+            self.first_wait_s = t0 - self._last
+        else:
+            self.idle_s += t0 - self._last
+        self.calls += 1
+        return t0
+
+    def _end(self, t0: float) -> None:
+        self._last = time.perf_counter()
+        self.busy_s += self._last - t0
 
     def _warm(self) -> None:
         """Open the GL context and choose Mitsuba's variant (its device context, a first kernel) now, while
@@ -222,7 +251,8 @@ class Worker:
 
     def identity(self) -> dict:
         return {"pid": os.getpid(), "calls": self.calls, "references": self.references, "busy_s": self.busy_s,
-                "warmed": self.warmed,
+                "warmed": self.warmed, "phases": self.phases.as_dict(), "idle_s": self.idle_s,
+                "first_wait_s": self.first_wait_s, "nice": os.getpriority(os.PRIO_PROCESS, 0),
                 "omp_threads": os.environ.get("OMP_NUM_THREADS"),
                 "cuda_visible_devices": os.environ.get("CUDA_VISIBLE_DEVICES")}
 
@@ -230,26 +260,29 @@ class Worker:
         """Inputs and reference of one prepare key: (small summary for the driver, Prepared for the jobs)."""
         from ..runner import prepare
 
-        self.calls += 1
-        t0 = time.perf_counter()
+        t0 = self._begin()
         _inject_fault("reference")
         try:
-            prep = prepare(scene, key, cache=cache, progress=False)
+            prep = prepare(scene, key, cache=cache, progress=False, phases=self.phases)
         except LdbenchError as e:  # bad input (e.g. the camera sees nothing): returned, never retried
             return {"error": str(e)}, None
         finally:
-            self.busy_s += time.perf_counter() - t0
+            self._end(t0)
         self.references += 1
         return {"meta": dict(getattr(prep.reference, "meta", {}) or {})}, prep
 
-    def jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
-        """Run ``jobs`` (all sharing ``prep``) on this worker's GL context, opened on its first call."""
-        self.calls += 1
-        t0 = time.perf_counter()
+    def jobs(self, spec: TaskSpec, prep_ref: list, jobs: list) -> TaskResult:
+        """Run ``jobs`` (all sharing the Prepared of ``prep_ref``, ``[object ref]``: taken from the object
+        store here, so that the split shows it) on this worker's GL context, opened on its first call."""
+        import ray
+
+        t0 = self._begin()
         try:
+            with self.phases("receive"):
+                prep = ray.get(prep_ref[0])
             return self._jobs(spec, prep, jobs)
         finally:
-            self.busy_s += time.perf_counter() - t0
+            self._end(t0)
 
     def _jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
         import socket
@@ -263,10 +296,12 @@ class Worker:
             except LdbenchError as e:
                 return TaskResult([], error=f"{socket.gethostname()}: {e}")
             self.machine = machine_of(self.gpu)
-        stage, shared = _stage_dir(spec)
+        with self.phases("files"):
+            stage, shared = _stage_dir(spec)
         try:
             ctx = RunContext(gpu=self.gpu, machine=self.machine, git=spec.git, run_id=spec.run_id,
-                             suite_name=spec.suite_name, out=stage, save_arrays=spec.save_arrays)
+                             suite_name=spec.suite_name, out=stage, save_arrays=spec.save_arrays,
+                             phases=self.phases)
             rows = []
             try:
                 for job in jobs:
@@ -274,7 +309,10 @@ class Worker:
                     rows.append(run_job(ctx, job, prep))
             finally:
                 release_inputs([prep])
-            files = None if shared else _read_tree(stage)
+            files = None
+            if not shared:
+                with self.phases("files"):
+                    files = _read_tree(stage)
         finally:
             if not shared:
                 shutil.rmtree(stage, ignore_errors=True)
@@ -457,7 +495,7 @@ class RayExecutor:
         cluster = None
         if self.address is None and not os.environ.get("RAY_ADDRESS") and not ray.is_initialized():
             # a local cluster: started by a thread while the driver renders references
-            cluster = _LocalCluster(ray, self._init_kw()).start()
+            cluster = _LocalCluster(ray, {**self._init_kw(), "_system_config": dict(LOCAL_SYSTEM_CONFIG)}).start()
             started = True
         else:
             started = self._connect(ray)
@@ -496,10 +534,12 @@ class RayExecutor:
                 done, _ = ray.wait(start["ready"], num_returns=1, timeout=0)
                 return bool(done)
 
-            local, local_failed = self._render_in_driver(plan, keys[:limit], worker_ready)
+            phases = Phases()  # the driver's references, and what it puts into the object store
+            local, local_failed = self._render_in_driver(plan, keys[:limit], worker_ready, phases)
             start_workers(block=True)
             groups, kind, n = start["groups"], start["kind"], len(workers)
-            scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
+            with phases("put"):
+                scenes = {sk: ray.put(sc) for sk, sc in plan.scenes.items()}
             logging.getLogger(__name__).info(f"ray: {len(plan.jobs)} jobs in {len(groups)} groups, "
                                              f"{len(keys)} references ({len(local) + len(local_failed)} in the "
                                              f"driver while the workers started), {n} {kind} workers")
@@ -508,7 +548,8 @@ class RayExecutor:
             metas: dict = {}
             preps: dict = {}  # key -> prep object ref, once its reference is done
             for key, prep in local.items():
-                metas[key], preps[key] = dict(getattr(prep.reference, "meta", {}) or {}), ray.put(prep)
+                with phases("put"):
+                    metas[key], preps[key] = dict(getattr(prep.reference, "meta", {}) or {}), ray.put(prep)
             n_local = len(local)
             local.clear()
             if n_local or local_failed:
@@ -539,7 +580,7 @@ class RayExecutor:
                             scenes[work.key[0]], work.key, plan.reference_cache)
                         running[meta] = (w, work, prep)
                     else:
-                        ref = workers[w].jobs.remote(spec, preps[work.key], [j for _, j in work.items])
+                        ref = workers[w].jobs.remote(spec, [preps[work.key]], [j for _, j in work.items])
                         running[ref] = (w, work, None)
                     calls += 1
 
@@ -580,18 +621,15 @@ class RayExecutor:
                     elif value.error is not None:
                         settle(work.items, work.key, status=f"error: {value.error}")
                     else:
-                        self._merge(value, out)
+                        with phases("merge"):
+                            self._merge(value, out)
                         settle(work.items, work.key, new_rows=value.rows)
                 dispatch()
             if bar is not None:
                 bar.close()
             self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
                           "driver_references": n_local, "processes": self._processes(ray, workers)}
-            logging.getLogger(__name__).info("ray: " + "; ".join(
-                [f"driver: {n_local} references"] +
-                [f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
-                 f"{p['omp_threads']} OpenMP threads): "
-                 f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]]))
+            self._log_times(n_local, phases)
             shutil.rmtree(root, ignore_errors=True)
             return rows
         except BaseException:
@@ -608,6 +646,28 @@ class RayExecutor:
             elif started:
                 ray.shutdown()
 
+    def _log_times(self, n_local: int, phases) -> None:
+        """The run's last lines: each worker's calls and busy time, then where the driver's and each worker's
+        time went (harness/phases.py), and a warning when the workers ran at a lower priority than this
+        process (Ray's ``worker_niceness``, on a cluster joined with ``--address``)."""
+        log = logging.getLogger(__name__)
+        log.info("ray: " + "; ".join(
+            [f"driver: {n_local} references"] +
+            [f"worker {p['pid']} ({'GPU ' + p['cuda_visible_devices'] if p['cuda_visible_devices'] else 'CPU'}, "
+             f"{p['omp_threads']} OpenMP threads): "
+             f"{p['calls']} calls, busy {p['busy_s']:.1f} s" for p in self.stats["processes"]]))
+        log.info(f"ray: driver split: {Phases.text(phases.as_dict())}")
+        for p in self.stats["processes"]:  # where each worker's time went (harness/phases.py)
+            log.info(f"ray: worker {p['pid']} split: {Phases.text(p.get('phases') or {})}; idle between "
+                     f"calls {p.get('idle_s', 0.0):.1f} s, {p.get('first_wait_s') or 0.0:.1f} s before its "
+                     f"first; niceness {p.get('nice')}")
+        mine = os.getpriority(os.PRIO_PROCESS, 0)
+        niced = sorted({p["nice"] for p in self.stats["processes"] if p.get("nice") is not None and p["nice"] > mine})
+        if niced:
+            log.warning(f"ray: the workers ran at niceness {', '.join(map(str, niced))}, below this process ({mine}): "
+                        f"their CPU side yields to every other process of their node; start the cluster with "
+                        f"RAY_worker_niceness=0 ray start ... to run them as a serial run does")
+
     @staticmethod
     def _free_driver_memory() -> None:
         """Give back the device memory Dr.Jit keeps cached after the driver's references (on a GPU that a
@@ -620,7 +680,7 @@ class RayExecutor:
                 pass
 
     @staticmethod
-    def _render_in_driver(plan, keys: list, worker_ready) -> tuple[dict, dict]:
+    def _render_in_driver(plan, keys: list, worker_ready, phases=None) -> tuple[dict, dict]:
         """References rendered here, one after the other, while the cluster and the workers start (nothing
         else runs meanwhile): ``keys`` in order until ``worker_ready()`` (asked before each, so that it asks
         for the workers as soon as the cluster is up; the first is always rendered). Returns ({key: Prepared}, {key: the exception of a reference that failed}); bad input
@@ -634,7 +694,8 @@ class RayExecutor:
                 break
             try:
                 _inject_fault("reference", driver=True)
-                local[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=False)
+                local[key] = prepare(plan.scenes[key[0]], key, cache=plan.reference_cache, progress=False,
+                                     phases=phases)
             except LdbenchError:
                 raise
             except Exception as e:  # noqa: BLE001 - counts as a failed reference call

@@ -10,8 +10,8 @@
 #     ray:K    the same on the first K GPUs only (CUDA_VISIBLE_DEVICES=0..K-1: the speed-up curve)
 #     summary  speed-up against the GPU count, equality of every row's metrics and images with the serial
 #              run (ldbench.harness.executors.check), per row the EGL device, CUDA device and PCI bus id, and
-#              each Ray run's own log lines (references the driver rendered while the workers started, calls
-#              and busy time per worker)
+#              each run's own log lines (references the driver rendered while the workers started, calls
+#              and busy time per worker; where the serial process's and each worker's time went, by phase)
 #              -> "$OUT/ray-executor-speedup/": summary.md, timings.csv, rows.csv, diffs.txt, gpu.txt, log.txt
 # The runs stay in runs/ray-executor-speedup/ (ignored by git), so steps can be split over several
 # commands on one machine, e.g. `... ray-executor-speedup.sh serial` then `... ray-executor-speedup.sh ray summary`.
@@ -103,13 +103,13 @@ run() {  # run NAME [K]: one `ldbench run` into $W/NAME, wall clock into $W/NAME
     echo "$t0 $t1 $rc ${k:-0}" > "$W/$name.wall"
     log "   $name: rc=$rc (0: all ok, 1: some row not ok, 124: timed out) in $(awk "BEGIN {printf \"%.1f\", $t1 - $t0}") s"
     tail -n 3 "$W/$name.log" >> "$O/log.txt"
-    grep "^ldbench: ray" "$W/$name.log" >> "$O/log.txt"
+    grep "^ldbench: \(ray\|local\):" "$W/$name.log" >> "$O/log.txt"  # where each process's time went
 }
 
 summary() {
     nvidia-smi --query-gpu=index,name,pci.bus_id,uuid,driver_version --format=csv > "$O/gpu.txt" 2>&1
     "$PY" - "$W" "$O" <<'EOF'
-import json, sys
+import json, re, sys
 from pathlib import Path
 
 import pandas as pd
@@ -139,6 +139,10 @@ md = ["| " + " | ".join(tim.columns) + " |", "|" + "---|" * len(tim.columns)]
 md += ["| " + " | ".join(str(v) for v in r) + " |" for r in tim.itertuples(index=False)]
 lines += ["## Wall clock (whole `ldbench run`, references included)", "", *md, "", "## Results and devices", ""]
 rows, diffs = [], []
+log = work / "serial.log"  # the serial process's split, to hold against each worker's
+for ln in (log.read_text(errors="replace").splitlines() if log.is_file() else []):
+    if ln.startswith("ldbench: local: "):
+        lines.append(f"- **serial**: `{ln[len('ldbench: '):]}`")
 for name, r in runs.items():
     if name == "serial" or not r["done"]:
         continue
@@ -175,6 +179,42 @@ for name, r in runs.items():
         lines.append(f"  WARNING: one CUDA device with several PCI bus ids: {dict(cons)}")
 if rows:
     pd.concat(rows).to_csv(out / "rows.csv", index=False)
+# the measured frames per method, summed over its jobs' medians: GPU time (timer queries) and wall clock. Equal
+# GPU times and a larger wall clock in a Ray run: the worker's CPU side, not the GPU, is slower
+frames = []
+for name, r in runs.items():
+    if r["done"]:
+        df = read_results(work / name)
+        frames.append(df.groupby("method")[["total_ms", "wall_ms"]].sum().round(1).assign(run=name).reset_index())
+# the split lines (harness/phases.py) as one table: per phase, seconds and ms per call of the serial process
+# and of all workers of each Ray run (its driver's references apart)
+split = {}
+for name in runs:
+    log = work / f"{name}.log"
+    for ln in (log.read_text(errors="replace").splitlines() if log.is_file() else []):
+        m = re.match(r"ldbench: (local: .*? s: |ray: worker \d+ split: |ray: driver split: )(.*)", ln)
+        if not m:
+            continue
+        col = name + (" driver" if "driver" in m.group(1) else "")
+        for k, n, sec in re.findall(r"([a-z][a-z ]*?) (\d+)× ([0-9.]+) s", m.group(2).split(";")[0]):
+            c, t = split.setdefault(k, {}).get(col, (0, 0.0))
+            split[k][col] = (c + int(n), t + float(sec))
+        idle = re.search(r"idle between calls ([0-9.]+) s, ([0-9.]+) s before its first", ln)
+        for k, sec in zip(("(idle between calls)", "(idle before the first call)"), idle.groups() if idle else ()):
+            c, t = split.setdefault(k, {}).get(col, (0, 0.0))
+            split[k][col] = (c + 1, t + float(sec))
+if split:
+    cols = sorted({c for v in split.values() for c in v})
+    lines += ["", "## Where the time went, by phase (seconds; ms per call)", "",
+              "| phase | " + " | ".join(cols) + " |", "|---|" + "---|" * len(cols)]
+    lines += [f"| {k} | " + " | ".join(f"{v[c][1]:.1f} ({1e3 * v[c][1] / max(v[c][0], 1):.0f})" if c in v else ""
+                                       for c in cols) + " |" for k, v in split.items()]
+if frames:
+    ft = pd.concat(frames).pivot(index="method", columns="run", values=["total_ms", "wall_ms"])
+    ft.columns = [f"{a} {b}" for a, b in ft.columns]
+    lines += ["", "## Frame times per method (sum over its jobs of the median frame, ms)", "",
+              "| method | " + " | ".join(ft.columns) + " |", "|---|" + "---|" * len(ft.columns)]
+    lines += [f"| {m} | " + " | ".join(str(v) for v in row) + " |" for m, row in zip(ft.index, ft.values.tolist())]
 (out / "diffs.txt").write_text("\n".join(diffs) + ("\n" if diffs else "no differences\n"))
 (out / "summary.md").write_text("\n".join(lines) + "\n")
 print("\n".join(lines))
