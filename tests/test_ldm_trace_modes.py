@@ -3,7 +3,8 @@ unsorted lists answers exactly like the early stop on pre-sorted lists (AO image
 layouts); the AO of either query equals the sum over the maps it is meant to use, rebuilt from the
 ``rays`` effect's answers along the maps' axes (two_way: the N maps, each along the side of the normal;
 one_way: the 2N maps along ±v, those whose axis faces the normal); the 2N one-way maps answer every ray
-as the N two-way maps do, from twice the fragments."""
+as the N two-way maps do, from twice the fragments. ``trace.prefetch`` (the AO pass loading several maps'
+first nodes before walking them) gives the same image bit for bit."""
 from __future__ import annotations
 
 import numpy as np
@@ -163,10 +164,28 @@ def test_one_way_rays_table_equals_the_scan_and_indirect_refuses_the_modes(gpu):
         run(gpu, sc, Effect("indirect"), **{"trace.walk": "full"})
 
 
+@pytest.mark.parametrize("layout, query", [("linked", "two_way"), ("linear", "two_way"), ("linked", "one_way")])
+def test_prefetch_gives_the_same_ao(gpu, layout, query):
+    """AO with the first nodes of 5 and 16 maps loaded before their walks (24 maps: a partial last batch for
+    5) equals one map at a time, bit for bit."""
+    sc = scene()
+    eff = Effect("ao", d_max=0.8, falloff="quadratic")
+    kw = {"structure.layout": layout, "trace.query": query}
+    base, _ = run(gpu, sc, eff, **kw)
+    assert 0.2 < float(base.image[..., 0].mean()) < 0.99
+    for k in (5, 16):
+        got, _ = run(gpu, sc, eff, **kw, **{"trace.prefetch": k})
+        assert np.array_equal(got.image, base.image), k
+    for other in (Effect("rays"), Effect("indirect")):
+        with pytest.raises(LdbenchError, match="trace.prefetch applies to the ao effect only"):
+            run(gpu, sc, other, rays_batch(sc) if other.name == "rays" else None, **{"trace.prefetch": 4})
+
+
 def test_defaults_are_the_papers_and_unchanged():
     p = LdmParams()
     assert (p.trace.query, p.trace.walk) == ("two_way", "early_stop") and p.trace.defines() == {}
     assert LdmParams.from_dict({"trace.query": "one_way", "trace.walk": "full"}).trace.defines() == {
         "LDM_ONE_WAY": 1, "LDM_FULL_WALK": 1}
+    assert LdmParams.from_dict({"trace.prefetch": 4}).trace.defines() == {"LDM_PREFETCH": 4}
     with pytest.raises(LdbenchError):
         LdmParams.from_dict({"trace.walk": "sometimes"})

@@ -35,40 +35,56 @@
 uniform float ldm_crease;  // world units (0 = no crease rule)
 #define LDM_FAR 3.0e38
 
-// Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
-// when the ray leaves the scene (nothing stored beyond x on that side). Walks are bounded (ls_bound).
-float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
+// One map query before its walk: x's list in map k, x's depth zx in it and the skip threshold thr.
+struct LdmQuery { uint list; float zx; float thr; };
+
+LdmQuery ldm_query(uint k, float sigma, vec3 x, vec3 n, float bias) {
     vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
     ivec2 px;
     vec2 delta;  // x -> texel centre, (u, w)
-    float zx = ol_locate(k, x, px, delta);
+    LdmQuery q;
+    q.zx = ol_locate(k, x, px, delta);
     float cos_t = sigma * dot(n, v);
     float s_self = -(delta.x * dot(n, u) + delta.y * dot(n, w)) / max(cos_t, 1e-8);
-    float thr = max(s_self, -ldm_crease) + bias;
-    uint list = ls_list(k, px, ol_size);
+    q.thr = max(s_self, -ldm_crease) + bias;
+    q.list = ls_list(k, px, ol_size);
+    return q;
+}
+
+// The walk of a query from the list's first node (ls_first(q.list), which a caller may have loaded early):
+// the hit distance t > 0 along sigma * v_k, or -1.0 when nothing lies beyond x on that side. Walks are
+// bounded (ls_bound).
+float ldm_walk(LdmQuery q, float sigma, uint first) {
     uint bound = ls_bound(), steps = 0u;
 #if defined(LDM_FULL_WALK)
     float nearest = LDM_FAR;
-    for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
-        float t = sigma > 0.0 ? ls_depth(i) - zx : zx - ls_depth(i);
-        if (t > thr) nearest = min(nearest, t);
+    for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
+        float t = sigma > 0.0 ? ls_depth(i) - q.zx : q.zx - ls_depth(i);
+        if (t > q.thr) nearest = min(nearest, t);
     }
     return nearest < LDM_FAR ? max(nearest, 0.0) : -1.0;
 #endif
     if (sigma > 0.0) {
-        for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
-            float t = ls_depth(i) - zx;
-            if (t > thr) return max(t, 0.0);
+        for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
+            float t = ls_depth(i) - q.zx;
+            if (t > q.thr) return max(t, 0.0);
         }
         return -1.0;
     }
     float best = -1.0;
-    for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
-        float t = zx - ls_depth(i);
-        if (t <= thr) break;
+    for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
+        float t = q.zx - ls_depth(i);
+        if (t <= q.thr) break;
         best = max(t, 0.0);
     }
     return best;
+}
+
+// Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0
+// when the ray leaves the scene (nothing stored beyond x on that side).
+float ldm_trace(uint k, float sigma, vec3 x, vec3 n, float bias) {
+    LdmQuery q = ldm_query(k, sigma, x, n, bias);
+    return ldm_walk(q, sigma, ls_first(q.list));
 }
 
 // The map whose axis is closest to direction d (for arbitrary directions); sigma = which side.

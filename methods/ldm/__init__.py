@@ -75,6 +75,8 @@ Parameter                        Default   Paper    Meaning
                                                     same 2N directions: the same answers from twice the maps)
 ``trace.walk``                   early     early    (ao, rays) early_stop: stop at x's depth (§4.1, pre-sorted lists);
                                                     full: walk the whole list (unsorted lists' walk; same answers)
+``trace.prefetch``               1                  (ao) maps whose first list node is loaded before any is walked
+                                                    (1: one map at a time; the same image)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -165,11 +167,14 @@ class LdmTrace(ParamsBase):
     walk: str = param("early_stop", "early_stop: the list walk ends at x's depth (pre-sorted lists); full: "
                       "the whole list, nearest entry kept (as for unsorted lists; the same answers)",
                       choices=("early_stop", "full"), paper="early_stop")
+    prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (the "
+                          "same image)", lo=1, hi=16)
 
     def defines(self) -> dict:
-        """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl)."""
+        """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl) and of the AO pass."""
         return {**({"LDM_ONE_WAY": 1} if self.query == "one_way" else {}),
-                **({"LDM_FULL_WALK": 1} if self.walk == "full" else {})}
+                **({"LDM_FULL_WALK": 1} if self.walk == "full" else {}),
+                **({"LDM_PREFETCH": self.prefetch} if self.prefetch > 1 else {})}
 
 
 @dataclass(frozen=True)
@@ -341,6 +346,7 @@ class Ldm(Method):
     def _rays(self, batch):
         if batch is None:
             raise LdbenchError("method 'ldm': the rays effect needs its ray batch")
+        self._ao_only()
         gpu, n = self.gpu, len(batch)
         self.ls.build()
         if getattr(self, "_hits_n", None) != n:
@@ -360,12 +366,18 @@ class Ldm(Method):
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
                       invariants=lambda c: layered_invariants(self.ls, c))
 
+    def _ao_only(self):
+        if self.params.trace.prefetch != 1:
+            raise LdbenchError("method 'ldm': trace.prefetch applies to the ao effect only")
+
     def _indirect(self, view):
         from .indirect import IndirectLight
 
-        if self.params.trace.defines():
+        t = self.params.trace
+        if (t.query, t.walk) != ("two_way", "early_stop"):
             raise LdbenchError("method 'ldm': trace.query and trace.walk apply to the ao and rays effects only "
                                "(the photon split traces both directions of every map)")
+        self._ao_only()
         if self.indirect is None:
             self.indirect = IndirectLight(self)
         with self.gpu.stage("gbuffer"):

@@ -5,7 +5,11 @@
 // estimator 1 ("paper"):  A = 2/N sum V cos          (aalund2015 eq. 2)
 // Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way: 2N maps along +-v_i, each answering its own
 // axis): only the maps whose axis lies in the hemisphere contribute, the same N directions as two-way maps.
+// LDM_PREFETCH (trace.prefetch, default 1): maps whose first list node is loaded before any is walked.
 #include "ldm_trace.glsl"
+#ifndef LDM_PREFETCH
+#define LDM_PREFETCH 1
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;
@@ -32,17 +36,33 @@ void main() {
     vec3 x = pos.xyz;
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
-    for (uint k = 0u; k < n_maps; ++k) {
-        float c = dot(n, ol_axes[k].v.xyz);
-        float ct = abs(c);
-        if (ct < 1e-6) continue;
+    // LDM_PREFETCH maps at a time: every list's first node is loaded before any of them is walked, so
+    // the loads of several maps are in flight together; the sums run over k in the same order
+    for (uint k0 = 0u; k0 < n_maps; k0 += uint(LDM_PREFETCH)) {
+        LdmQuery q[LDM_PREFETCH];
+        uint first[LDM_PREFETCH];
+        float cs[LDM_PREFETCH];   // c = n . v_k of a map that contributes, 0 for one that does not
+        for (int j = 0; j < LDM_PREFETCH; ++j) {
+            uint k = k0 + uint(j);
+            float c = k < n_maps ? dot(n, ol_axes[k].v.xyz) : 0.0;
+            bool skip = abs(c) < 1e-6;
 #if defined(LDM_ONE_WAY)
-        if (c < 0.0) continue;  // a one-way map answers +v_k only: the maps facing away give no direction
+            skip = skip || c < 0.0;  // a one-way map answers +v_k only: the maps facing away give no direction
 #endif
-        float t = ldm_trace(k, c > 0.0 ? 1.0 : -1.0, x, n, bias);
-        float V = t >= 0.0 ? 1.0 - rho(t) : 1.0;
-        sum_vc += V * ct;
-        sum_c += ct;
+            cs[j] = skip ? 0.0 : c;
+            first[j] = LS_END;
+            if (skip) continue;
+            q[j] = ldm_query(k, c > 0.0 ? 1.0 : -1.0, x, n, bias);
+            first[j] = ls_first(q[j].list);
+        }
+        for (int j = 0; j < LDM_PREFETCH; ++j) {
+            if (cs[j] == 0.0) continue;
+            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);
+            float ct = abs(cs[j]);
+            float V = t >= 0.0 ? 1.0 - rho(t) : 1.0;
+            sum_vc += V * ct;
+            sum_c += ct;
+        }
     }
 #if defined(LDM_ONE_WAY)
     float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
