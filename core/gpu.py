@@ -248,6 +248,20 @@ class Gpu:
             if st is not self._staging:
                 st.release()
 
+    @contextmanager
+    def blending(self, func: tuple):
+        """Additive blending (``FUNC_ADD``) with ``func`` inside the block; after it (also on an error)
+        blending is off and the blend function is moderngl's default again."""
+        ctx = self.ctx
+        ctx.enable(ctx.BLEND)
+        ctx.blend_equation = ctx.FUNC_ADD
+        ctx.blend_func = func
+        try:
+            yield
+        finally:
+            ctx.disable(ctx.BLEND)
+            ctx.blend_func = ctx.DEFAULT_BLENDING
+
     # ---- timing --------------------------------------------------------------------------
     def begin_frame(self):
         self.ctx.finish()

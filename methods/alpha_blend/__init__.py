@@ -60,12 +60,8 @@ class AlphaBlend(OITMethod):
             fbo.viewport = (0, 0, w, h)
             self.set_common_uniforms(prog, view)
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-            ctx.enable(ctx.BLEND)
-            ctx.blend_equation = ctx.FUNC_ADD
-            ctx.blend_func = (ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA)
-            vao.render()
-        ctx.disable(ctx.BLEND)
-        ctx.blend_func = ctx.DEFAULT_BLENDING
+            with gpu.blending((ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA)):
+                vao.render()
         vao.release()
         out, cover = self.out, self.cover
         return Result(image=lambda: read_texture(out, 4)[..., :3].copy(),

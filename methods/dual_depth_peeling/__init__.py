@@ -175,12 +175,8 @@ class DualDepthPeeling(PeelingMethod):
             fbo.use()
             fbo.clear(0.0)
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-            ctx.enable(ctx.BLEND)
-            ctx.blend_equation = ctx.FUNC_ADD
-            ctx.blend_func = (ctx.ONE, ctx.ONE)
-            vao.render()
-            ctx.disable(ctx.BLEND)
-            ctx.blend_func = ctx.DEFAULT_BLENDING
+            with self.gpu.blending((ctx.ONE, ctx.ONE)):
+                vao.render()
             return read_texture(tex, 1)[..., 0]
         finally:
             vao.release()

@@ -210,12 +210,8 @@ class IndirectLight:
                         self.vao = ctx.vertex_array(prog, [(self.photons, "4f 4f 4f 3f 4x", "p_x", "p_du", "p_dv",
                                                             "p_n")])
                     ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-                    ctx.enable(ctx.BLEND)
-                    ctx.blend_func = ctx.ONE, ctx.ONE
-                    ctx.blend_equation = ctx.FUNC_ADD
-                    self.vao.render(mode=ctx.POINTS, vertices=n)
-                    ctx.disable(ctx.BLEND)
-                    ctx.blend_func = ctx.DEFAULT_BLENDING
+                    with self.gpu.blending((ctx.ONE, ctx.ONE)):
+                        self.vao.render(mode=ctx.POINTS, vertices=n)
             else:
                 w, h = self._size
                 fill_uint(gpu, self.accum, 3 * w * h, 0)

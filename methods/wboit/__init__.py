@@ -66,13 +66,10 @@ class WBOIT(OITMethod):
             fbo.viewport = (0, 0, w, h)
             fbo.clear(0.0, 0.0, 0.0, 0.0)
             ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-            ctx.enable(ctx.BLEND)
-            ctx.blend_equation = ctx.FUNC_ADD
-            ctx.blend_func = (ctx.ONE, ctx.ONE)
             self.set_common_uniforms(acc, view)
-            geo_vao.render()
+            with gpu.blending((ctx.ONE, ctx.ONE)):
+                geo_vao.render()
         with gpu.stage("resolve"):
-            ctx.disable(ctx.BLEND)
             fbo = self._fbos[1]
             fbo.use()
             fbo.viewport = (0, 0, w, h)
@@ -81,7 +78,6 @@ class WBOIT(OITMethod):
             res["accum"].value, res["reveal"].value = 0, 1
             self.set_common_uniforms(res, view)
             full.render(vertices=3)
-        ctx.blend_func = ctx.DEFAULT_BLENDING
         geo_vao.release()
         full.release()
         reveal = self.reveal
