@@ -39,3 +39,31 @@ void sp_texel_box(ivec2 fmin, ivec2 fmax, ivec2 size, out ivec2 i0, out ivec2 i1
     i0 = max((fmin - SP_HALF + (SP_ONE - 1)) >> LS_SUBPIXEL_BITS, ivec2(0));
     i1 = min((fmax - SP_HALF) >> LS_SUBPIXEL_BITS, size - 1);
 }
+
+// A snapped triangle ready for sample tests: its fixed-point vertices in counter-clockwise order (1 and 2
+// swapped when cw: the caller swaps its own per-vertex values alike), its edges and their biases.
+struct SpTri { ivec2 f0, f1, f2, e0, e1, e2; int b0, b1, b2; };
+
+SpTri sp_ccw(ivec2 f0, ivec2 f1, ivec2 f2, bool cw) {
+    SpTri t;
+    t.f0 = f0; t.f1 = cw ? f2 : f1; t.f2 = cw ? f1 : f2;
+    t.e0 = t.f1 - t.f0; t.e1 = t.f2 - t.f1; t.e2 = t.f0 - t.f2;
+    t.b0 = sp_bias(t.e0); t.b1 = sp_bias(t.e1); t.b2 = sp_bias(t.e2);
+    return t;
+}
+
+// whether the centre of a texel is covered
+bool sp_covers(SpTri t, ivec2 texel) {
+    ivec2 p = texel * SP_ONE + SP_HALF;
+    return sp_edge(t.e0, t.f0, p) >= t.b0 && sp_edge(t.e1, t.f1, p) >= t.b1 && sp_edge(t.e2, t.f2, p) >= t.b2;
+}
+
+// the window positions a plane is interpolated through, in the triangle's order: the snapped vertices
+// (SPLAT_SNAPPED_PLANE, exact: |f| < 2^24) or the given ones, 1 and 2 swapped when cw
+void sp_plane_vertices(SpTri t, bool cw, inout vec2 w0, inout vec2 w1, inout vec2 w2) {
+#if SPLAT_SNAPPED_PLANE
+    w0 = vec2(t.f0) / float(SP_ONE); w1 = vec2(t.f1) / float(SP_ONE); w2 = vec2(t.f2) / float(SP_ONE);
+#else
+    if (cw) { vec2 tw = w1; w1 = w2; w2 = tw; }
+#endif
+}

@@ -76,21 +76,14 @@ void gb_triangle(uint t) {
         return;
     }
     float z0 = c0.z / c0.w * 0.5 + 0.5, z1 = c1.z / c1.w * 0.5 + 0.5, z2 = c2.z / c2.w * 0.5 + 0.5;
-    if (area < 0) {   // counter-clockwise
-        ivec2 ti = f1; f1 = f2; f2 = ti;
-        vec2 tw = w1; w1 = w2; w2 = tw;
-        float tz = z1; z1 = z2; z2 = tz;
-    }
-#if SPLAT_SNAPPED_PLANE
-    w0 = vec2(f0) / S; w1 = vec2(f1) / S; w2 = vec2(f2) / S;   // exact: |f| < 2^24
-#endif
-    ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
-    int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
+    bool cw = area < 0;
+    SpTri tri = sp_ccw(f0, f1, f2, cw);
+    sp_plane_vertices(tri, cw, w0, w1, w2);
+    if (cw) { float tz = z1; z1 = z2; z2 = tz; }   // counter-clockwise, as the triangle
     vec2 dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
-            ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
-            if (sp_edge(e0, f0, p) < b0 || sp_edge(e1, f1, p) < b1 || sp_edge(e2, f2, p) < b2) continue;
+            if (!sp_covers(tri, ivec2(x, y))) continue;
             precise float z = z0 + dot(dz, vec2(x, y) + 0.5 - w0);   // the same bits in both passes
             vis_fragment(t, ivec2(x, y), z);
         }

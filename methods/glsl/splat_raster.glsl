@@ -51,25 +51,20 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     ivec2 i0, i1;
     sp_texel_box(fmin, fmax, ls_size, i0, i1);
     if (any(greaterThan(i0, i1))) return;   // no texel centre in the box: most (triangle, layer) pairs
-    if (area < 0) {   // counter-clockwise
-        ivec2 ti = f1; f1 = f2; f2 = ti;
-        vec2 tw = w1; w1 = w2; w2 = tw;
+    bool cw = area < 0;
+    SpTri tri = sp_ccw(f0, f1, f2, cw);
+    sp_plane_vertices(tri, cw, w0, w1, w2);
+    if (cw) {   // counter-clockwise, as the triangle
         vec4 tc = c1; c1 = c2; c2 = tc;
         vec3 tv = v1; v1 = v2; v2 = tv;
     }
-#if SPLAT_SNAPPED_PLANE
-    w0 = vec2(f0) / S; w1 = vec2(f1) / S; w2 = vec2(f2) / S;   // exact: |f| < 2^24
-#endif
-    ivec2 e0 = f1 - f0, e1 = f2 - f1, e2 = f0 - f2;
-    int b0 = sp_bias(e0), b1 = sp_bias(e1), b2 = sp_bias(e2);
     vec4 row = ls_layers[k].depth_row;
     float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
     float z0 = c0.z, z1 = c1.z, z2 = c2.z;
     vec2 dd = sp_plane_gradient(w0, w1, w2, d0, d1, d2), dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
-            ivec2 p = ivec2(x, y) * SP_ONE + SP_HALF;
-            if (sp_edge(e0, f0, p) < b0 || sp_edge(e1, f1, p) < b1 || sp_edge(e2, f2, p) < b2) continue;
+            if (!sp_covers(tri, ivec2(x, y))) continue;
             vec2 q = vec2(x, y) + 0.5 - w0;
             if (abs(z0 + dot(dz, q)) > 1.0) continue;
             ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, q), normal, material);
