@@ -36,8 +36,7 @@ void main() {
     vec3 x = pos.xyz;
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
-    // LDM_PREFETCH maps at a time: every list's first node is loaded before any of them is walked, so
-    // the loads of several maps are in flight together; the sums run over k in the same order
+    // the first nodes of a batch in flight together; the sums run over k in the same order for any batch
     for (uint k0 = 0u; k0 < n_maps; k0 += uint(LDM_PREFETCH)) {
         LdmQuery q[LDM_PREFETCH];
         uint first[LDM_PREFETCH];
@@ -50,7 +49,6 @@ void main() {
             skip = skip || c < 0.0;  // a one-way map answers +v_k only: the maps facing away give no direction
 #endif
             cs[j] = skip ? 0.0 : c;
-            first[j] = LS_END;
             if (skip) continue;
             q[j] = ldm_query(k, c > 0.0 ? 1.0 : -1.0, x, n, bias);
             first[j] = ls_first(q[j].list);
