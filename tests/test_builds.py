@@ -211,6 +211,8 @@ VARIANTS = {
     "splat-sort": ("linear", dict(source="splat", assembly="sort")),
     "raster-sort": ("linear", dict(assembly="sort")),
     "splat-batch2-max2.5": ("linear", dict(source="splat", splat_batch=2, splat_max=2.5)),
+    "splat-group32": ("linked", dict(source="splat", sorted_insert=False, splat_group=32)),
+    "splat-group256-batch3": ("linear", dict(source="splat", splat_group=256, splat_batch=3)),
     "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
     "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),

@@ -18,11 +18,11 @@
 // (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
-// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT,
-// SPLAT_SNAPPED_PLANE (0 or 1).
+// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup),
+// LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT, SPLAT_SNAPPED_PLANE (0 or 1).
 #include "layered_write.glsl"
 
-layout(local_size_x = 64) in;
+layout(local_size_x = SPLAT_GROUP) in;
 // geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
 layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
@@ -75,7 +75,7 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
 void main() {
     uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
     uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
-    uint stride = gl_NumWorkGroups.x * 64u;
+    uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);
     for (uint t = gl_GlobalInvocationID.x; t < n_triangles; t += stride) {
         uint o = 21u * t;
         vec3 v0 = vec3(sp_vtx[o], sp_vtx[o + 1u], sp_vtx[o + 2u]);

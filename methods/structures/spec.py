@@ -65,6 +65,7 @@ class StructureSpec(ParamsBase):
     splat_max: float = param(16.0, "splat: longest edge (texels) splatted; longer triangles go to the hardware",
                              lo=1e-6, hi=float(SPLAT_MAX_LIMIT))
     splat_batch: int = param(8, "splat: layers per compute invocation", lo=1)
+    splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))
     max_layers: int = param(1024, "peel: depth-peeling passes at most", lo=1, hi=1 << 20)
     canonical: bool = param(False, "linear: order fragments at equal depth by their payload words (stage canon)")
     page_nodes: int = param(0, "linked: nodes per SSBO page, a power of two (0 = from the SSBO size limit)",

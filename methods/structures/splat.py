@@ -136,11 +136,12 @@ class Splat(FragmentSource):
     """The ``splat`` source of one structure: the compute pass and the hardware draw of large triangles.
 
     The spec's ``splat_max`` (texels, ≤ 64): longest edge rasterized in the compute pass;
-    ``splat_batch``: layers per invocation."""
+    ``splat_batch``: layers per invocation; ``splat_group``: invocations per workgroup."""
 
     def __init__(self, structure):
         super().__init__(structure)
         self.splat_max, self.batch = structure.spec.splat_max, structure.spec.splat_batch
+        self.group = structure.spec.splat_group
         self.rule = fill_rule(structure.gpu)
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
@@ -150,7 +151,7 @@ class Splat(FragmentSource):
         self._vaos: dict = {}
 
     def defines(self, extra: dict) -> dict:
-        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, **rule_defines(self.rule)}
+        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group, **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
         key = id(prog)
@@ -177,7 +178,7 @@ class Splat(FragmentSource):
             s.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         self.large.bind_to_storage_buffer(B_LARGE)
-        groups = max(1, min(-(-s.geo.triangles // 64), 65535))
+        groups = max(1, min(-(-s.geo.triangles // self.group), 65535))
         cs.run(groups, -(-s.layers // self.batch))
         ctx.memory_barrier()
         prog = gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})

@@ -10,6 +10,7 @@
 # Usage, from the project root with its Python environment set up:
 #     OUT=/some/dir bash scripts/gpu/fast-defaults.sh [ROWS]      ROWS: e.g. fig8,cdi (default: all)
 # LDBENCH_GPU_SWEEPS: which build sweeps to run (default "triangles maps"; "" for none).
+# LDBENCH_GPU_FIG8_VARIANTS: the variants of the Figure 8 build alone (fast_builds_bench.py --variants).
 # Output: "$OUT/fast-defaults.tgz" (CSVs, the Markdown table, the runs' results, logs). Each step runs under
 # `timeout` and a failing step does not stop the script. LDBENCH_GPU_DRY=1: a CPU-sized dry run.
 set -u
@@ -30,7 +31,7 @@ step() {  # step SECONDS NAME CMD...
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >> "$W/log.txt" 2>&1
 step 60 bandwidth "$PY" scripts/gpu/fast_builds_bench.py "$W" bandwidth "${DRY[@]}"
 step 330 before-after "$PY" scripts/gpu/fast_defaults.py "$W" "${DRY[@]}" "${ONLY[@]}"
-F8=splat/linked-yang,splat/linear-sort
+F8=${LDBENCH_GPU_FIG8_VARIANTS:-splat/linked-yang,splat/linear-sort}
 step 120 fig8-build "$PY" scripts/gpu/fast_builds_bench.py "$W" fig8 "${DRY[@]}" --variants "$F8"
 GB=()
 [ "${LDBENCH_GPU_DRY:-0}" = 1 ] && GB=(--dry)

@@ -46,6 +46,8 @@ VARIANTS = {
     "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                         aggregate=True),
+    **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                           splat_group=g) for g in (32, 128, 256)},
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
