@@ -3,15 +3,39 @@ for the report's image viewer."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
 
+#: zlib level of the PNG previews (docs/reports.md, "Images": the time it saves)
+PNG_COMPRESS_LEVEL = 1
+
+
+def write_png(path: Path, img: np.ndarray) -> Path:
+    """Write 8-bit ``H × W`` (grey), ``H × W × 3`` (RGB) or ``H × W × 4`` (RGBA) pixels to ``path``
+    atomically (a temporary file in the same folder, renamed over it)."""
+    from PIL import Image
+
+    a = np.asarray(img)
+    if a.dtype != np.uint8 or not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in (1, 3, 4))):
+        raise ValueError(f"write_png needs H x W (x 1, 3 or 4) uint8 pixels, got {a.dtype} {a.shape}")
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[:, :, 0]
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        Image.fromarray(np.ascontiguousarray(a)).save(tmp, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
 def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = None):
     """EXR (linear float) + PNG preview (sRGB; ``png_scale`` maps that value to white)."""
-    import matplotlib.image as mpimg
-
     from ldbench.core.exr import write_exr
 
     from .metrics import to_srgb8
@@ -21,15 +45,13 @@ def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = N
     chans = {"Y": img[..., 0]} if img.shape[-1] == 1 else dict(zip("RGB", np.moveaxis(img[..., :3], -1, 0)))
     write_exr(str(path_noext) + ".exr", chans)
     disp = img if png_scale in (None, 0) else img / png_scale
-    rgb = np.repeat(disp, 3, -1) if disp.shape[-1] == 1 else disp[..., :3]
-    mpimg.imsave(str(path_noext) + ".png", to_srgb8(rgb))
+    srgb = to_srgb8(disp[..., :1] if disp.shape[-1] == 1 else disp[..., :3])
+    write_png(Path(str(path_noext) + ".png"), np.repeat(srgb, 3, -1) if srgb.shape[-1] == 1 else srgb)
 
 
 def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
     """A scalar H×W map as EXR + colourised PNG (magma, white = its 99th percentile over ``mask``).
     Returns that scale."""
-    import matplotlib.image as mpimg
-
     from ldbench.core.exr import write_exr
 
     from .metrics import colorize
@@ -38,7 +60,7 @@ def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
     path_noext.parent.mkdir(parents=True, exist_ok=True)
     vmax = float(np.percentile(emap[mask], 99)) if mask.any() else 1.0
     write_exr(str(path_noext) + ".exr", {"Y": np.asarray(emap, np.float32)})
-    mpimg.imsave(str(path_noext) + ".png", colorize(emap, vmax=max(vmax, 1e-6)))
+    write_png(Path(str(path_noext) + ".png"), colorize(emap, vmax=max(vmax, 1e-6)))
     return vmax
 
 

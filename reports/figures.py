@@ -578,8 +578,8 @@ def _cell_label(r, diff):
 def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_budget: dict | None = None) -> Grid:
     """Write the grid's assets (error PNGs on one scale, colour bar, matplotlib grid) and describe it.
     ``values_budget`` (``{"bytes": n}``, shared by the grids of one report) caps the viewer's value files."""
-    import matplotlib.image as mpimg
     from ldbench.core import metrics
+    from ldbench.core.imageio import write_png
 
     plt = _plt()
     scene, shash, eff, size, eslug = key
@@ -612,7 +612,7 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
         epath = None
         if e is not None:
             epath_abs = gdir / f"{i:02d}-{slug(r['method'], 30)}-error.png"
-            mpimg.imsave(str(epath_abs), metrics.colorize(e, vmax=vmax))
+            write_png(epath_abs, metrics.colorize(e, vmax=vmax))
             epath = epath_abs.relative_to(run_dir).as_posix()
         img = r["images"].get("image")
         if img and not (run_dir / img).is_file():
@@ -695,7 +695,7 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None =
 
     from ldbench.core import metrics
     from ldbench.core.effects import registry
-    from ldbench.core.imageio import save_values_js
+    from ldbench.core.imageio import save_values_js, write_png
 
     ref_exr = g.reference[:-4] + ".exr" if g.reference and g.reference.endswith(".png") else None
     if not ref_exr or not (run_dir / ref_exr).is_file():
@@ -741,11 +741,11 @@ def _viewer_maps(run_dir: Path, g: Grid, rows, gdir: Path, budget: dict | None =
     for i, (c, d, fmap) in enumerate(zip(g.cells, signed, flips)):
         stem = f"{i:02d}-{slug(rows[i]['method'], 30)}"
         if d is not None:
-            mpimg.imsave(str(gdir / f"{stem}-signed.png"),
-                         metrics.colorize((d + g.signed_vmax) / (2 * g.signed_vmax), vmax=1.0, cmap=SIGNED_CMAP))
+            write_png(gdir / f"{stem}-signed.png",
+                      metrics.colorize((d + g.signed_vmax) / (2 * g.signed_vmax), vmax=1.0, cmap=SIGNED_CMAP))
             c.signed = rel(gdir / f"{stem}-signed.png")
         if fmap is not None:
-            mpimg.imsave(str(gdir / f"{stem}-flip.png"), metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
+            write_png(gdir / f"{stem}-flip.png", metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
             c.flip = rel(gdir / f"{stem}-flip.png")
     units = {"ao": "AO units", "rays": "fraction of rays that hit"}.get(str(rows[0]["effect"]), "linear")
     _colorbar(gdir / "colorbar-signed.png", SIGNED_CMAP, -g.signed_vmax, g.signed_vmax,
