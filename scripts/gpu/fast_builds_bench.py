@@ -29,6 +29,7 @@ import numpy as np
 from ldbench.core.gpu import Gpu
 from ldbench.core.scenes import load_scene
 from ldbench.methods.directions import ldm_axes
+from ldbench.methods.ldi import PAYLOAD as LDI_PAYLOAD
 from ldbench.methods.gbuffer import SceneGeometry
 from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
@@ -48,6 +49,10 @@ VARIANTS = {
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                            splat_group=g) for g in (32, 128, 256)},
+    # the LDI adapter's default structure (methods/ldi: payload, ties in payload order), at --fig8 260000,96,128
+    **{f"ldi/splat-sort-group{g}": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
+                                        payload=LDI_PAYLOAD, indexed=False, max_list=64, canonical=True,
+                                        splat_group=g) for g in (32, 64, 128, 256)},
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
