@@ -157,8 +157,9 @@ class LdiParams(ParamsBase):
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
         "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
         expose=("source", "assembly", "max_layers"), choices={"source": ("peel", "raster", "splat")},
-        paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct"}}}, layout="linear",
-        source="splat", assembly="sort", payload=PAYLOAD, indexed=False, max_list=64, canonical=True)
+        paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct", "pool": "grow"}}},
+        layout="linear", source="splat", assembly="sort", pool="lazy", payload=PAYLOAD, indexed=False, max_list=64,
+        canonical=True)
     trace: LdiTrace = group(LdiTrace, "the walk of every ray")
     image: LdiImage = group(LdiImage, "effects indirect, glossy_indirect, soft_shadows: rays per pixel")
     indirect: LdiIndirect = group(LdiIndirect, "effect indirect: the filter")

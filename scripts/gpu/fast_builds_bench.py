@@ -53,6 +53,8 @@ VARIANTS = {
     **{f"ldi/splat-sort-group{g}": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
                                         payload=LDI_PAYLOAD, indexed=False, max_list=64, canonical=True,
                                         splat_group=g) for g in (32, 64, 128, 256)},
+    "ldi/splat-sort-grow": dict(layout="linear", pool="grow", source="splat", assembly="sort", payload=LDI_PAYLOAD,
+                                indexed=False, max_list=64, canonical=True),
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
