@@ -80,6 +80,7 @@ _TABLE = {
     "LDM_ANGLE": _b("ssbo", 12, "ldm", "statistics: angle between each ray and its map's direction",
                     "LdmAngle"),
     "LDM_LUT": _b("ssbo", 13, "ldm", "direction -> map lookup table of the LDM traces", "LdmLut"),
+    "LDM_AO_SUMS": _b("ssbo", 14, "ldm.ao", "AO over batches of maps: each pixel's running sums", "LdmAoSums"),
     "PHOTONS": _b("ssbo", 14, "ldm.photons", "stored photons (photon.glsl, 64 bytes each)", "Photons"),
     "PHOTON_COUNT": _b("ssbo", 15, "ldm.photons", "photons stored (one atomic counter)", "PhotonCount"),
     "PHOTON_ACCUM": _b("ssbo", 16, "ldm.photons", "splatted radiance, 3 floats per pixel", "Accum"),

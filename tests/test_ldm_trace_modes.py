@@ -26,11 +26,11 @@ def scene():
     return _cornell_like(light=False)
 
 
-def run(gpu, sc, effect, batch=None, **params):
+def run(gpu, sc, effect, batch=None, size=(SIZE, SIZE), **params):
     m = Ldm(LdmParams.from_dict({"directions": N, "resolution": RES, **params}))
     m.setup(gpu, sc)
     try:
-        r = m.frame(View(sc.camera, SIZE, SIZE), effect, batch).resolve()
+        r = m.frame(View(sc.camera, *size), effect, batch).resolve()
         gb = m.gbuf.read() if batch is None else None
     finally:
         m.release()
@@ -179,6 +179,38 @@ def test_prefetch_gives_the_same_ao(gpu, layout, query):
     for other in (Effect("rays"), Effect("indirect")):
         with pytest.raises(LdbenchError, match="trace.prefetch applies to the ao effect only"):
             run(gpu, sc, other, rays_batch(sc) if other.name == "rays" else None, **{"trace.prefetch": 4})
+
+
+@pytest.mark.parametrize("layout, query", [("linked", "two_way"), ("linear", "one_way")])
+def test_map_batches_give_the_same_ao(gpu, layout, query):
+    """AO over dispatches of 1, 7 (a partial last batch) and 12 maps of the 24, alone and with prefetch 5,
+    equals one dispatch over all maps, bit for bit; and a second size of image reallocates the sums."""
+    sc = scene()
+    eff = Effect("ao", d_max=0.8, falloff="quadratic")
+    kw = {"structure.layout": layout, "trace.query": query}
+    base, _ = run(gpu, sc, eff, **kw)
+    for m, k in ((1, 1), (7, 1), (12, 1), (7, 5), (24, 1)):
+        got, _ = run(gpu, sc, eff, **kw, **{"trace.map_batch": m, "trace.prefetch": k})
+        assert np.array_equal(got.image, base.image), (m, k)
+    small, _ = run(gpu, sc, eff, size=(20, 12), **kw)
+    m = Ldm(LdmParams.from_dict({"directions": N, "resolution": RES, **kw, "trace.map_batch": 7}))
+    m.setup(gpu, sc)
+    try:  # one instance, two image sizes: the sums follow the image
+        for size, want in (((SIZE, SIZE), base), ((20, 12), small)):
+            got = m.frame(View(sc.camera, *size), eff).resolve()
+            assert np.array_equal(got.image, want.image), size
+    finally:
+        m.release()
+    for other in (Effect("rays"), Effect("indirect")):
+        with pytest.raises(LdbenchError, match="trace.map_batch applies to the ao effect only"):
+            run(gpu, sc, other, rays_batch(sc) if other.name == "rays" else None, **{"trace.map_batch": 4})
+
+
+def test_map_batches_cover_every_map_once():
+    for n, m in ((24, 7), (24, 24), (24, 0), (24, 100), (5, 1)):
+        b = LdmParams.from_dict({"trace.map_batch": m}).trace.map_batches(n)
+        assert [k for k0, k1 in b for k in range(k0, k1)] == list(range(n)), (n, m)
+    assert len(LdmParams().trace.map_batches(512)) == 1
 
 
 def test_defaults_are_the_papers_and_unchanged():

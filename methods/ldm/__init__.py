@@ -77,6 +77,8 @@ Parameter                        Default   Paper    Meaning
                                                     full: walk the whole list (unsorted lists' walk; same answers)
 ``trace.prefetch``               1                  (ao) maps whose first list node is loaded before any is walked
                                                     (1: one map at a time; the same image)
+``trace.map_batch``              0                  (ao) maps per dispatch, each pixel's sums carried between
+                                                    dispatches (0: all maps in one; the same image)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -169,12 +171,19 @@ class LdmTrace(ParamsBase):
                       choices=("early_stop", "full"), paper="early_stop")
     prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (the "
                           "same image)", lo=1, hi=16)
+    map_batch: int = param(0, "(ao) maps walked per dispatch, the pixels' sums carried between dispatches "
+                           "(0: all in one; the same image)", lo=0, hi=1 << 16)
 
     def defines(self) -> dict:
         """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl) and of the AO pass."""
         return {**({"LDM_ONE_WAY": 1} if self.query == "one_way" else {}),
                 **({"LDM_FULL_WALK": 1} if self.walk == "full" else {}),
                 **({"LDM_PREFETCH": self.prefetch} if self.prefetch > 1 else {})}
+
+    def map_batches(self, n_maps: int) -> list:
+        """The AO pass's dispatches: ``[(k_begin, k_end), ...]`` over the ``n_maps`` maps."""
+        m = self.map_batch if 0 < self.map_batch < n_maps else n_maps
+        return [(k, min(k + m, n_maps)) for k in range(0, n_maps, m)]
 
 
 @dataclass(frozen=True)
@@ -316,7 +325,12 @@ class Ldm(Method):
         if self._out_size != (w, h):
             self.out = self.res.texture("output", (w, h), 1, "f4")
             self._out_size = (w, h)
-        cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines()})
+        batches = p.trace.map_batches(self.n_maps)
+        cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines(),
+                                                       **({"LDM_MAP_BATCH": 1} if len(batches) > 1 else {})})
+        if len(batches) > 1 and getattr(self, "_sums_n", None) != w * h:
+            self.ao_sums = self.res.buffer("ldm.ao_sums", reserve=8 * w * h)
+            self._sums_n = w * h
         cs["g_position"].value = 0
         cs["g_normal"].value = 1
         cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
@@ -326,8 +340,13 @@ class Ldm(Method):
             self.gbuf.bind(0)
             self._bind_maps(cs)
             self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
-            cs.run((w + 7) // 8, (h + 7) // 8)
-            gpu.ctx.memory_barrier()  # imageStore results visible to the read-back
+            if len(batches) > 1:
+                self.ao_sums.bind_to_storage_buffer(B.LDM_AO_SUMS)
+            for k0, k1 in batches:
+                if len(batches) > 1:
+                    cs["k_begin"].value, cs["k_end"].value = k0, k1
+                cs.run((w + 7) // 8, (h + 7) // 8)
+                gpu.ctx.memory_barrier()  # the sums for the next batch; the image for the read-back
         out = self.out
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask,
                       memory_bytes=self.res.by_buffer(), counters=self._counters,
@@ -367,8 +386,10 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _ao_only(self):
-        if self.params.trace.prefetch != 1:
-            raise LdbenchError("method 'ldm': trace.prefetch applies to the ao effect only")
+        t = self.params.trace
+        for name, v, default in (("prefetch", t.prefetch, 1), ("map_batch", t.map_batch, 0)):
+            if v != default:
+                raise LdbenchError(f"method 'ldm': trace.{name} applies to the ao effect only")
 
     def _indirect(self, view):
         from .indirect import IndirectLight

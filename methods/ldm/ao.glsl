@@ -6,9 +6,17 @@
 // Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way: 2N maps along +-v_i, each answering its own
 // axis): only the maps whose axis lies in the hemisphere contribute, the same N directions as two-way maps.
 // LDM_PREFETCH (trace.prefetch, default 1): maps whose first list node is loaded before any is walked.
+// LDM_MAP_BATCH (trace.map_batch): one dispatch walks maps [k_begin, k_end) only, so that the lists of the
+// maps in flight stay in cache; the pixel's two sums carry over in ldm_ao_sums, and the sums run over k in
+// the same order, so the image is the same bit for bit. The dispatch of the last batch writes the image.
 #include "ldm_trace.glsl"
 #ifndef LDM_PREFETCH
 #define LDM_PREFETCH 1
+#endif
+#if defined(LDM_MAP_BATCH)
+layout(std430, binding = B_LDM_AO_SUMS) buffer LdmAoSums { vec2 ldm_ao_sums[]; };
+uniform uint k_begin;
+uniform uint k_end;
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -36,14 +44,25 @@ void main() {
     vec3 x = pos.xyz;
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
+    uint kb = 0u, ke = n_maps;
+#if defined(LDM_MAP_BATCH)
+    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    kb = k_begin;
+    ke = k_end;
+    if (kb > 0u) {
+        vec2 s = ldm_ao_sums[idx];
+        sum_vc = s.x;
+        sum_c = s.y;
+    }
+#endif
     // the first nodes of a batch in flight together; the sums run over k in the same order for any batch
-    for (uint k0 = 0u; k0 < n_maps; k0 += uint(LDM_PREFETCH)) {
+    for (uint k0 = kb; k0 < ke; k0 += uint(LDM_PREFETCH)) {
         LdmQuery q[LDM_PREFETCH];
         uint first[LDM_PREFETCH];
         float cs[LDM_PREFETCH];   // c = n . v_k of a map that contributes, 0 for one that does not
         for (int j = 0; j < LDM_PREFETCH; ++j) {
             uint k = k0 + uint(j);
-            float c = k < n_maps ? dot(n, ol_axes[k].v.xyz) : 0.0;
+            float c = k < ke ? dot(n, ol_axes[k].v.xyz) : 0.0;
             bool skip = abs(c) < 1e-6;
 #if defined(LDM_ONE_WAY)
             skip = skip || c < 0.0;  // a one-way map answers +v_k only: the maps facing away give no direction
@@ -62,6 +81,12 @@ void main() {
             sum_c += ct;
         }
     }
+#if defined(LDM_MAP_BATCH)
+    if (ke < n_maps) {
+        ldm_ao_sums[idx] = vec2(sum_vc, sum_c);
+        return;
+    }
+#endif
 #if defined(LDM_ONE_WAY)
     float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
 #else

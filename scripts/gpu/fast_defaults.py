@@ -35,7 +35,12 @@ ROWS = {
                                                                   "ldm.structure.assembly=sort"],
                                          "default, prefetch 4": ["--set", "ldm.trace.prefetch=4"],
                                          "default, prefetch 8": ["--set", "ldm.trace.prefetch=8"],
-                                         "default, prefetch 16": ["--set", "ldm.trace.prefetch=16"]}),
+                                         "default, prefetch 16": ["--set", "ldm.trace.prefetch=16"],
+                                         **{f"default, map_batch {m}": ["--set", f"ldm.trace.map_batch={m}"]
+                                            for m in (8, 16, 32, 64, 128)},
+                                         "default, linear sort, map_batch 32": [
+                                             "--set", "ldm.structure.layout=linear", "--set",
+                                             "ldm.structure.assembly=sort", "--set", "ldm.trace.map_batch=32"]}),
     "cdi": ("cdi-vpl", "vpl_range", [], {"paper": ["--set", "cdi-vpl.preset=paper"], "default": [],
                                          "default, max_list 64": ["--set", "cdi-vpl.structure.max_list=64"],
                                          "default, max_list 128": ["--set", "cdi-vpl.structure.max_list=128"],
