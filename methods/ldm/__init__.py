@@ -77,7 +77,7 @@ Parameter                        Default   Paper    Meaning
                                                     full: walk the whole list (unsorted lists' walk; same answers)
 ``trace.prefetch``               1                  (ao) maps whose first list node is loaded before any is walked
                                                     (1: one map at a time; the same image)
-``trace.map_batch``              0                  (ao) maps per dispatch, each pixel's sums carried between
+``trace.map_batch``              64                 (ao) maps per dispatch, each pixel's sums carried between
                                                     dispatches (0: all maps in one; the same image)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
@@ -171,7 +171,7 @@ class LdmTrace(ParamsBase):
                       choices=("early_stop", "full"), paper="early_stop")
     prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (the "
                           "same image)", lo=1, hi=16)
-    map_batch: int = param(0, "(ao) maps walked per dispatch, the pixels' sums carried between dispatches "
+    map_batch: int = param(64, "(ao) maps walked per dispatch, the pixels' sums carried between dispatches "
                            "(0: all in one; the same image)", lo=0, hi=1 << 16)
 
     def defines(self) -> dict:
@@ -386,9 +386,9 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _ao_only(self):
-        t = self.params.trace
-        for name, v, default in (("prefetch", t.prefetch, 1), ("map_batch", t.map_batch, 0)):
-            if v != default:
+        t, default = self.params.trace, LdmTrace()
+        for name in ("prefetch", "map_batch"):
+            if getattr(t, name) != getattr(default, name):
                 raise LdbenchError(f"method 'ldm': trace.{name} applies to the ao effect only")
 
     def _indirect(self, view):

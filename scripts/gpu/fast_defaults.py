@@ -37,7 +37,7 @@ ROWS = {
                                          "default, prefetch 8": ["--set", "ldm.trace.prefetch=8"],
                                          "default, prefetch 16": ["--set", "ldm.trace.prefetch=16"],
                                          **{f"default, map_batch {m}": ["--set", f"ldm.trace.map_batch={m}"]
-                                            for m in (8, 16, 32, 64, 128)},
+                                            for m in (0, 8, 16, 32, 128)},
                                          "default, linear sort, map_batch 32": [
                                              "--set", "ldm.structure.layout=linear", "--set",
                                              "ldm.structure.assembly=sort", "--set", "ldm.trace.map_batch=32"]}),
