@@ -81,17 +81,6 @@ def edge_case_scene() -> Scene:
     # and the near plane (clip z < -1 before z = -2)
     ms.append(_mesh("far", [[-0.4, -0.9, 1.9], [-0.1, -0.9, 1.9], [-0.25, -0.55, 2.3]]))
     ms.append(_mesh("near", [[0.1, -0.9, -1.9], [0.4, -0.9, -1.9], [0.25, -0.55, -2.3]]))
-    # small needles along +-x and +-y (0.7 texel long) whose tip lies 0.01 texel beyond the one texel centre
-    # they cover: the farthest vertex from the centroid, along a texel axis of layers 0 and 1, so the
-    # splat's cull by the square around the centroid is tight there (a square 0.03 texel short drops them)
-    needles = []
-    for n, (ax, ay) in enumerate(((1, 0), (-1, 0), (0, 1), (0, -1))):
-        cx, cy = centre(24 + 3 * (n % 2), 6 + 6 * (n // 2))
-        tip = np.array([cx + 0.01 * T * ax, cy + 0.01 * T * ay])
-        along, side = np.array([ax, ay]) * T, np.array([-ay, ax]) * T
-        needles += [[*tip, 0.7], [*(tip - 0.7 * along + 0.35 * side), 0.7],
-                    [*(tip - 0.7 * along - 0.35 * side), 0.7]]
-    ms.append(_mesh("needles", needles))
     return Scene("edge_cases", ms, Camera((0, 0, 5), (0, 0, 0)))
 
 

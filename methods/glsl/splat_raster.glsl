@@ -35,15 +35,9 @@ uniform float splat_max;     // longest edge (texels) rasterized here
 #include "layered_store.glsl"
 #include "gbuffer_fill_rule.glsl"
 
-void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 centre, float radius, vec3 normal, uint material) {
+void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
-    // Most pairs cover no texel centre. The triangle lies within `radius` texels of its centre's projection
-    // (splat_scale bounds every layer's texels per unit; 1/64 texel covers snapping and rounding), so a
-    // pair whose square around that point holds no centre is dropped before its vertices are projected.
-    vec2 wc = (M * vec4(centre, 1.0)).xy * hs + hs;
-    vec2 clo = max(ceil(wc - radius - 0.5), vec2(0.0)), chi = min(floor(wc + radius - 0.5), vec2(ls_size - 1));
-    if (any(greaterThan(clo, chi))) return;
     vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
     vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;   // window coordinates
     vec2 lo = min(w0, min(w1, w2)), hi = max(w0, max(w1, w2));
@@ -99,9 +93,6 @@ void main() {
         }
         vec3 normal = vec3(sp_vtx[o + 3u], sp_vtx[o + 4u], sp_vtx[o + 5u]);
         uint material = uint(sp_vtx[o + 6u] + 0.5);
-        vec3 centre = (v0 + v1 + v2) / 3.0;
-        float radius = sqrt(max(max(dot(v0 - centre, v0 - centre), dot(v1 - centre, v1 - centre)),
-                                dot(v2 - centre, v2 - centre))) * splat_scale + 1.0 / 64.0;
-        for (uint k = k0; k < k1; ++k) sp_layer(k, v0, v1, v2, centre, radius, normal, material);
+        for (uint k = k0; k < k1; ++k) sp_layer(k, v0, v1, v2, normal, material);
     }
 }
