@@ -10,13 +10,12 @@ over the destination with :func:`os.replace`, so a reader never sees a half-writ
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write
 
 __all__ = ["write_exr", "read_exr", "read_exr_header", "write_image", "read_image", "image_channels"]
 
@@ -52,22 +51,11 @@ def write_exr(path, channels: dict, header: dict | None = None) -> Path:
     for k, v in (header or {}).items():
         hdr[str(k)] = str(v)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp.exr", dir=path.parent)
-        os.close(fd)
-        os.chmod(tmp, 0o644)  # mkstemp makes 0600; results are meant to be shared
+        return atomic_write(path, lambda t: OpenEXR.File(hdr, data).write(str(t)), suffix=".exr")
     except OSError as e:
         raise LdbenchError(f"cannot write {path}: {e.strerror or e}")
-    try:
-        OpenEXR.File(hdr, data).write(tmp)
-        os.replace(tmp, path)
     except Exception as e:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
         raise LdbenchError(f"cannot write {path}: {e}")
-    return path
 
 
 def read_exr(path) -> dict:

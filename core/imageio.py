@@ -3,10 +3,11 @@ for the report's image viewer."""
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
+
+from ldbench.core.files import atomic_write, atomic_write_text
 
 
 #: zlib level of the PNG previews (docs/reports.md, "Images": the time it saves)
@@ -23,15 +24,8 @@ def write_png(path: Path, img: np.ndarray) -> Path:
         raise ValueError(f"write_png needs H x W (x 1, 3 or 4) uint8 pixels, got {a.dtype} {a.shape}")
     if a.ndim == 3 and a.shape[2] == 1:
         a = a[:, :, 0]
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        Image.fromarray(np.ascontiguousarray(a)).save(tmp, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    im = Image.fromarray(np.ascontiguousarray(a))
+    return atomic_write(path, lambda t: im.save(t, format="PNG", compress_level=PNG_COMPRESS_LEVEL))
 
 
 def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = None):
@@ -85,10 +79,6 @@ def save_values_js(path: Path, key: str, values: np.ndarray) -> bool:
     h, w, c = a.shape
     if h * w > VALUES_MAX_PIXELS:
         return False
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     b64 = base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(f"ldbenchValues({json.dumps(key)},{w},{h},{c},\"{b64}\");\n", encoding="ascii")
-    tmp.replace(path)
+    atomic_write_text(path, f"ldbenchValues({json.dumps(key)},{w},{h},{c},\"{b64}\");\n")
     return True

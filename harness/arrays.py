@@ -18,7 +18,6 @@ Cost: about 60 bytes per ray (rays) or 150 bytes per VPL (vpl_range), uncompress
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -46,13 +45,6 @@ def answer_arrays(spec, result, reference, inputs) -> dict | None:
 
 def save_arrays(path: Path, arrays: dict) -> Path:
     """``arrays`` as ``path`` (.npz), written under a temporary name and renamed."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}.npz")
-    try:
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    from ldbench.core.files import atomic_write
+
+    return atomic_write(path, lambda t: np.savez(t, **arrays), suffix=".npz")

@@ -946,18 +946,12 @@ def add_arguments(p):
 
 def _write_text(path: Path, text: str):
     """Write ``text`` to ``path`` through a temporary file and a rename (no half-written report)."""
-    import os
+    from ldbench.core.files import atomic_write_text
 
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
+        atomic_write_text(path, text)
     except OSError as e:
         raise LdbenchError(f"cannot write {path}: {e.strerror or e}")
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def run_cli(args) -> int:

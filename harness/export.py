@@ -39,13 +39,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write, atomic_write_text
 
 PIXEL_CONVENTION = ("pixel (i, j): column i from the left, row j from the top; its ray goes through the "
                     "pixel centre (i + 0.5, j + 0.5): d = normalize(x right + y up + forward), "
@@ -53,16 +53,8 @@ PIXEL_CONVENTION = ("pixel (i, j): column i from the left, row j from the top; i
                     "images: row 0 at the top")
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
 def _atomic_npz(path: Path, **arrays) -> None:
-    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}.npz")
-    np.savez(tmp, **arrays)
-    os.replace(tmp, path)
+    atomic_write(path, lambda t: np.savez(t, **arrays), suffix=".npz")
 
 
 def _v(a) -> str:
@@ -194,12 +186,12 @@ def export_question(question, out) -> Path:
     merged = trimesh.Trimesh(np.asarray(v, np.float64), np.asarray(f), process=False)
     merged.face_attributes["material"] = mid.astype(np.int32)
     merged.export(out / "scene.ply", include_attributes=True)
-    _atomic_text(out / "scene.xml", mitsuba_xml(scene, effect, w, h, question.spp, question.seed))
+    atomic_write_text(out / "scene.xml", mitsuba_xml(scene, effect, w, h, question.spp, question.seed))
     cam = camera_json(scene, w, h)
-    _atomic_text(out / "camera.json", json.dumps(cam, indent=1))
+    atomic_write_text(out / "camera.json", json.dumps(cam, indent=1))
     o, d = scene.camera.primary_rays(w, h)
     _atomic_npz(out / "rays.npz", origin=o.astype(np.float32), direction=d.astype(np.float32))
-    _atomic_text(out / "light.json", json.dumps(lights_json(scene), indent=1))
+    atomic_write_text(out / "light.json", json.dumps(lights_json(scene), indent=1))
     files = {"scene.ply": "all triangles (face property material)", "meshes/": "one PLY per mesh",
              "scene.xml": "Mitsuba 3 scene", "camera.json": "camera and pixel convention",
              "rays.npz": "every pixel's view ray", "light.json": "the lights"}
@@ -232,5 +224,5 @@ def export_question(question, out) -> Path:
          "answer": {"image": "answer.exr (linear) or answer.png (+ transfer in answer.json), H x W, row 0 at top",
                     "rays": "answer.npy / .npz (t) / .csv (column t)", "vpl_range": "answer.npz (range, t)",
                     "optional": "mask.png, answer.json (method, params, stage_ms, memory, ...)"}}
-    _atomic_text(out / "question.json", json.dumps(q, indent=1, default=str))
+    atomic_write_text(out / "question.json", json.dumps(q, indent=1, default=str))
     return out

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write
 
 DEFAULT_HISTORY_DIR = "history"
 LOCK_NAME = ".lock"
@@ -81,16 +82,6 @@ def _serialize(df):
             out[c] = pd.Series([to_json(v) if isinstance(v, (dict, list)) else (None if v is None else v)
                                 for v in out[c]], index=out.index, dtype=object)
     return out
-
-
-def _atomic_parquet(df, path: Path):
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        df.to_parquet(tmp, index=False, engine="pyarrow")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 def _sort(df):
@@ -173,7 +164,7 @@ def _add_group(hdir: Path, key: str, group) -> dict:
     else:
         both = new
     both = _sort(both)
-    _atomic_parquet(both, path)
+    atomic_write(path, lambda t: both.to_parquet(t, index=False, engine="pyarrow"))
     return {"machine_key": key, "path": path, "added": len(new), "rows": len(both),
             "runs": int(both["run_id"].nunique())}
 

@@ -47,6 +47,7 @@ import numpy as np
 
 from ldbench.core.device import classify_device  # noqa: F401 (the one rule; re-exported)
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write
 from .naming import key_slug
 from ldbench.core.plugins import LDBENCH_ROOT, git_info, git_info_from_env  # noqa: F401 (re-exported: records' git columns)
 
@@ -485,16 +486,6 @@ def _apply_types(df):
     return df
 
 
-def _atomic_write(path: Path, write):
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
 def _write_parquet(df, path):
     """``df`` as Parquet with :data:`SCHEMA_VERSION` in the file's key-value metadata."""
     import pyarrow as pa
@@ -548,8 +539,8 @@ def write_results(rows: list[dict], out_dir) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     df = _frame(list(rows))
     pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
-    _atomic_write(pq, lambda p: _write_parquet(df, p))
-    _atomic_write(csv, lambda p: df.to_csv(p, index=False))
+    atomic_write(pq, lambda p: _write_parquet(df, p))
+    atomic_write(csv, lambda p: df.to_csv(p, index=False))
     return {"parquet": pq, "csv": csv}
 
 

@@ -20,12 +20,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write_text
 
 from ldbench.core.exr import image_channels, read_exr, read_exr_header, write_exr
 
@@ -66,21 +66,6 @@ def cache_key(fields: dict) -> str:
     return hashlib.sha256(json.dumps(f, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def _write_json_atomic(path: Path, obj: dict) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(obj, f, indent=2, sort_keys=True, default=str)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def pixels_digest(mean, variance, mask) -> str:
     """SHA-256 of an entry's pixel data as stored (float32 mean, variance and mask, with their shapes)."""
     h = hashlib.sha256()
@@ -107,7 +92,7 @@ def store(cache_dir, key: str, fields: dict, mean, variance, mask, meta: dict) -
     doc = {"key": key, "fields": fields, "meta": {k: v for k, v in meta.items() if k != "cached"},
            "channels": mean.shape[2], "shape": [int(mean.shape[0]), int(mean.shape[1])], "pixels": digest}
     try:
-        _write_json_atomic(d / f"{key}.json", doc)
+        atomic_write_text(d / f"{key}.json", json.dumps(doc, indent=2, sort_keys=True, default=str))
     except OSError as e:
         raise LdbenchError(f"cannot write {d / (key + '.json')}: {e.strerror or e}")
     return exr

@@ -9,6 +9,7 @@ import os
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write_text
 from ldbench.harness.history import DEFAULT_HISTORY_DIR, detect_change_points, load_history
 from ldbench.harness.naming import slug
 
@@ -165,9 +166,7 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
     index = None
     if html:
         index = out / "index.html"
-        tmp = index.with_name(f".{index.name}.tmp-{os.getpid()}")
-        tmp.write_text(_index_html(entries, cps, out, alpha, min_effect, min_db, min_size), encoding="utf-8")
-        os.replace(tmp, index)
+        atomic_write_text(index, _index_html(entries, cps, out, alpha, min_effect, min_db, min_size))
     return {"pngs": pngs, "changes": changes, "change_points": cps, "html": index}
 
 

@@ -38,10 +38,20 @@ def test_save_map_colours_by_the_99th_percentile(tmp_path):
     assert np.array_equal(_read_png(tmp_path / "e.png"), colorize(e, vmax=vmax))
 
 
-def test_write_png_refuses_floats_and_keeps_the_old_file(tmp_path):
+def test_write_png_refuses_floats_and_keeps_the_old_file(tmp_path, monkeypatch):
+    from PIL import Image
+
     p = tmp_path / "x.png"
     imageio.write_png(p, np.full((2, 3), 7, np.uint8))
     with pytest.raises(ValueError):
         imageio.write_png(p, np.zeros((2, 3), np.float32))
+
+    def half(self, fp, *a, **kw):  # an encoder that dies after part of the file
+        open(fp, "wb").write(b"\x89PNG")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(Image.Image, "save", half)
+    with pytest.raises(OSError):
+        imageio.write_png(p, np.zeros((2, 3), np.uint8))
     assert np.array_equal(_read_png(p), np.full((2, 3), 7, np.uint8))
     assert [q.name for q in tmp_path.iterdir()] == ["x.png"]

@@ -32,7 +32,10 @@ def test_paper_preset_is_the_paper_build():
     assert (c.source, c.assembly, c.pool, c.max_list) == ("one_pass", "direct", "grow", 32)
     assert (CdiVplParams().structure.assembly, CdiVplParams().structure.pool) == ("sort", "lazy")
     i = LdiParams.from_dict({"preset": "paper"}).structure
-    assert (i.source, i.assembly) == ("peel", "direct") and LdiParams().structure.source == "splat"
+    assert (i.source, i.assembly, i.pool) == ("peel", "direct", "grow")
+    assert (LdiParams().structure.source, LdiParams().structure.pool) == ("splat", "lazy")
+    t, tp = LdmParams().trace, LdmParams.from_dict({"preset": "paper"}).trace
+    assert (t.map_batch, tp.map_batch) == (64, 0)
 
 
 def test_values_beside_a_preset_win_under_any_name():
@@ -55,7 +58,8 @@ def test_a_source_sets_the_defaults_that_follow_it():
     the earlier ``build = peel``) gets the direct assembly peeling needs, not the fast default's sort; an
     explicit assembly is still checked."""
     for given in ({"structure.source": "peel"}, {"build": "peel"}):
-        assert LdiParams.from_dict(given).structure.assembly == "direct", given
+        s = LdiParams.from_dict(given).structure
+        assert (s.assembly, s.pool) == ("direct", "grow"), given
     with pytest.raises(LdbenchError, match="source='peel'"):
         LdiParams.from_dict({"structure.source": "peel", "structure.assembly": "sort"})
 

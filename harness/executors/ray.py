@@ -72,6 +72,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import atomic_write
 from ..phases import Phases
 
 INSTALL_HINT = "the Ray executor needs Ray: pip install 'ldbench[ray]'"
@@ -728,9 +729,7 @@ class RayExecutor:
                 raise LdbenchError(f"a Ray task returned a file outside the run directory: {rel!r}")
             dst = out.joinpath(*parts)
             dst.parent.mkdir(parents=True, exist_ok=True)
-            tmp = dst.with_name(f".{dst.name}.tmp-{os.getpid()}")
-            tmp.write_bytes(data)
-            os.replace(tmp, dst)
+            atomic_write(dst, lambda t, data=data: t.write_bytes(data))
 
     @staticmethod
     def _cancel(ray, workers: list, running: dict) -> None:

@@ -245,12 +245,13 @@ class LdmParams(ParamsBase):
 
     presets = {"paper": Preset(
         "the paper's build (hardware raster of every map, lock-free pre-sorted insert; the pool sized by a "
-        "read-back) and splats blended by the raster; the default stores the same lists (a compute raster with "
-        "the hardware's fill rule, yang2010's insert and a sort pass, no read-back), so the same AO and rays, "
+        "read-back), splats blended by the raster and the AO in one dispatch over all maps; the default stores "
+        "the same lists (a compute raster with the hardware's fill rule, yang2010's insert and a sort pass, no "
+        "read-back), so the same AO and rays, "
         "and adds the same splats over the same pixels with float atomics (the indirect image to the order "
         "of the sums, docs/fast_builds.md)",
         {"structure.layout": "linked", "structure.source": "raster", "structure.sorted_insert": True,
-         "structure.pool": "grow", "indirect.splat": "blend"})}
+         "structure.pool": "grow", "indirect.splat": "blend", "trace.map_batch": 0})}
 
     renamed = {"layout": "structure.layout", "build": "structure.source", "assembly": "structure.assembly",
                "pool": "structure.pool", "pool_capacity": "structure.pool_capacity",
@@ -289,7 +290,7 @@ class Ldm(Method):
         self.lut_buf = None  # built by the first `rays` frame, outside its stages (CPU, < 1 s)
         self.texel = 2.0 * self.radius / p.resolution
         self.out = None
-        self._out_size = None
+        self._out_size = self._sums_n = None
         self._batch = None
         self.indirect = None
 
@@ -328,7 +329,7 @@ class Ldm(Method):
         batches = p.trace.map_batches(self.n_maps)
         cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines(),
                                                        **({"LDM_MAP_BATCH": 1} if len(batches) > 1 else {})})
-        if len(batches) > 1 and getattr(self, "_sums_n", None) != w * h:
+        if len(batches) > 1 and self._sums_n != w * h:
             self.ao_sums = self.res.buffer("ldm.ao_sums", reserve=8 * w * h)
             self._sums_n = w * h
         cs["g_position"].value = 0
@@ -386,10 +387,8 @@ class Ldm(Method):
                       invariants=lambda c: layered_invariants(self.ls, c))
 
     def _ao_only(self):
-        t, default = self.params.trace, LdmTrace()
-        for name in ("prefetch", "map_batch"):
-            if getattr(t, name) != getattr(default, name):
-                raise LdbenchError(f"method 'ldm': trace.{name} applies to the ao effect only")
+        if self.params.trace.prefetch != 1:  # map_batch, a dispatch size, has nothing to change here
+            raise LdbenchError("method 'ldm': trace.prefetch applies to the ao effect only")
 
     def _indirect(self, view):
         from .indirect import IndirectLight

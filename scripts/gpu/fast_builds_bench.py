@@ -20,6 +20,7 @@ as it is measured, so a part cut short by its time limit keeps its rows. --dry: 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -29,10 +30,11 @@ import numpy as np
 from ldbench.core.gpu import Gpu
 from ldbench.core.scenes import load_scene
 from ldbench.methods.directions import ldm_axes
-from ldbench.methods.ldi import PAYLOAD as LDI_PAYLOAD
+from ldbench.methods.ldi import LdiParams
 from ldbench.methods.gbuffer import SceneGeometry
 from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
+LDI_STRUCTURE = {f.name: getattr(LdiParams().structure, f.name) for f in dataclasses.fields(StructureSpec)}
 #: name -> StructureSpec fields; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
 #: pool grow with its read-back); every other variant uses the lazy pool (no read-back inside a build).
 VARIANTS = {
@@ -49,12 +51,9 @@ VARIANTS = {
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                            splat_group=g) for g in (32, 128, 256)},
-    # the LDI adapter's default structure (methods/ldi: payload, ties in payload order), at --fig8 260000,96,128
-    **{f"ldi/splat-sort-group{g}": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
-                                        payload=LDI_PAYLOAD, indexed=False, max_list=64, canonical=True,
-                                        splat_group=g) for g in (32, 64, 128, 256)},
-    "ldi/splat-sort-grow": dict(layout="linear", pool="grow", source="splat", assembly="sort", payload=LDI_PAYLOAD,
-                                indexed=False, max_list=64, canonical=True),
+    # the LDI adapter's default structure (payload, ties in payload order), at --fig8 260000,96,128
+    **{f"ldi/splat-sort-group{g}": {**LDI_STRUCTURE, "splat_group": g} for g in (32, 64, 128, 256)},
+    "ldi/splat-sort-grow": {**LDI_STRUCTURE, "pool": "grow"},
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
