@@ -168,7 +168,8 @@ class LdiParams(ParamsBase):
     presets = {"paper": Preset(
         "the paper's build: depth peeling, one layer of every pixel per pass, compacted by a prefix sum; the "
         "default stores the same arrays in one pass (a compute raster with the hardware's fill rule, its depths "
-        "to float rounding; (list, depth) pairs sorted by list, ties in payload order)",
+        "to float rounding; (list, depth) pairs sorted by list, ties in payload order; sized from the previous "
+        "build's count, no read-back)",
         {"structure.source": "peel", "structure.assembly": "direct"})}
 
     renamed = {"build": "structure.source", "raster": "structure.source", "assembly": "structure.assembly",
