@@ -35,7 +35,6 @@ def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = N
     from .metrics import to_srgb8
 
     path_noext = Path(path_noext)
-    path_noext.parent.mkdir(parents=True, exist_ok=True)
     chans = {"Y": img[..., 0]} if img.shape[-1] == 1 else dict(zip("RGB", np.moveaxis(img[..., :3], -1, 0)))
     write_exr(str(path_noext) + ".exr", chans)
     disp = img if png_scale in (None, 0) else img / png_scale
@@ -51,7 +50,6 @@ def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
     from .metrics import colorize
 
     path_noext = Path(path_noext)
-    path_noext.parent.mkdir(parents=True, exist_ok=True)
     vmax = float(np.percentile(emap[mask], 99)) if mask.any() else 1.0
     write_exr(str(path_noext) + ".exr", {"Y": np.asarray(emap, np.float32)})
     write_png(Path(str(path_noext) + ".png"), colorize(emap, vmax=max(vmax, 1e-6)))

@@ -45,16 +45,13 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
-from ldbench.core.files import atomic_write, atomic_write_text
+from ldbench.core.files import atomic_write_text
+from .arrays import save_arrays
 
 PIXEL_CONVENTION = ("pixel (i, j): column i from the left, row j from the top; its ray goes through the "
                     "pixel centre (i + 0.5, j + 0.5): d = normalize(x right + y up + forward), "
                     "x = (2 (i + 0.5) / W - 1) tan(fov_y / 2) W / H, y = (1 - 2 (j + 0.5) / H) tan(fov_y / 2); "
                     "images: row 0 at the top")
-
-
-def _atomic_npz(path: Path, **arrays) -> None:
-    atomic_write(path, lambda t: np.savez(t, **arrays), suffix=".npz")
 
 
 def _v(a) -> str:
@@ -190,7 +187,7 @@ def export_question(question, out) -> Path:
     cam = camera_json(scene, w, h)
     atomic_write_text(out / "camera.json", json.dumps(cam, indent=1))
     o, d = scene.camera.primary_rays(w, h)
-    _atomic_npz(out / "rays.npz", origin=o.astype(np.float32), direction=d.astype(np.float32))
+    save_arrays(out / "rays.npz", dict(origin=o.astype(np.float32), direction=d.astype(np.float32)))
     atomic_write_text(out / "light.json", json.dumps(lights_json(scene), indent=1))
     files = {"scene.ply": "all triangles (face property material)", "meshes/": "one PLY per mesh",
              "scene.xml": "Mitsuba 3 scene", "camera.json": "camera and pixel convention",
@@ -201,17 +198,18 @@ def export_question(question, out) -> Path:
 
         batch = spec.inputs(scene, w, h, effect.params, question.seed, exact=EXACT)
         if spec.output == "rays":
-            _atomic_npz(out / "batch.npz", origin=batch.origin, direction=batch.direction, tmax=batch.tmax,
-                        normal=batch.normal, pixel=batch.pixel, width=w, height=h, kind=batch.kind,
-                        occlusion=batch.occlusion)
+            save_arrays(out / "batch.npz", dict(origin=batch.origin, direction=batch.direction, tmax=batch.tmax,
+                                                normal=batch.normal, pixel=batch.pixel, width=w, height=h,
+                                                kind=batch.kind, occlusion=batch.occlusion))
             files["batch.npz"] = ("rays: origin, direction, tmax, normal, pixel (row-major, row 0 at the top); "
                                   "answer: the hit distance t per ray, inf = miss (shadow rays: 0 = blocked)")
         else:
             r = batch.rays
-            _atomic_npz(out / "batch.npz", position=batch.position, normal=batch.normal, incident=batch.incident,
-                        flux=batch.flux, area=batch.area, texel=batch.texel, rsm=batch.rsm, cap=batch.cap,
-                        mode=batch.mode, ray_origin=r.origin, ray_direction=r.direction, ray_tmax=r.tmax,
-                        ray_normal=r.normal)
+            save_arrays(out / "batch.npz", dict(position=batch.position, normal=batch.normal,
+                                                incident=batch.incident, flux=batch.flux, area=batch.area,
+                                                texel=batch.texel, rsm=batch.rsm, cap=batch.cap, mode=batch.mode,
+                                                ray_origin=r.origin, ray_direction=r.direction, ray_tmax=r.tmax,
+                                                ray_normal=r.normal))
             files["batch.npz"] = ("VPLs and their 6 rays each (VPL-major); answer: range per VPL (and t per ray), "
                                   "range = mode of min(t, cap) over the six rays")
     info = ldbench_info()

@@ -162,7 +162,7 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
                                 "before": c.before, "after": c.after, "change": c.change, "p": c.p,
                                 "png": path})
     changes = out / "changes.md"
-    changes.write_text(_changes_md(cps, alpha, min_effect, min_db, min_size, out), encoding="utf-8")
+    atomic_write_text(changes, _changes_md(cps, alpha, min_effect, min_db, min_size, out))
     index = None
     if html:
         index = out / "index.html"

@@ -728,7 +728,6 @@ class RayExecutor:
             if Path(rel).is_absolute() or ".." in parts or not parts:
                 raise LdbenchError(f"a Ray task returned a file outside the run directory: {rel!r}")
             dst = out.joinpath(*parts)
-            dst.parent.mkdir(parents=True, exist_ok=True)
             atomic_write(dst, lambda t, data=data: t.write_bytes(data))
 
     @staticmethod
