@@ -327,9 +327,10 @@ class Ldm(Method):
             self.out = self.res.texture("output", (w, h), 1, "f4")
             self._out_size = (w, h)
         batches = p.trace.map_batches(self.n_maps)
+        batched = len(batches) > 1
         cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines(),
-                                                       **({"LDM_MAP_BATCH": 1} if len(batches) > 1 else {})})
-        if len(batches) > 1 and self._sums_n != w * h:
+                                                       **({"LDM_MAP_BATCH": 1} if batched else {})})
+        if batched and self._sums_n != w * h:
             self.ao_sums = self.res.buffer("ldm.ao_sums", reserve=8 * w * h)
             self._sums_n = w * h
         cs["g_position"].value = 0
@@ -341,10 +342,10 @@ class Ldm(Method):
             self.gbuf.bind(0)
             self._bind_maps(cs)
             self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
-            if len(batches) > 1:
+            if batched:
                 self.ao_sums.bind_to_storage_buffer(B.LDM_AO_SUMS)
             for k0, k1 in batches:
-                if len(batches) > 1:
+                if batched:
                     cs["k_begin"].value, cs["k_end"].value = k0, k1
                 cs.run((w + 7) // 8, (h + 7) // 8)
                 gpu.ctx.memory_barrier()  # the sums for the next batch; the image for the read-back
