@@ -216,6 +216,8 @@ VARIANTS = {
     "splat-linked-lazy": ("linked", dict(source="splat", pool="lazy", sorted_insert=False)),
     "splat-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy")),
     "raster-linear-lazy": ("linear", dict(pool="lazy")),
+    "splat-large-raster-yang": ("linked", dict(source="splat", sorted_insert=False, splat_large="raster")),
+    "splat-large-raster-linear": ("linear", dict(source="splat", splat_large="raster")),
 }
 
 
@@ -253,6 +255,8 @@ def test_payload_travels_with_the_splat_and_the_sort(scene_geo):
 
     want = lists(build(scene_geo, "linear", "pref", payload=("material", "normal")))
     for name, layout, kw in (("psplat", "linked", dict(source="splat")),
+                             ("psplat-yang", "linked", dict(source="splat", sorted_insert=False)),
+                             ("psplat-hw", "linked", dict(source="splat", splat_large="raster")),
                              ("psort", "linear", dict(source="splat", assembly="sort"))):
         got = lists(build(scene_geo, layout, name, payload=("material", "normal"), **kw))
         bad = sum(len(a) != len(b) or any(pa != pb or abs(za - zb) > 5e-4 for (za, pa), (zb, pb) in zip(a, b))

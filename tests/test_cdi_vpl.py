@@ -98,13 +98,14 @@ def test_rays_against_the_oracle(gpu, cornell, rays_case):
 
 def test_fast_builds_answer_as_the_raster(gpu, cornell, rays_case):
     """build = splat (the compute splat: the instanced raster's fragments) and assembly = sort (pairs sorted
-    by list) answer every ray as the instanced raster does (depths to float rounding on llvmpipe)."""
+    by list) answer every ray as the instanced raster does: depths to float rounding on llvmpipe, 2.4e-7
+    (2 ulp at the box's depths) measured where the splat's tiles evaluate a long triangle's depth plane."""
     e, batch, _ = rays_case
     kw = dict(directions=48, resolution=32)
     ref = run(gpu, cornell, e, batch, build="instanced", **kw).arrays["t"]
     for build, assembly in (("splat", "direct"), ("splat", "sort"), ("instanced", "sort")):
         r = run(gpu, cornell, e, batch, build=build, assembly=assembly, **kw)
-        np.testing.assert_allclose(r.arrays["t"], ref, rtol=2e-5, err_msg=f"{build}/{assembly}")
+        np.testing.assert_allclose(r.arrays["t"], ref, rtol=2e-5, atol=3e-7, err_msg=f"{build}/{assembly}")
         assert r.counters["fragments"] == r.counters["fragments_stored"] and not r.invariants
         assert (r.counters["build_variant"], r.counters["assembly"]) == ("raster" if build == "instanced"
                                                                           else build, assembly)

@@ -60,6 +60,7 @@ Parameter                  Default         Paper           Meaning
 ``structure.pool``         lazy            grow            lazy: sized from the previous build (no read-back) | grow
 ``structure.pass_layers``  0                               one_pass: directions per raster pass (0 = all)
 ``structure.max_list``     128             (32: preset)    register-sort length (longer lists: exact slow path)
+``structure.splat_large``  tiles                           splat: long triangles by compute tiles | raster (the same)
 ``cdi``                    frame           frame           build the CDI every frame | once in setup (static)
 ``trace.bias``             0.25                            self-intersection bias, in CDI texels
 ``trace.lookup``           auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
@@ -160,7 +161,7 @@ class CdiVplParams(ParamsBase):
         StructureSpec, "the CDI: linearised arrays; source one_pass (the paper: one raster for all directions), "
         "raster (one raster per direction: instanced = false is the paper's brute force, true one instanced "
         "draw) or splat (the instanced raster's fragments; docs/fast_builds.md)",
-        expose=("source", "instanced", "assembly", "pool", "pass_layers", "max_list"),
+        expose=("source", "instanced", "assembly", "pool", "pass_layers", "max_list", "splat_large"),
         choices={"source": ("one_pass", "raster", "splat")},
         paper={"source": "one_pass (raster, instanced = false: the baseline)"},
         layout="linear", source="one_pass", instanced=False, max_list=128, assembly="sort", pool="lazy")

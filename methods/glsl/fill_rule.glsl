@@ -4,7 +4,8 @@
 // the edge classes of gbuffer_fill_rule.glsl's sp_bias, zero area after snapping covering nothing.
 #include "gbuffer_fill_rule.glsl"
 
-struct FrTri { ivec2 f0, f1, f2; ivec2 lo, hi; int b0, b1, b2; bool ok; };
+// f0..f2 counter-clockwise (1 and 2 swapped when cw); lo..hi: the texel centres of its box
+struct FrTri { ivec2 f0, f1, f2; ivec2 lo, hi; int b0, b1, b2; bool ok, cw; };
 
 FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2, ivec2 size) {
     const float S = float(SP_ONE);
@@ -15,7 +16,8 @@ FrTri fr_setup(vec2 w0, vec2 w1, vec2 w2, ivec2 size) {
     ivec2 a = t.f1 - t.f0, b = t.f2 - t.f0;
     double area = double(a.x) * double(b.y) - double(a.y) * double(b.x);
     t.ok = area != 0.0lf;
-    if (area < 0.0lf) { ivec2 s = t.f1; t.f1 = t.f2; t.f2 = s; }
+    t.cw = area < 0.0lf;
+    if (t.cw) { ivec2 s = t.f1; t.f1 = t.f2; t.f2 = s; }
     t.b0 = sp_bias(t.f1 - t.f0);
     t.b1 = sp_bias(t.f2 - t.f1);
     t.b2 = sp_bias(t.f0 - t.f2);

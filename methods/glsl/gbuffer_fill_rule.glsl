@@ -59,10 +59,11 @@ bool sp_covers(SpTri t, ivec2 texel) {
 }
 
 // the window positions a plane is interpolated through, in the triangle's order: the snapped vertices
-// (SPLAT_SNAPPED_PLANE, exact: |f| < 2^24) or the given ones, 1 and 2 swapped when cw
-void sp_plane_vertices(SpTri t, bool cw, inout vec2 w0, inout vec2 w1, inout vec2 w2) {
+// f0..f2 (counter-clockwise, as SpTri's; SPLAT_SNAPPED_PLANE, exact: |f| < 2^24) or the given ones, 1 and 2
+// swapped when cw
+void sp_plane_vertices(ivec2 f0, ivec2 f1, ivec2 f2, bool cw, inout vec2 w0, inout vec2 w1, inout vec2 w2) {
 #if SPLAT_SNAPPED_PLANE
-    w0 = vec2(t.f0) / float(SP_ONE); w1 = vec2(t.f1) / float(SP_ONE); w2 = vec2(t.f2) / float(SP_ONE);
+    w0 = vec2(f0) / float(SP_ONE); w1 = vec2(f1) / float(SP_ONE); w2 = vec2(f2) / float(SP_ONE);
 #else
     if (cw) { vec2 tw = w1; w1 = w2; w2 = tw; }
 #endif

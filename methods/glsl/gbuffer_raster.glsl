@@ -78,7 +78,7 @@ void gb_triangle(uint t) {
     float z0 = c0.z / c0.w * 0.5 + 0.5, z1 = c1.z / c1.w * 0.5 + 0.5, z2 = c2.z / c2.w * 0.5 + 0.5;
     bool cw = area < 0;
     SpTri tri = sp_ccw(f0, f1, f2, cw);
-    sp_plane_vertices(tri, cw, w0, w1, w2);
+    sp_plane_vertices(tri.f0, tri.f1, tri.f2, cw, w0, w1, w2);
     if (cw) { float tz = z1; z1 = z2; z2 = tz; }   // counter-clockwise, as the triangle
     vec2 dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
     for (int y = i0.y; y <= i1.y; ++y) {

@@ -29,16 +29,9 @@ uint ls_reserve_pair() {   // next pair slot
 }
 #endif
 
-void ls_store(uint list, float depth, vec3 normal, uint material) {
-#if defined(LS_PASS_COUNT)
-#if LS_LAYOUT == 1
-    ll_reserve();                  // the total only (pool sizing); no node is written
-#else
-    atomicAdd(la_off[list], 1u);
-#endif
-#else
 #if LS_PAYLOAD > 0
-    uint w[LS_PAYLOAD];
+// the payload words of a fragment
+void ls_payload_words(vec3 normal, uint material, out uint w[LS_PAYLOAD]) {
     for (int k = 0; k < LS_PAYLOAD; ++k) w[k] = 0u;
 #if defined(LS_PL_NORMAL)
     w[LS_PL_NORMAL] = ls_pack_normal(normalize(normal));
@@ -49,6 +42,20 @@ void ls_store(uint list, float depth, vec3 normal, uint material) {
 #if defined(LS_PL_MATERIAL)
     w[LS_PL_MATERIAL] = material;
 #endif
+}
+#endif
+
+void ls_store(uint list, float depth, vec3 normal, uint material) {
+#if defined(LS_PASS_COUNT)
+#if LS_LAYOUT == 1
+    ll_reserve();                  // the total only (pool sizing); no node is written
+#else
+    atomicAdd(la_off[list], 1u);
+#endif
+#else
+#if LS_PAYLOAD > 0
+    uint w[LS_PAYLOAD];
+    ls_payload_words(normal, material, w);
 #endif
 #if LS_LAYOUT == 1
 #if defined(LL_SORTED)

@@ -34,6 +34,7 @@ uniform float splat_scale;   // texels per world unit, the largest of any layer
 uniform float splat_max;     // longest edge (texels) rasterized here
 #include "layered_store.glsl"
 #include "gbuffer_fill_rule.glsl"
+#include "splat_planes.glsl"
 
 void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     mat4 M = ls_layers[k].clip;
@@ -53,21 +54,13 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     if (any(greaterThan(i0, i1))) return;   // no texel centre in the box: most (triangle, layer) pairs
     bool cw = area < 0;
     SpTri tri = sp_ccw(f0, f1, f2, cw);
-    sp_plane_vertices(tri, cw, w0, w1, w2);
-    if (cw) {   // counter-clockwise, as the triangle
-        vec4 tc = c1; c1 = c2; c2 = tc;
-        vec3 tv = v1; v1 = v2; v2 = tv;
-    }
-    vec4 row = ls_layers[k].depth_row;
-    float d0 = dot(row, vec4(v0, 1.0)), d1 = dot(row, vec4(v1, 1.0)), d2 = dot(row, vec4(v2, 1.0));
-    float z0 = c0.z, z1 = c1.z, z2 = c2.z;
-    vec2 dd = sp_plane_gradient(w0, w1, w2, d0, d1, d2), dz = sp_plane_gradient(w0, w1, w2, z0, z1, z2);
+    SpPlanes pl = sp_planes(k, cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z, v0, v1, v2);
     for (int y = i0.y; y <= i1.y; ++y) {
         for (int x = i0.x; x <= i1.x; ++x) {
             if (!sp_covers(tri, ivec2(x, y))) continue;
-            vec2 q = vec2(x, y) + 0.5 - w0;
-            if (abs(z0 + dot(dz, q)) > 1.0) continue;
-            ls_store(ls_list(k, ivec2(x, y), ls_size), d0 + dot(dd, q), normal, material);
+            vec2 q = vec2(x, y) + 0.5 - pl.w0;
+            if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
+            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0 + dot(pl.dd, q), normal, material);
         }
     }
 }

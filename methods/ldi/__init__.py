@@ -52,6 +52,7 @@ Parameter                       Default      Paper       Meaning
 ``trace.bias``                  0.25                     tangent-plane bias of the self-hit test, LDI pixels
 ``trace.max_crossings``         0                        pixel crossings per ray before giving up (0: none)
 ``structure.max_layers``        1024                     depth-peeling passes at most (reaching it: degraded)
+``structure.splat_large``       tiles                    splat: long triangles by compute tiles | raster (the same)
 ``image.rays_per_pixel``        0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
 ``image.samples_per_dispatch``  1                        rays per pixel per dispatch of image effects (0: all)
 ``indirect.filter_size``        11           11          Gaussian taps of the indirect filter (0 = off; odd)
@@ -156,7 +157,7 @@ class LdiParams(ParamsBase):
     structure: StructureSpec = group(
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
         "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
-        expose=("source", "assembly", "max_layers"), choices={"source": ("peel", "raster", "splat")},
+        expose=("source", "assembly", "max_layers", "splat_large"), choices={"source": ("peel", "raster", "splat")},
         paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct", "pool": "grow"}}},
         layout="linear", source="splat", assembly="sort", pool="lazy", payload=PAYLOAD, indexed=False, max_list=64,
         canonical=True)

@@ -68,6 +68,8 @@ Parameter                        Default   Paper    Meaning
 ``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
 ``structure.aggregate``          False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
 ``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
+``structure.splat_large``        tiles              splat: triangles longer than 16 texels by a compute pass over
+                                                    tiles of the maps | raster (the hardware; the same fragments)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
 ``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
@@ -227,7 +229,7 @@ class LdmIndirect(ParamsBase):
 
 #: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
 LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorted_insert", "max_list",
-                 "instanced", "aggregate", "indexed")
+                 "instanced", "aggregate", "indexed", "splat_large")
 
 
 @dataclass(frozen=True)

@@ -32,6 +32,9 @@ ASSEMBLIES = ("direct", "sort")
 #: ``pool_capacity``, overflow reported; ``lazy``: sized from the previous build, no read-back in a build.
 POOLS = ("grow", "count", "fixed", "lazy")
 PAYLOAD_WORDS = ("normal", "albedo", "material")
+#: how the splat rasterizes its long triangles: ``raster``, one instanced draw of them by the hardware;
+#: ``tiles``, a compute pass over tiles of every layer that owns each texel's list (no atomic on its head).
+SPLAT_LARGE = ("raster", "tiles")
 SPLAT_MAX_LIMIT = 64  # texels: keeps the splat's integer edge functions within int32
 
 
@@ -66,6 +69,8 @@ class StructureSpec(ParamsBase):
                              lo=1e-6, hi=float(SPLAT_MAX_LIMIT))
     splat_batch: int = param(8, "splat: layers per compute invocation", lo=1)
     splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))
+    splat_large: str = param("tiles", "splat: the triangles longer than splat_max, by the hardware raster or "
+                             "by a compute pass over tiles of the layers (the same fragments)", choices=SPLAT_LARGE)
     max_layers: int = param(1024, "peel: depth-peeling passes at most", lo=1, hi=1 << 20)
     canonical: bool = param(False, "linear: order fragments at equal depth by their payload words (stage canon)")
     page_nodes: int = param(0, "linked: nodes per SSBO page, a power of two (0 = from the SSBO size limit)",

@@ -26,6 +26,7 @@ from .core import B_ALBEDO, fill_uint
 from .sources import FragmentSource, Raster
 
 B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
+TILE = 8                   # texels per tile side of the long triangles' pass (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -141,7 +142,7 @@ class Splat(FragmentSource):
     def __init__(self, structure):
         super().__init__(structure)
         self.splat_max, self.batch = structure.spec.splat_max, structure.spec.splat_batch
-        self.group = structure.spec.splat_group
+        self.group, self.large_mode = structure.spec.splat_group, structure.spec.splat_large
         self.rule = fill_rule(structure.gpu)
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
@@ -160,8 +161,9 @@ class Splat(FragmentSource):
         return self._vaos[key]
 
     def run(self, extra: dict, capacity: int):
-        """One fragment pass: the compute splat of the small triangles, then the hardware raster of the
-        large ones (both store through ``ls_store`` compiled with ``extra``)."""
+        """One fragment pass: the compute splat of the small triangles, then the large ones by the
+        spec's ``splat_large`` (every store through ``ls_store`` compiled with ``extra``, or the tiles'
+        own push onto the head of a list they own)."""
         s, gpu = self.s, self.s.gpu
         ctx = gpu.ctx
         if not s.layers_affine:
@@ -181,7 +183,25 @@ class Splat(FragmentSource):
         groups = max(1, min(-(-s.geo.triangles // self.group), 65535))
         cs.run(groups, -(-s.layers // self.batch))
         ctx.memory_barrier()
-        prog = gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})
+        if self.large_mode == "tiles":
+            self._tiles(extra, capacity)
+        else:
+            self._hardware(extra, capacity)
+
+    def _tiles(self, extra: dict, capacity: int):
+        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``)."""
+        s = self.s
+        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE})
+        for name, v in (("ls_size", (s.width, s.height)), ("ls_capacity", int(capacity))):
+            if name in cs:
+                cs[name].value = v
+        cs.run(-(-s.width // TILE), -(-s.height // TILE), s.layers)
+        s.gpu.ctx.memory_barrier()
+
+    def _hardware(self, extra: dict, capacity: int):
+        """The long triangles by one instanced indirect draw (``layered_build.glsl``)."""
+        s, ctx = self.s, self.s.gpu.ctx
+        prog = s.gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})
         if "layer_base" in prog:
             prog["layer_base"].value = 0
         self.uniforms(prog, capacity)

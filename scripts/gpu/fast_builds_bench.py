@@ -9,7 +9,8 @@ PART:
   fig8       every variant at the Figure 8 maps (atrium 260k, 512 maps of 200²) -> builds.csv
   triangles  build time of every variant against atrium triangles (512 maps of 200²) -> builds.csv
   maps       build time of every variant against the number of maps (atrium 260k, 200²) -> builds.csv
-  coverage   one-pass raster against the raster at the Figure 8 maps: fragments missing / extra -> coverage.csv
+  coverage   one-pass raster and the splat (both ways of its long triangles) against the raster at the Figure 8
+             maps: fragments missing / extra -> coverage.csv
   tune       the splat's layers per invocation and long-edge threshold at the Figure 8 maps -> builds.csv
 
 Each build is timed as the runner times a frame (gpu.begin_frame / stage / end_frame: GL timer queries
@@ -47,6 +48,11 @@ VARIANTS = {
     "splat/linked-yang": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False),
     "splat/linear": dict(layout="linear", pool="lazy", source="splat"),
     "splat/linear-sort": dict(layout="linear", pool="lazy", source="splat", assembly="sort"),
+    # the long triangles by the hardware draw (the tiles' pass is the default)
+    "splat/linked-yang-large-raster": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                           splat_large="raster"),
+    "splat/linear-sort-large-raster": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
+                                           splat_large="raster"),
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
@@ -245,10 +251,11 @@ def main():
         centre, radius = bounding_sphere(geo.scene)
         clip, drows, _ = ortho_layers(ldm_axes(maps), centre, radius)
         counts = {}
-        for name in ("raster", "one_pass", "splat"):
+        for name, kw in (("raster", {}), ("one_pass", dict(source="one_pass")), ("splat", dict(source="splat")),
+                         ("splat, long triangles by the hardware", dict(source="splat", splat_large="raster"))):
             sr = gpu.resources()  # one structure at a time
-            s = make_structure(StructureSpec(layout="linear", source=name), gpu, geo, sr, layers=maps, width=res,
-                               prefix=f"c.{name}.")
+            s = make_structure(StructureSpec(layout="linear", **kw), gpu, geo, sr, layers=maps, width=res,
+                               prefix="c.")
             s.set_layers(clip, drows)
             s.build()
             counts[name] = s.list_counts()

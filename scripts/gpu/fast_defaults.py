@@ -3,10 +3,11 @@ process-per-run sequence on the same GPU — the configuration of the previous d
 the variant it replaces) and today's default — with its stage times, image quality against the same Mitsuba
 reference, and the bound its build reaches.
 
-    python scripts/gpu/fast_defaults.py OUT_DIR [--dry] [--only ROW,ROW]
+    python scripts/gpu/fast_defaults.py OUT_DIR [--dry] [--only ROW,ROW] [--labels LABEL;LABEL]
 
 Rows: fig8 (aalund2015 Figure 8 frame), cdi (the CDI build, 169 x 64², atrium), fig10 (aalund2015 Figure 10
-frame), hbao (800², 8 x 8), ldi (96 LDIs of 128², atrium). Writes
+frame), hbao (800², 8 x 8), ldi (96 LDIs of 128², atrium); --labels: only the runs of these labels
+(separated by ";"). Writes
 OUT_DIR/runs/<row>-<label>/ (each a `ldbench run`), OUT_DIR/fast-defaults.csv and OUT_DIR/fast-defaults.md.
 The bound: the structure's bytes / (build time x the copy bandwidth in OUT_DIR/bandwidth.csv, written by
 ``fast_builds_bench.py OUT_DIR bandwidth``), and the raster rate (triangles x layers / build time).
@@ -33,6 +34,12 @@ ROWS = {
                                          "default": [],
                                          "default, linear sort": ["--set", "ldm.structure.layout=linear", "--set",
                                                                   "ldm.structure.assembly=sort"],
+                                         "default, long triangles by the hardware": [
+                                             "--set", "ldm.structure.splat_large=raster"],
+                                         "default, linear sort, long triangles by the hardware": [
+                                             "--set", "ldm.structure.layout=linear", "--set",
+                                             "ldm.structure.assembly=sort", "--set",
+                                             "ldm.structure.splat_large=raster"],
                                          "default, prefetch 4": ["--set", "ldm.trace.prefetch=4"],
                                          "default, prefetch 8": ["--set", "ldm.trace.prefetch=8"],
                                          "default, prefetch 16": ["--set", "ldm.trace.prefetch=16"],
@@ -44,12 +51,18 @@ ROWS = {
     "cdi": ("cdi-vpl", "vpl_range", [], {"paper": ["--set", "cdi-vpl.preset=paper"], "default": [],
                                          "default, max_list 64": ["--set", "cdi-vpl.structure.max_list=64"],
                                          "default, max_list 128": ["--set", "cdi-vpl.structure.max_list=128"],
-                                         "splat+sort": ["--set", "cdi-vpl.structure.source=splat"]}),
+                                         "splat+sort": ["--set", "cdi-vpl.structure.source=splat"],
+                                         "splat+sort, long triangles by the hardware": [
+                                             "--set", "cdi-vpl.structure.source=splat", "--set",
+                                             "cdi-vpl.structure.splat_large=raster"]}),
     "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
+                                         "default, long triangles by the hardware": [
+                                             "--set", "ldm.structure.splat_large=raster"],
                                          "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
     "hbao": ("hbao", "ao", D_MAX, {"hardware G-buffer": ["--set", "hbao.gbuffer=hardware"], "default": []}),
     "ldi": ("ldi", "indirect", ["--set", "ldi.directions=96", "--set", "ldi.resolution=128"],
-            {"paper": ["--set", "ldi.preset=paper"], "default": []}),
+            {"paper": ["--set", "ldi.preset=paper"], "default": [],
+             "default, long triangles by the hardware": ["--set", "ldi.structure.splat_large=raster"]}),
 }
 #: --dry: small structures instead of the papers' sizes
 DRY = {"ldm.directions=512": "ldm.directions=16", "ldm.resolution=200": "ldm.resolution=32",
@@ -67,12 +80,15 @@ def main():
     only = sys.argv[sys.argv.index("--only") + 1].split(",") if "--only" in sys.argv else list(ROWS)
     size = ["--size", "32x32", "--spp", "4", "--warmup", "0", "--frames", "1"] if dry else \
         ["--size", "800x800", "--spp", "64", "--warmup", "3", "--frames", "10"]
+    labels_only = sys.argv[sys.argv.index("--labels") + 1].split(";") if "--labels" in sys.argv else None
     tris = "4000" if dry else "260000"
     bw = bandwidth(out)
     rows = []
     for row in only:
         method, effect, common, labels = ROWS[row]
         for label, extra in labels.items():
+            if labels_only is not None and label not in labels_only:
+                continue
             args = [DRY.get(a, a) for a in common] if dry else list(common)
             sz = ["--size", "400x400"] + size[2:] if row == "ldi" and not dry else size
             d = out / "runs" / f"{row}-{label.replace(' ', '').replace(',', '-')}"
