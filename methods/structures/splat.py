@@ -151,6 +151,11 @@ class Splat(FragmentSource):
         self.large.write(cmd.tobytes())
         self._vaos: dict = {}
 
+    @property
+    def sorts_lists(self) -> bool:
+        """The tiles visit every list last, so they sort it (``LL_SORT_LISTS``) in place of a sort pass."""
+        return self.large_mode == "tiles"
+
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group, **rule_defines(self.rule)}
 
