@@ -34,6 +34,9 @@
 
 uniform float ldm_crease;  // world units (0 = no crease rule)
 #define LDM_FAR 3.0e38
+#ifndef LDM_UNROLL
+#define LDM_UNROLL 4
+#endif
 
 // One map query before its walk: x's list in map k, x's depth zx in it and the skip threshold thr.
 struct LdmQuery { uint list; float zx; float thr; };
@@ -64,6 +67,28 @@ float ldm_walk(LdmQuery q, float sigma, uint first) {
     }
     return nearest < LDM_FAR ? max(nearest, 0.0) : -1.0;
 #endif
+#if LS_LAYOUT == 2
+    // linear arrays: the next LDM_UNROLL depths of a list are loaded together, not one dependent load after
+    // another; the same entries are compared in the same order as the walk below
+    if (first == LS_END) return -1.0;
+    uint e = la_end(q.list);
+    float best = -1.0;
+    for (uint i = first; i < e; i += uint(LDM_UNROLL)) {
+        float z[LDM_UNROLL];
+        for (int j = 0; j < LDM_UNROLL; ++j) z[j] = i + uint(j) < e ? la_depth[i + uint(j)] : 0.0;
+        for (int j = 0; j < LDM_UNROLL; ++j) {
+            if (i + uint(j) >= e) break;
+            float t = sigma > 0.0 ? z[j] - q.zx : q.zx - z[j];
+            if (sigma > 0.0) {
+                if (t > q.thr) return max(t, 0.0);
+            } else {
+                if (t <= q.thr) return best;
+                best = max(t, 0.0);
+            }
+        }
+    }
+    return best;
+#else
     if (sigma > 0.0) {
         for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
             float t = ls_depth(i) - q.zx;
@@ -78,6 +103,7 @@ float ldm_walk(LdmQuery q, float sigma, uint first) {
         best = max(t, 0.0);
     }
     return best;
+#endif
 }
 
 // Hit distance t > 0 along d = sigma * v_k from x (n: surface normal at x, dot(n, d) > 0), or -1.0

@@ -53,6 +53,8 @@ VARIANTS = {
                                            splat_large="raster"),
     "splat/linear-sort-large-raster": dict(layout="linear", pool="lazy", source="splat", assembly="sort",
                                            splat_large="raster"),
+    **{f"splat/linked-yang-max{m}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                         splat_max=float(m)) for m in (4, 8, 32, 64)},
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,

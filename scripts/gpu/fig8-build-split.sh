@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Where the default Figure 8 build's time goes (docs/results/fast-defaults-h200.md): the build of
-# scripts/gpu/fast_builds_bench.py (fig8 part: 512 maps of 200² on atrium 260k) timed in a throw-away copy
-# of the checkout whose store is cut short: (1) as is; (2) raster only, no store; (3) the node counter's
-# atomic only, no head exchange and no node write. The checkout itself is not touched.
+# scripts/gpu/fast_builds_bench.py (fig8 part: 512 maps of 200² on atrium 260k) timed in throw-away copies
+# of the checkout with one part cut: (1) as is; (2) without the compute splat's small triangles; (3)
+# without the long triangles' tiles; (4) the tiles without their sort of the lists; (5) a sort pass after
+# the tiles instead of theirs. Cut builds store fewer fragments or leave lists unsorted: their rows read
+# "degraded", and only their times mean anything. The checkout itself is not touched.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
@@ -11,7 +13,7 @@ PY="${PYTHON:-python3}"
 src=$PWD
 W="$(mktemp -d "${TMPDIR:-/tmp}/fig8-split.XXXXXX")"
 trap 'rm -rf "$W"' EXIT
-V=splat/linked-yang,splat/linear-sort
+V=splat/linked-yang
 run() {  # run LABEL: the bench in the copy
     echo "== $1"
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
@@ -30,11 +32,14 @@ PYEOF
 }
 copy; run as-is "${@:1}"
 copy
-patch methods/glsl/linked_list.glsl $'uint ll_insert_unsorted(uint list, float z, uint capacity) {\n' \
-    $'uint ll_insert_unsorted(uint list, float z, uint capacity) {\n    if (z != 1.0e30) return LL_EOL;\n'
-patch methods/glsl/layered_store.glsl $'    uint slot = ls_reserve_pair();\n' $'    if (depth != 1.0e30) return;\n    uint slot = ls_reserve_pair();\n'
-run raster-only "${@:1}"
+patch methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' $'        for (uint k = k0; k < k1 && false; ++k) sp_layer('
+run no-small-triangles "${@:1}"
 copy
-patch methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
-    $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
-run counter-only "${@:1}"
+patch methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
+run no-tiles "${@:1}"
+copy
+patch methods/glsl/splat_tiles.glsl $'    if (inside) ll_sort_list(' $'    if (false) ll_sort_list('
+run tiles-unsorted "${@:1}"
+copy
+patch methods/structures/splat.py $'        return self.large_mode == "tiles"\n' $'        return False\n'
+run sort-pass "${@:1}"
