@@ -59,7 +59,7 @@ Parameter                        Default   Paper    Meaning
                                                     lazy: no read-back inside a build, docs/fast_builds.md)
 ``structure.source``             splat     raster   fragments from: raster (hardware, per map) | one_pass
                                                     (archer2019, not conservative) | splat (compute, same
-                                                    fragments as raster; long triangles on the hardware)
+                                                    fragments as raster; long triangles by tiles)
 ``structure.assembly``           direct             linear layout: direct (count, scan, fill, sort) | sort
                                                     (one pass of (list, depth) pairs, scan, scatter, sort)
 ``structure.pool_capacity``      0                  nodes for ``fixed`` (and first size for ``grow``)

@@ -18,7 +18,8 @@ with ``ls_store`` compiled with the ``extra`` defines). The sources (``spec.sour
   fragments where it is edge-on).
 * ``splat`` (:class:`ldbench.methods.structures.splat.Splat`): a compute-shader rasterizer of the small triangles
   with the hardware's fill rule (the same fragments as ``raster``), the triangles longer than
-  ``splat_max`` texels drawn by the hardware in the same pass (affine layers only).
+  ``splat_max`` texels by a compute pass over tiles of the layers or by the hardware (``splat_large``), in
+  the same pass (affine layers only).
 * ``peel`` (:class:`ldbench.methods.structures.peel.Peel`): depth peeling; it assembles the linear arrays
   itself (``assembles``) instead of serving count and fill passes.
 """

@@ -11,8 +11,17 @@ layout and pass works unchanged). Coverage follows the hardware's fill rule exac
 functions on ``GL_SUBPIXEL_BITS`` fixed point, samples at texel centres, ties on an edge resolved by the
 edge classes this GPU includes, and depth on the plane through the snapped or the given vertices as this
 GPU interpolates, measured once per context by :func:`fill_rule`. A triangle whose longest edge exceeds
-``splat_max`` texels in some layer is appended by the splat to an index list that one instanced indirect
-draw gives to the hardware in the same pass. Layers must be affine (orthographic maps: LDM, CDI).
+``splat_max`` texels in some layer is appended by the splat to an index list of long triangles, which the
+spec's ``splat_large`` rasterizes in the same build:
+
+- ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
+  layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
+  the same fill rule (edge functions in doubles: any size). Each invocation owns its texel's list for the
+  pass, so yang2010's push needs no atomic on the head, and the tiles sort the lists they own when the
+  structure asks for sorted lists (``sorts_lists``). Why it is the default: docs/fast_builds.md.
+- ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
+
+Layers must be affine (orthographic maps: LDM, CDI, LDI).
 """
 from __future__ import annotations
 
@@ -134,7 +143,8 @@ def rule_from_probe(px: np.ndarray) -> dict:
 
 
 class Splat(FragmentSource):
-    """The ``splat`` source of one structure: the compute pass and the hardware draw of large triangles.
+    """The ``splat`` source of one structure: the compute pass of the small triangles, then the long ones
+    by the tiles' pass or the hardware draw (``splat_large``).
 
     The spec's ``splat_max`` (texels, ≤ 64): longest edge rasterized in the compute pass;
     ``splat_batch``: layers per invocation; ``splat_group``: invocations per workgroup."""
