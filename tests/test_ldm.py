@@ -151,7 +151,7 @@ def test_ci_sized_run(gpu):
         r.resolve()
     finally:
         m.release()
-    assert set(stages) == {"gbuffer", "build", "ao"}  # the default: yang2010 insert, sorted by the splat's tiles
+    assert set(stages) == {"gbuffer", "build", "sort", "ao"}  # the default: yang2010 insert + sort pass
     img = r.image
     assert img.shape == (64, 64, 1) and img.dtype == np.float32
     assert r.mask.shape == (64, 64) and r.mask.any() and (~r.mask).any()

@@ -1,10 +1,72 @@
-// Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant): one
-// invocation per list (linked_list_sort_list.glsl).
+// Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant).
+// Lists of up to LL_MAX_LIST nodes: gathered into a local array, insertion sort, the depths that moved (and
+// payload words) written back along the same chain. Longer lists: counted in ll_counters[LL_C_SORT_LONG]
+// and sorted in place in global memory (selection sort over the chain: O(L^2) but exact), so nothing is
+// truncated. Every walk is bounded by the pool capacity.
 #define LL_WRITABLE 1
 #include "linked_list.glsl"
-#include "linked_list_sort_list.glsl"
+#ifndef LL_MAX_LIST
+#define LL_MAX_LIST 64
+#endif
 layout(local_size_x = 64) in;
 uniform uint n_lists;
+
+void ll_swap_nodes(uint a, uint b) {  // exchange the contents (depth and payload) of nodes a and b
+    float z = ll_depth(a);
+    ll_set_depth(a, ll_depth(b));
+    ll_set_depth(b, z);
+#if LS_PAYLOAD > 0
+    for (uint k = 0u; k < uint(LS_PAYLOAD); ++k) {
+        uint w = ll_payload[a * uint(LS_PAYLOAD) + k];
+        ll_payload[a * uint(LS_PAYLOAD) + k] = ll_payload[b * uint(LS_PAYLOAD) + k];
+        ll_payload[b * uint(LS_PAYLOAD) + k] = w;
+    }
+#endif
+}
+
+void ll_sort_list(uint list, uint cap) {
+    float d[LL_MAX_LIST];
+    uint idx[LL_MAX_LIST];
+    uint count = 0u;
+    uint i = ll_head[list];
+    while (i != LL_EOL && count < uint(LL_MAX_LIST)) {
+        d[count] = ll_depth(i);
+        idx[count++] = i;
+        i = ll_next(i);
+    }
+    if (i == LL_EOL) {
+#if LS_PAYLOAD == 0
+        uint moved = count;                     // the first position whose depth changes
+        for (uint a = 1u; a < count; ++a) {     // insertion sort of the depths
+            float z = d[a];
+            uint b = a;
+            while (b > 0u && d[b - 1u] > z) { d[b] = d[b - 1u]; --b; }
+            d[b] = z;
+            if (b < a) moved = min(moved, b);
+        }
+        for (uint a = moved; a < count; ++a) ll_set_depth(idx[a], d[a]);
+#else
+        for (uint a = 0u; a + 1u < count; ++a) { // selection sort of the node contents (payload moves too)
+            uint m = a;
+            for (uint b = a + 1u; b < count; ++b) if (d[b] < d[m]) m = b;
+            if (m != a) { ll_swap_nodes(idx[a], idx[m]); float z = d[a]; d[a] = d[m]; d[m] = z; }
+        }
+#endif
+    } else {
+        atomicAdd(ll_counters[LL_C_SORT_LONG], 1u);
+        uint guard = 0u;
+        for (uint a = ll_head[list]; a != LL_EOL && guard < cap; a = ll_next(a), ++guard) {
+            uint m = a;
+            float zm = ll_depth(a);
+            uint inner = guard;
+            for (uint b = ll_next(a); b != LL_EOL && inner < cap; b = ll_next(b), ++inner) {
+                float zb = ll_depth(b);
+                if (zb < zm) { m = b; zm = zb; }
+            }
+            if (m != a) ll_swap_nodes(a, m);
+        }
+    }
+}
 
 void main() {
     uint stride = gl_NumWorkGroups.x * 64u;

@@ -7,8 +7,7 @@
 // (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
-// writes the head once, with no atomic on it; any other store goes through ls_store. With LL_SORT_LISTS
-// (the structure sorts its lists after the build) it then sorts its list, the sort pass done here.
+// writes the head once, with no atomic on it; any other store goes through ls_store.
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE².
 #include "layered_write.glsl"
@@ -24,9 +23,6 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 
 #if LS_LAYOUT == 1 && !defined(LL_SORTED) && !defined(LS_PASS_COUNT)
 #define SP_OWNED_HEAD 1
-#if defined(LL_SORT_LISTS)
-#include "linked_list_sort_list.glsl"
-#endif
 #endif
 
 struct SpBinned { FrTri tri; SpPlanes pl; vec3 normal; uint material; };
@@ -92,8 +88,5 @@ void main() {
     }
 #if defined(SP_OWNED_HEAD)
     if (head != head0) ll_head[list] = head;
-#if defined(LL_SORT_LISTS)
-    if (inside) ll_sort_list(list, ll_capacity_bound());
-#endif
 #endif
 }

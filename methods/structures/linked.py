@@ -183,8 +183,7 @@ class LayeredLinkedLists(LayeredStructure):
 
     def build(self, stage=None, sort: bool = True):
         """Build all layers. ``stage(name)`` is a context manager timing a stage (default
-        ``gpu.stage``): ``count`` (policy "count"), ``build`` and, for the unsorted variant, ``sort``
-        (none when the source sorts the lists in its own pass: the splat's tiles).
+        ``gpu.stage``): ``count`` (policy "count"), ``build`` and, for the unsorted variant, ``sort``.
         ``sort=False`` leaves the unsorted variant's lists in arrival order for a consumer that sorts
         while it reads (yang2010's OIT resolve, methods/ll_oit)."""
         stage = stage or self.gpu.stage
@@ -200,21 +199,18 @@ class LayeredLinkedLists(LayeredStructure):
             self.resize_pool(self.read_counter())
         sync = self.pool == "grow" or (self.pool == "lazy" and not self._built)
         self._built = True
-        sort = not self.sorted_insert and sort
-        fused = sort and self.source.sorts_lists  # the source's own pass sorts the lists
-        extra = {"LL_SORT_LISTS": 1, "LL_MAX_LIST": self.max_list} if fused else {}
         with stage("build"):
-            self._build_once(extra)
+            self._build_once()
             if sync:
-                self.refit_after_build(self.read_counter(), lambda: self._build_once(extra))
-        if sort and not fused:
+                self.refit_after_build(self.read_counter(), self._build_once)
+        if not self.sorted_insert and sort:
             with stage("sort"):
                 self.sort()
 
-    def _build_once(self, extra=None):
+    def _build_once(self):
         self._clear_heads()
         self.reset_counters(self.capacity)
-        self.fragment_pass({**self._pass_defines(count_only=False), **(extra or {})}, self.capacity)
+        self.fragment_pass(self._pass_defines(count_only=False), self.capacity)
         self.build_passes += 1
 
     def sort(self):

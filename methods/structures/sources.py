@@ -37,8 +37,6 @@ class FragmentSource:
 
     #: True: the source builds the arrays itself (:meth:`assemble`) instead of serving fragment passes
     assembles = False
-    #: True: with ``LL_SORT_LISTS`` the source's pass leaves the linked lists sorted (no sort pass)
-    sorts_lists = False
 
     def __init__(self, structure):
         self.s = structure

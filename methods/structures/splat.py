@@ -17,8 +17,7 @@ spec's ``splat_large`` rasterizes in the same build:
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
   the same fill rule (edge functions in doubles: any size). Each invocation owns its texel's list for the
-  pass, so yang2010's push needs no atomic on the head, and the tiles sort the lists they own when the
-  structure asks for sorted lists (``sorts_lists``). Why it is the default: docs/fast_builds.md.
+  pass, so yang2010's push needs no atomic on the head. Why it is the default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
@@ -160,11 +159,6 @@ class Splat(FragmentSource):
         cmd[1], cmd[2] = structure.layers, CMD_WORDS  # instances = layers; the indices follow the command
         self.large.write(cmd.tobytes())
         self._vaos: dict = {}
-
-    @property
-    def sorts_lists(self) -> bool:
-        """The tiles visit every list last, so they sort it (``LL_SORT_LISTS``) in place of a sort pass."""
-        return self.large_mode == "tiles"
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group, **rule_defines(self.rule)}

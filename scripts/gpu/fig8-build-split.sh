@@ -2,9 +2,9 @@
 # Where the default Figure 8 build's time goes (docs/results/fast-defaults-h200.md): the build of
 # scripts/gpu/fast_builds_bench.py (fig8 part: 512 maps of 200² on atrium 260k) timed in throw-away copies
 # of the checkout with one part cut: (1) as is; (2) without the compute splat's small triangles; (3)
-# without the long triangles' tiles; (4) the tiles without their sort of the lists; (5) a sort pass after
-# the tiles instead of theirs. Cut builds store fewer fragments or leave lists unsorted: their rows read
-# "degraded", and only their times mean anything. The checkout itself is not touched.
+# without the long triangles' tiles; (4) the tiles testing coverage but storing nothing; (5) without the
+# sort pass. Cut builds store fewer fragments or leave lists unsorted: their rows read "degraded", and only
+# their times mean anything. The checkout itself is not touched.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
@@ -20,7 +20,10 @@ run() {  # run LABEL: the bench in the copy
      timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" "$@" 2>&1 |
      grep -o "variant=[^ ]* build_ms=[^ ]*\|stages=[^ ]*" | paste - -)
 }
-copy() { rm -rf "$W/tree"; mkdir -p "$W/tree"; (cd "$src" && git ls-files -z | xargs -0 cp -P --parents -t "$W/tree"); }
+copy() {  # the package's folders and the scripts, as they are in the working tree
+    rm -rf "$W/tree"; mkdir -p "$W/tree"
+    for d in core harness methods references reports scripts suites pyproject.toml; do cp -r "$src/$d" "$W/tree/"; done
+}
 patch() {  # patch FILE OLD NEW (exactly one occurrence)
     "$PY" - "$W/tree/$1" "$2" "$3" <<'PYEOF'
 import sys
@@ -38,8 +41,8 @@ copy
 patch methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
 run no-tiles "${@:1}"
 copy
-patch methods/glsl/splat_tiles.glsl $'    if (inside) ll_sort_list(' $'    if (false) ll_sort_list('
-run tiles-unsorted "${@:1}"
+patch methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
+run tiles-no-store "${@:1}"
 copy
-patch methods/structures/splat.py $'        return self.large_mode == "tiles"\n' $'        return False\n'
-run sort-pass "${@:1}"
+patch methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
+run no-sort "${@:1}"
