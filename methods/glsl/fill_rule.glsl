@@ -35,3 +35,31 @@ bool fr_covers(FrTri t, ivec2 pixel) {
     return t.ok && fr_edge(t.f0, t.f1, p) >= double(t.b0) && fr_edge(t.f1, t.f2, p) >= double(t.b1) &&
            fr_edge(t.f2, t.f0, p) >= double(t.b2);
 }
+
+// The edge functions of a triangle over a tile of texels t0 .. t1 (splat_tiles.glsl): their values at t0's
+// centre and their steps per texel in x and y, exact in doubles. fr_tile is false when the triangle covers
+// no centre of the tile by its box or because one edge excludes the whole tile (its largest value over the
+// tile's centres is below its bias), so that a tile keeps only the long triangles that may cover it.
+struct FrTile { dvec3 e0, sx, sy; ivec3 bias; };
+
+bool fr_tile(FrTri t, ivec2 t0, ivec2 t1, out FrTile r) {
+    if (!t.ok || any(greaterThan(max(t.lo, t0), min(t.hi, t1)))) return false;
+    ivec2 p = t0 * SP_ONE + SP_HALF;
+    ivec2 f[3] = ivec2[3](t.f0, t.f1, t.f2);
+    r.bias = ivec3(t.b0, t.b1, t.b2);
+    dvec2 n = dvec2(t1 - t0);
+    for (int i = 0; i < 3; ++i) {
+        ivec2 e = f[(i + 1) % 3] - f[i];
+        r.e0[i] = fr_edge(f[i], f[(i + 1) % 3], p);
+        r.sx[i] = -double(e.y) * double(SP_ONE);
+        r.sy[i] = double(e.x) * double(SP_ONE);
+        if (r.e0[i] + max(r.sx[i] * n.x, 0.0lf) + max(r.sy[i] * n.y, 0.0lf) < double(r.bias[i])) return false;
+    }
+    return true;
+}
+
+// whether the centre of texel t0 + d is covered (the same answer as fr_covers)
+bool fr_tile_covers(FrTile r, ivec2 d) {
+    dvec3 e = r.e0 + r.sx * double(d.x) + r.sy * double(d.y);
+    return all(greaterThanEqual(e, dvec3(r.bias)));
+}

@@ -55,6 +55,8 @@ VARIANTS = {
                                            splat_large="raster"),
     **{f"splat/linked-yang-max{m}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                          splat_max=float(m)) for m in (4, 8, 32, 64)},
+    **{f"splat/linked-yang-batch{b}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                           splat_batch=b) for b in (4, 16)},
     "splat/linked-yang-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
