@@ -1,5 +1,5 @@
 // Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant).
-// Lists of two nodes: swapped when out of order. Lists of up to LL_MAX_LIST nodes: gathered into a local array, insertion sort, the depths that moved (and
+// Lists of up to LL_MAX_LIST nodes: gathered into a local array, insertion sort, the depths that moved (and
 // payload words) written back along the same chain. Longer lists: counted in ll_counters[LL_C_SORT_LONG]
 // and sorted in place in global memory (selection sort over the chain: O(L^2) but exact), so nothing is
 // truncated. Every walk is bounded by the pool capacity.
@@ -25,15 +25,6 @@ void ll_swap_nodes(uint a, uint b) {  // exchange the contents (depth and payloa
 }
 
 void ll_sort_list(uint list, uint cap) {
-    uint i0 = ll_head[list];         // lists of one or two nodes (most of them) without the local arrays
-    if (i0 == LL_EOL) return;
-    LLNode n0 = ll_node(i0);
-    if (n0.next == LL_EOL) return;
-    LLNode n1 = ll_node(n0.next);
-    if (n1.next == LL_EOL) {
-        if (n1.depth < n0.depth) ll_swap_nodes(i0, n0.next);
-        return;
-    }
     float d[LL_MAX_LIST];
     uint idx[LL_MAX_LIST];
     uint count = 0u;

@@ -1,11 +1,10 @@
 // The long triangles of the splat build (methods/structures/splat.py, splat_large = "tiles"): those
 // splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE² texels:
-// one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins, SPLAT_TILE² at a
-// time, the long triangles that may cover its tile (fill_rule.glsl fr_tile: the box meets the tile and no
-// edge excludes it; each projected and set up once, into shared memory); then every invocation tests its
-// texel centre against the binned ones. Coverage is the hardware's at any size (edge functions exact in
-// doubles), depth and the near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as
-// the hardware draw of the "raster" mode.
+// one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins, SPLAT_TILE² at a time, the
+// long triangles whose snapped box meets its tile (each projected and set up once, into shared memory);
+// then every invocation tests its texel centre against the binned ones. Coverage is the hardware's at any
+// size (fill_rule.glsl: edge functions in doubles), depth and the near/far test are splat_raster.glsl's
+// (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.
@@ -26,7 +25,7 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 #define SP_OWNED_HEAD 1
 #endif
 
-struct SpBinned { FrTile tile; SpPlanes pl; vec3 normal; uint material; };
+struct SpBinned { FrTri tri; SpPlanes pl; vec3 normal; uint material; };
 shared SpBinned sp_bin[SP_TILE_N];
 shared uint sp_bin_n;
 
@@ -54,10 +53,9 @@ void main() {
             vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
             vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;
             FrTri tri = fr_setup(w0, w1, w2, ls_size);
-            FrTile tile;
-            if (fr_tile(tri, t0, t1, tile)) {
+            if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) {
                 uint slot = atomicAdd(sp_bin_n, 1u);
-                sp_bin[slot].tile = tile;
+                sp_bin[slot].tri = tri;
                 sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z,
                                             v0, v1, v2);
                 sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
@@ -67,7 +65,7 @@ void main() {
         barrier();
         uint m = sp_bin_n;
         for (uint i = 0u; inside && i < m; ++i) {
-            if (!fr_tile_covers(sp_bin[i].tile, px - t0)) continue;
+            if (!fr_covers(sp_bin[i].tri, px)) continue;
             SpPlanes pl = sp_bin[i].pl;
             vec2 q = vec2(px) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
