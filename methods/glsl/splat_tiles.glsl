@@ -1,14 +1,13 @@
 // The long triangles of the splat build (methods/structures/splat.py, splat_large = "tiles"): those
 // splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE² texels:
-// one workgroup per (row of tiles, layer), one invocation per texel of a tile, the tiles of the row in turn.
-// The workgroup sets up SPLAT_TILE² long triangles at a time in shared memory, once for its row (those whose
-// snapped box meets the row); per tile it marks those whose box meets the tile, and every invocation tests
-// its texel centre against the marked ones. Coverage is the hardware's at any size (fill_rule.glsl: edge
-// functions in doubles), depth and the near/far test are splat_raster.glsl's (splat_planes.glsl): the same
-// fragments as the hardware draw of the "raster" mode.
-// Runs after the compute splat has completed, so every invocation owns its texel's list while it works on
-// it: with yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a
-// register and writes the head once, with no atomic on it; any other store goes through ls_store.
+// one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins, SPLAT_TILE² at a time, the
+// long triangles whose snapped box meets its tile (each projected and set up once, into shared memory);
+// then every invocation tests its texel centre against the binned ones. Coverage is the hardware's at any
+// size (fill_rule.glsl: edge functions in doubles), depth and the near/far test are splat_raster.glsl's
+// (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
+// Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
+// yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
+// writes the head once, with no atomic on it; any other store goes through ls_store.
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE².
 #include "layered_write.glsl"
@@ -27,82 +26,67 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 #endif
 
 struct SpBinned { FrTri tri; SpPlanes pl; vec3 normal; uint material; };
-shared SpBinned sp_bin[SP_TILE_N];                // the chunk's long triangles in this layer
-shared uint sp_hit[SP_TILE_N / 32];               // which of them may cover the current tile
+shared SpBinned sp_bin[SP_TILE_N];
+shared uint sp_bin_n;
 
 vec3 sp_vertex(uint i) { return vec3(sp_vtx[7u * i], sp_vtx[7u * i + 1u], sp_vtx[7u * i + 2u]); }
 
 void main() {
     uint k = gl_WorkGroupID.z, lid = gl_LocalInvocationIndex;
-    int ty = int(gl_WorkGroupID.y) * SPLAT_TILE;
-    ivec2 d = ivec2(int(lid) % SPLAT_TILE, int(lid) / SPLAT_TILE);
+    ivec2 t0 = ivec2(gl_WorkGroupID.xy) * SPLAT_TILE;
+    ivec2 t1 = min(t0 + SPLAT_TILE - 1, ls_size - 1);
+    ivec2 px = t0 + ivec2(int(lid) % SPLAT_TILE, int(lid) / SPLAT_TILE);
+    bool inside = all(lessThan(px, ls_size));
+    uint list = inside ? ls_list(k, px, ls_size) : 0u;
+#if defined(SP_OWNED_HEAD)
+    uint head = inside ? ll_head[list] : LL_EOL, head0 = head;
+#endif
     uint n_large = sp_cmd[0] / 3u;
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
     for (uint c = 0u; c < n_large; c += uint(SP_TILE_N)) {
-        // this invocation's triangle of the chunk, set up once for the whole row of tiles
-        bool mine = false;
-        ivec2 lo = ivec2(0), hi = ivec2(-1);
+        if (lid == 0u) sp_bin_n = 0u;
+        barrier();
         if (c + lid < n_large) {
             uint v = sp_large[3u * (c + lid)];   // the triangle's first vertex (3t)
             vec3 v0 = sp_vertex(v), v1 = sp_vertex(v + 1u), v2 = sp_vertex(v + 2u);
             vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
             vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;
             FrTri tri = fr_setup(w0, w1, w2, ls_size);
-            lo = tri.lo;
-            hi = tri.hi;
-            mine = tri.ok && lo.y <= min(ty + SPLAT_TILE - 1, ls_size.y - 1) && hi.y >= ty;
-            if (mine) {
-                sp_bin[lid].tri = tri;
-                sp_bin[lid].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z,
-                                           v0, v1, v2);
-                sp_bin[lid].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
-                sp_bin[lid].material = uint(sp_vtx[7u * v + 6u] + 0.5);
+            if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) {
+                uint slot = atomicAdd(sp_bin_n, 1u);
+                sp_bin[slot].tri = tri;
+                sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z,
+                                            v0, v1, v2);
+                sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
+                sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
             }
         }
-        for (int tx = 0; tx < ls_size.x; tx += SPLAT_TILE) {
-            if (lid < uint(SP_TILE_N / 32)) sp_hit[lid] = 0u;
-            barrier();
-            if (mine && lo.x <= min(tx + SPLAT_TILE - 1, ls_size.x - 1) && hi.x >= tx)
-                atomicOr(sp_hit[lid / 32u], 1u << (lid % 32u));
-            barrier();
-            ivec2 px = ivec2(tx, ty) + d;
-            if (all(lessThan(px, ls_size))) {
-                uint list = ls_list(k, px, ls_size);
+        barrier();
+        uint m = sp_bin_n;
+        for (uint i = 0u; inside && i < m; ++i) {
+            if (!fr_covers(sp_bin[i].tri, px)) continue;
+            SpPlanes pl = sp_bin[i].pl;
+            vec2 q = vec2(px) + 0.5 - pl.w0;
+            if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
+            float depth = pl.d0 + dot(pl.dd, q);
 #if defined(SP_OWNED_HEAD)
-                uint head = LL_EOL, head0 = LL_EOL;
-                bool read = false;
-#endif
-                for (uint wd = 0u; wd < uint(SP_TILE_N / 32); ++wd) {
-                    for (uint bits = sp_hit[wd]; bits != 0u; bits &= bits - 1u) {
-                        uint i = wd * 32u + uint(findLSB(bits));
-                        if (!fr_covers(sp_bin[i].tri, px)) continue;
-                        SpPlanes pl = sp_bin[i].pl;
-                        vec2 q = vec2(px) + 0.5 - pl.w0;
-                        if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
-                        float depth = pl.d0 + dot(pl.dd, q);
-#if defined(SP_OWNED_HEAD)
-                        if (!read) { head = ll_head[list]; head0 = head; read = true; }
-                        uint n = ll_alloc(ls_capacity);
-                        if (n == LL_EOL) continue;
-                        ll_set_node(n, depth, head);
+            uint n = ll_alloc(ls_capacity);
+            if (n == LL_EOL) continue;
+            ll_set_node(n, depth, head);
 #if LS_PAYLOAD > 0
-                        uint w[LS_PAYLOAD];
-                        ls_payload_words(sp_bin[i].normal, sp_bin[i].material, w);
-                        ll_set_payload(n, w);
+            uint w[LS_PAYLOAD];
+            ls_payload_words(sp_bin[i].normal, sp_bin[i].material, w);
+            ll_set_payload(n, w);
 #endif
-                        head = n;
+            head = n;
 #else
-                        ls_store(list, depth, sp_bin[i].normal, sp_bin[i].material);
+            ls_store(list, depth, sp_bin[i].normal, sp_bin[i].material);
 #endif
-                    }
-                }
-#if defined(SP_OWNED_HEAD)
-                if (head != head0) ll_head[list] = head;
-#endif
-            }
-            barrier();   // sp_hit is reset for the next tile
         }
-        barrier();       // sp_bin is refilled for the next chunk
+        barrier();
     }
+#if defined(SP_OWNED_HEAD)
+    if (head != head0) ll_head[list] = head;
+#endif
 }

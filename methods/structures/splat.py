@@ -15,10 +15,9 @@ GPU interpolates, measured once per context by :func:`fill_rule`. A triangle who
 spec's ``splat_large`` rasterizes in the same build:
 
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
-  layer, one workgroup per row of tiles, which sets the long triangles up once for its row, marks those
-  meeting each tile and tests each texel centre with the same fill rule (edge functions in doubles: any
-  size). Each invocation owns its texel's list while it works on it, so yang2010's push needs no atomic
-  on the head. Why it is the default: docs/fast_builds.md.
+  layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
+  the same fill rule (edge functions in doubles: any size). Each invocation owns its texel's list for the
+  pass, so yang2010's push needs no atomic on the head. Why it is the default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
@@ -205,7 +204,7 @@ class Splat(FragmentSource):
         for name, v in (("ls_size", (s.width, s.height)), ("ls_capacity", int(capacity))):
             if name in cs:
                 cs[name].value = v
-        cs.run(1, -(-s.height // TILE), s.layers)   # a workgroup walks its row of tiles
+        cs.run(-(-s.width // TILE), -(-s.height // TILE), s.layers)
         s.gpu.ctx.memory_barrier()
 
     def _hardware(self, extra: dict, capacity: int):
