@@ -9,10 +9,11 @@
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.
 //
-// Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE².
+// Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE² (a literal:
+// GLSL 4.30 sizes a workgroup by one).
 #include "layered_write.glsl"
 
-layout(local_size_x = SP_TILE_N) in;   // SP_TILE_N = SPLAT_TILE², a literal (GLSL 4.30)
+layout(local_size_x = SP_TILE_N) in;
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
 layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
 uniform ivec2 ls_size;       // W, H of one layer
