@@ -2,8 +2,8 @@
 # Where the default Figure 8 build's time goes (docs/results/fast-defaults-h200.md): the build of
 # scripts/gpu/fast_builds_bench.py (fig8 part: 512 maps of 200² on atrium 260k) timed in throw-away copies
 # of the checkout with one part cut: (1) as is; (2) without the compute splat's small triangles; (3)
-# without the long triangles' tiles; (4) the tiles testing coverage but storing nothing; (5) without the
-# sort pass. Cut builds store fewer fragments or leave lists unsorted: their rows read "degraded", and only
+# without the long triangles' tiles; (4) the small triangles testing coverage but storing nothing; (5) the
+# tiles testing coverage but storing nothing; (6) without the sort pass. Cut builds store fewer fragments or leave lists unsorted: their rows read "degraded", and only
 # their times mean anything. The checkout itself is not touched.
 #
 # Usage, from the project root with its Python environment set up:
@@ -40,6 +40,9 @@ run no-small-triangles "${@:1}"
 copy
 patch methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
 run no-tiles "${@:1}"
+copy
+patch methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
+run small-triangles-no-store "${@:1}"
 copy
 patch methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
 run tiles-no-store "${@:1}"
