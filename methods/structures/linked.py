@@ -219,7 +219,7 @@ class LayeredLinkedLists(LayeredStructure):
                               {**self.defines(), "LL_MAX_LIST": self.max_list})
         cs["n_lists"].value = self.n_lists
         self.bind()
-        cs.run(min(-(-self.n_lists // 64), 8192))
+        cs.run(min(-(-self.n_lists // 64), 65535))
         self.gpu.ctx.memory_barrier()
 
     # ---- read-back ---------------------------------------------------------------------------
