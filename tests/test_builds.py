@@ -234,6 +234,28 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
         assert st["splat_large_triangles"] == expected_large(kw.get("splat_max", 16.0))
 
 
+@pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False)), ("linear", {}),
+                                        ("linear", dict(assembly="sort"))], ids=["yang", "linear", "sort"])
+def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw):
+    """Layers of 36 × 27 texels end in partial tiles on both axes; with splat_max = 2.5 most triangles (more
+    than a tile's 64 at a time) take the tiles' pass. The lists are the raster's."""
+    gpu, geo, res = scene_geo
+
+    def lists(name, **extra):
+        s = make_structure(StructureSpec(layout=layout, **kw, **extra), gpu, geo, res, layers=3, width=36,
+                           height=27, prefix=f"p.{name}.")
+        s.set_layers(*edge_case_layers())
+        s.build()
+        st = s.stats()
+        assert s.invariants(st) == [], name
+        return multisets(s), st
+
+    ref, _ = lists(f"raster-{layout}")
+    got, st = lists(f"tiles-{layout}", source="splat", splat_max=2.5)
+    assert st["splat_large_triangles"] > 64
+    assert_same_lists(ref, got, "36 x 27 tiles")
+
+
 def expected_large(splat_max):
     """Triangles whose longest edge spans more than splat_max texels in some layer (16 texels per unit)."""
     v, f, _, _ = edge_case_scene().merged()

@@ -58,16 +58,15 @@ LdmQuery ldm_query(uint k, float sigma, vec3 x, vec3 n, float bias) {
 // the hit distance t > 0 along sigma * v_k, or -1.0 when nothing lies beyond x on that side. Walks are
 // bounded (ls_bound).
 float ldm_walk(LdmQuery q, float sigma, uint first) {
-    uint bound = ls_bound(), steps = 0u;
 #if defined(LDM_FULL_WALK)
+    uint bound = ls_bound(), steps = 0u;
     float nearest = LDM_FAR;
     for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
         float t = sigma > 0.0 ? ls_depth(i) - q.zx : q.zx - ls_depth(i);
         if (t > q.thr) nearest = min(nearest, t);
     }
     return nearest < LDM_FAR ? max(nearest, 0.0) : -1.0;
-#endif
-#if LS_LAYOUT == 2
+#elif LS_LAYOUT == 2
     // linear arrays: the next LDM_UNROLL depths of a list are loaded together, not one dependent load after
     // another; the same entries are compared in the same order as the walk below
     if (first == LS_END) return -1.0;
@@ -89,6 +88,7 @@ float ldm_walk(LdmQuery q, float sigma, uint first) {
     }
     return best;
 #else
+    uint bound = ls_bound(), steps = 0u;
     if (sigma > 0.0) {
         for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
             float t = ls_depth(i) - q.zx;

@@ -12,9 +12,9 @@
 // maps: checked on the host).
 //
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
-// layer), exceeds splat_max texels is left to the hardware: the invocation of its first layer batch
-// appends its vertex indices to sp_large, the index list of an instanced indirect draw (the draw command
-// is sp_cmd; sp_cmd[0] counts the indices). splat_max <= 64 keeps every edge function within int32
+// layer), exceeds splat_max texels is left to a second pass (splat_tiles.glsl, or the hardware): the
+// invocation of its first layer batch appends its vertex indices to sp_large, the index list of both
+// (sp_cmd is the hardware's indirect draw command; sp_cmd[0] counts the indices). splat_max <= 64 keeps every edge function within int32
 // (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
@@ -75,7 +75,7 @@ void main() {
         vec3 v1 = vec3(sp_vtx[o + 7u], sp_vtx[o + 8u], sp_vtx[o + 9u]);
         vec3 v2 = vec3(sp_vtx[o + 14u], sp_vtx[o + 15u], sp_vtx[o + 16u]);
         float e = max(max(distance(v0, v1), distance(v1, v2)), distance(v2, v0));
-        if (!(e * splat_scale <= splat_max)) {   // large (or not finite): the hardware's
+        if (!(e * splat_scale <= splat_max)) {   // large (or not finite): the second pass's
             if (gl_WorkGroupID.y == 0u) {
                 uint i = atomicAdd(sp_cmd[0], 3u);
                 sp_large[i] = 3u * t;

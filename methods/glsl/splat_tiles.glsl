@@ -35,12 +35,13 @@ vec3 sp_vertex(uint i) { return vec3(sp_vtx[7u * i], sp_vtx[7u * i + 1u], sp_vtx
 void main() {
     uint k = gl_WorkGroupID.z, lid = gl_LocalInvocationIndex;
     ivec2 t0 = ivec2(gl_WorkGroupID.xy) * SPLAT_TILE;
-    ivec2 t1 = min(t0 + SPLAT_TILE - 1, ls_size - 1);
+    ivec2 t1 = t0 + SPLAT_TILE - 1;   // the triangles' boxes are clamped to the layer
     ivec2 px = t0 + ivec2(int(lid) % SPLAT_TILE, int(lid) / SPLAT_TILE);
     bool inside = all(lessThan(px, ls_size));
     uint list = inside ? ls_list(k, px, ls_size) : 0u;
 #if defined(SP_OWNED_HEAD)
-    uint head = inside ? ll_head[list] : LL_EOL, head0 = head;
+    uint head = LL_EOL, head0 = LL_EOL;   // the list's head, loaded at the first fragment
+    bool loaded = false;
 #endif
     uint n_large = sp_cmd[0] / 3u;
     mat4 M = ls_layers[k].clip;
@@ -72,6 +73,7 @@ void main() {
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
             float depth = pl.d0 + dot(pl.dd, q);
 #if defined(SP_OWNED_HEAD)
+            if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }
             uint n = ll_alloc(ls_capacity);
             if (n == LL_EOL) continue;
             ll_set_node(n, depth, head);

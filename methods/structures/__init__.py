@@ -22,7 +22,7 @@ field           values                                                       mod
 
 and the knobs of one layout or source (``sorted_insert``, ``max_list``, ``instanced``, ``aggregate``,
 ``indexed``, ``payload``, ``pass_layers``, ``raster_size``, ``splat_max``, ``splat_batch``,
-``splat_group``, ``max_layers``, ``canonical``, ``page_nodes``). :func:`make_structure` builds it.
+``splat_group``, ``splat_large``, ``max_layers``, ``canonical``, ``page_nodes``). :func:`make_structure` builds it.
 Every fragment pass of every layout and assembly runs the chosen source.
 
 **GLSL** (``methods/glsl/layered.glsl``, compiled with ``structure.defines()``): ``ls_list(layer, px,

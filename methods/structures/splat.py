@@ -16,8 +16,8 @@ spec's ``splat_large`` rasterizes in the same build:
 
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
-  the same fill rule (edge functions in doubles: any size). Each invocation owns its texel's list for the
-  pass, so yang2010's push needs no atomic on the head. Why it is the default: docs/fast_builds.md.
+  the same fill rule (edge functions in doubles: any size); its stores: ``splat_tiles.glsl``. Why it is
+  the default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
@@ -161,7 +161,8 @@ class Splat(FragmentSource):
         self._vaos: dict = {}
 
     def defines(self, extra: dict) -> dict:
-        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group, **rule_defines(self.rule)}
+        return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
+                **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
         key = id(prog)
@@ -171,8 +172,8 @@ class Splat(FragmentSource):
 
     def run(self, extra: dict, capacity: int):
         """One fragment pass: the compute splat of the small triangles, then the large ones by the
-        spec's ``splat_large`` (every store through ``ls_store`` compiled with ``extra``, or the tiles'
-        own push onto the head of a list they own)."""
+        spec's ``splat_large``; every store is ``ls_store``'s compiled with ``extra`` (the tiles' own
+        push for yang2010's insert: ``splat_tiles.glsl``)."""
         s, gpu = self.s, self.s.gpu
         ctx = gpu.ctx
         if not s.layers_affine:
@@ -200,10 +201,9 @@ class Splat(FragmentSource):
     def _tiles(self, extra: dict, capacity: int):
         """The long triangles by the compute pass over tiles (``splat_tiles.glsl``)."""
         s = self.s
-        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE})
-        for name, v in (("ls_size", (s.width, s.height)), ("ls_capacity", int(capacity))):
-            if name in cs:
-                cs[name].value = v
+        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl",
+                           {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE})
+        self.uniforms(cs, capacity)
         cs.run(-(-s.width // TILE), -(-s.height // TILE), s.layers)
         s.gpu.ctx.memory_barrier()
 
@@ -224,7 +224,7 @@ class Splat(FragmentSource):
         return {"splat_large_triangles": self.large_triangles()}
 
     def large_triangles(self) -> int:
-        """Triangles the last pass gave to the hardware (a read-back)."""
+        """Long triangles the last pass left to the tiles or the hardware (a read-back)."""
         return int(np.frombuffer(self.s.gpu.read(self.large, 4), np.uint32)[0]) // 3
 
     def release(self):

@@ -3,8 +3,10 @@
 # scripts/gpu/fast_builds_bench.py (fig8 part: 512 maps of 200² on atrium 260k) timed in throw-away copies
 # of the checkout with one part cut: (1) as is; (2) without the compute splat's small triangles; (3)
 # without the long triangles' tiles; (4) the small triangles testing coverage but storing nothing; (5) the
-# tiles testing coverage but storing nothing; (6) without the sort pass. Cut builds store fewer fragments or leave lists unsorted: their rows read "degraded", and only
-# their times mean anything. The checkout itself is not touched.
+# small triangles' stores stopped after the node counter's atomic (yang2010's insert, which only they use);
+# (6) the tiles testing coverage but storing nothing; (7) without the sort pass. Cut builds store fewer
+# fragments or leave lists unsorted: their rows read "degraded", and only their times mean anything. The
+# checkout itself is not touched.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
@@ -35,16 +37,23 @@ PYEOF
 }
 copy; run as-is "${@:1}"
 copy
-patch methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' $'        for (uint k = k0; k < k1 && false; ++k) sp_layer('
+patch methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' \
+    $'        for (uint k = k0; k < k1 && false; ++k) sp_layer('
 run no-small-triangles "${@:1}"
 copy
 patch methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
 run no-tiles "${@:1}"
 copy
-patch methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
+patch methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' \
+    $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
 run small-triangles-no-store "${@:1}"
 copy
-patch methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
+patch methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
+    $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
+run small-triangles-counter-only "${@:1}"
+copy
+patch methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
+    $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
 run tiles-no-store "${@:1}"
 copy
 patch methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
