@@ -16,10 +16,11 @@ src=$PWD
 W="$(mktemp -d "${TMPDIR:-/tmp}/fig8-split.XXXXXX")"
 trap 'rm -rf "$W"' EXIT
 V=splat/linked-yang
-run() {  # run LABEL: the bench in the copy
+ARGS=("$@")
+run() {  # run LABEL: the bench in the copy, with this script's arguments
     echo "== $1"
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
-     timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" "$@" 2>&1 |
+     timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep -o "variant=[^ ]* build_ms=[^ ]*\|stages=[^ ]*" | paste - -)
 }
 copy() {  # the package's folders and the scripts, as they are in the working tree
@@ -35,26 +36,17 @@ assert s.count(a) == 1, (p, a)
 open(p, "w").write(s.replace(a, b))
 PYEOF
 }
-copy; run as-is "${@:1}"
-copy
-patch methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' \
+cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE
+    copy; patch "$2" "$3" "$4"; run "$1"
+}
+copy; run as-is
+cut no-small-triangles methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' \
     $'        for (uint k = k0; k < k1 && false; ++k) sp_layer('
-run no-small-triangles "${@:1}"
-copy
-patch methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
-run no-tiles "${@:1}"
-copy
-patch methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' \
+cut no-tiles methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
+cut small-triangles-no-store methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' \
     $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
-run small-triangles-no-store "${@:1}"
-copy
-patch methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
+cut small-triangles-counter-only methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
     $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
-run small-triangles-counter-only "${@:1}"
-copy
-patch methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
+cut tiles-no-store methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
     $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
-run tiles-no-store "${@:1}"
-copy
-patch methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
-run no-sort "${@:1}"
+cut no-sort methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
