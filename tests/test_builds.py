@@ -106,9 +106,9 @@ def scene_geo(gpu):
     res.release()
 
 
-def build(scene_geo, layout, name, **kw):
+def build(scene_geo, layout, name, *, width=W, height=H, **kw):
     gpu, geo, res = scene_geo
-    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=3, width=W, height=H,
+    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=3, width=width, height=height,
                        prefix=f"b.{name}.")
     s.set_layers(*edge_case_layers())
     s.build()
@@ -239,21 +239,13 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
 def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw):
     """Layers of 36 × 27 texels end in partial tiles on both axes; with splat_max = 2.5 most triangles (more
     than a tile's 64 at a time) take the tiles' pass. The lists are the raster's."""
-    gpu, geo, res = scene_geo
-
-    def lists(name, **extra):
-        s = make_structure(StructureSpec(layout=layout, **kw, **extra), gpu, geo, res, layers=3, width=36,
-                           height=27, prefix=f"p.{name}.")
-        s.set_layers(*edge_case_layers())
-        s.build()
-        st = s.stats()
-        assert s.invariants(st) == [], name
-        return multisets(s), st
-
-    ref, _ = lists(f"raster-{layout}")
-    got, st = lists(f"tiles-{layout}", source="splat", splat_max=2.5)
-    assert st["splat_large_triangles"] > 64
-    assert_same_lists(ref, got, "36 x 27 tiles")
+    ref = build(scene_geo, layout, f"p36-raster-{layout}", width=36, height=27, **kw)
+    tiles = build(scene_geo, layout, f"p36-tiles-{layout}", width=36, height=27, source="splat", splat_max=2.5,
+                  **kw)
+    for s in (ref, tiles):
+        assert s.invariants(s.stats()) == []
+    assert tiles.stats()["splat_large_triangles"] > 64
+    assert_same_lists(multisets(ref), multisets(tiles), "36 x 27 tiles")
 
 
 def expected_large(splat_max):

@@ -14,8 +14,8 @@
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
 // layer), exceeds splat_max texels is left to a second pass (splat_tiles.glsl, or the hardware): the
 // invocation of its first layer batch appends its vertex indices to sp_large, the index list of both
-// (sp_cmd is the hardware's indirect draw command; sp_cmd[0] counts the indices). splat_max <= 64 keeps every edge function within int32
-// (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
+// (sp_cmd is the hardware's indirect draw command; sp_cmd[0] counts the indices). splat_max <= 64 keeps
+// every edge function within int32 (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup),

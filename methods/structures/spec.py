@@ -65,7 +65,7 @@ class StructureSpec(ParamsBase):
     pass_layers: int = param(0, "one_pass: layers per raster pass (0 = all in one)", lo=0)
     raster_size: int = param(0, "one_pass: samples per side of the swizzled raster (0 = the larger layer side)",
                              lo=0)
-    splat_max: float = param(16.0, "splat: longest edge (texels) splatted; longer triangles go to the hardware",
+    splat_max: float = param(16.0, "splat: longest edge (texels) splatted; longer triangles go to splat_large",
                              lo=1e-6, hi=float(SPLAT_MAX_LIMIT))
     splat_batch: int = param(8, "splat: layers per compute invocation", lo=1)
     splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))

@@ -30,7 +30,7 @@ from ldbench.core.bindings import B
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import GLSL_DIR
 
-from .core import B_ALBEDO, fill_uint
+from .core import fill_uint
 from .sources import FragmentSource, Raster
 
 B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
@@ -180,14 +180,11 @@ class Splat(FragmentSource):
             raise LdbenchError("build 'splat' needs affine layer transforms (orthographic maps)")
         fill_uint(gpu, self.large, 1, 0)  # the index count of the draw command
         cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", self.defines(extra))
-        for name, v in (("ls_size", (s.width, s.height)), ("ls_capacity", int(capacity)),
-                        ("n_triangles", s.geo.triangles), ("n_layers", s.layers),
+        self.uniforms(cs, capacity)
+        for name, v in (("n_triangles", s.geo.triangles), ("n_layers", s.layers),
                         ("splat_scale", s.layer_scale), ("splat_max", self.splat_max)):
             if name in cs:
                 cs[name].value = v
-        s.bind()
-        if "albedo" in s.payload:
-            s.geo.albedo.bind_to_storage_buffer(B_ALBEDO)
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         self.large.bind_to_storage_buffer(B_LARGE)
         groups = max(1, min(-(-s.geo.triangles // self.group), 65535))
