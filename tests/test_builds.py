@@ -106,11 +106,13 @@ def scene_geo(gpu):
     res.release()
 
 
-def build(scene_geo, layout, name, *, width=W, height=H, **kw):
+def build(scene_geo, layout, name, *, width=W, height=H, layers=3, **kw):
+    """The edge cases in `layers` layers: the three of edge_case_layers, repeated."""
     gpu, geo, res = scene_geo
-    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=3, width=width, height=height,
-                       prefix=f"b.{name}.")
-    s.set_layers(*edge_case_layers())
+    s = make_structure(StructureSpec(layout=layout, **kw), gpu, geo, res, layers=layers, width=width,
+                       height=height, prefix=f"b.{name}.")
+    clip, rows = edge_case_layers()
+    s.set_layers(clip[np.arange(layers) % 3], rows[np.arange(layers) % 3])
     s.build()
     return s
 
@@ -218,6 +220,12 @@ VARIANTS = {
     "raster-linear-lazy": ("linear", dict(pool="lazy")),
     "splat-large-raster-yang": ("linked", dict(source="splat", sorted_insert=False, splat_large="raster")),
     "splat-large-raster-linear": ("linear", dict(source="splat", splat_large="raster")),
+    "splat-queue-yang": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True)),
+    "splat-queue-sorted": ("linked", dict(source="splat", splat_queue=True)),
+    # the ldm adapter's default structure
+    "splat-queue-yang-aggregate-batch16": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True,
+                                                          aggregate=True, splat_batch=16, pool="lazy")),
+    "splat-queue-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy", splat_queue=True)),
 }
 
 
@@ -246,6 +254,16 @@ def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw):
         assert s.invariants(s.stats()) == []
     assert tiles.stats()["splat_large_triangles"] > 64
     assert_same_lists(multisets(ref), multisets(tiles), "36 x 27 tiles")
+
+
+def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
+    """16 layers in one batch of 32 invocations give up to 512 pairs a workgroup, twice its queue: the grid's
+    pairs overflow it. The lists are the raster's."""
+    ref = build(scene_geo, "linear", "q16-raster", layers=16)
+    got = build(scene_geo, "linear", "q16-queue", layers=16, source="splat", splat_queue=True, splat_batch=16,
+                splat_group=32)
+    assert got.invariants(got.stats()) == []
+    assert_same_lists(multisets(ref), multisets(got), "queue overflow")
 
 
 def expected_large(splat_max):

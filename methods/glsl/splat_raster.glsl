@@ -1,6 +1,10 @@
 // Compute-shader rasterizer of small triangles into a layered structure (methods/structures/splat.py,
 // build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
 // stored with the same ls_store as the hardware raster (layered_store.glsl).
+// SPLAT_QUEUE (structure.splat_queue): a workgroup's invocations first project their triangles into the
+// batch's layers and queue, in shared memory, the pairs whose box holds a texel centre (a few in a hundred);
+// then consecutive invocations rasterize the queued pairs, so that the lanes of a warp that have a box to
+// walk are together, not scattered among the rejected pairs. The same fragments.
 //
 // Coverage is the hardware's (gbuffer_fill_rule.glsl, shared with the compute G-buffer): window coordinates
 // snapped to LS_SUBPIXEL_BITS of fixed point, samples at texel centres, exact integer edge functions, and
@@ -18,7 +22,7 @@
 // every edge function within int32 (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
-// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup),
+// LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup), SPLAT_QUEUE,
 // LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT, SPLAT_SNAPPED_PLANE (0 or 1).
 #include "layered_write.glsl"
 
@@ -36,27 +40,34 @@ uniform float splat_max;     // longest edge (texels) rasterized here
 #include "gbuffer_fill_rule.glsl"
 #include "splat_planes.glsl"
 
-void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
+// The pair (triangle, layer k) projected and snapped; false when its box holds no texel centre (most pairs)
+struct SpPair { vec2 w0, w1, w2; float z0, z1, z2; ivec2 f0, f1, f2; int area; ivec2 i0, i1; };
+
+bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
     vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
-    vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;   // window coordinates
-    vec2 lo = min(w0, min(w1, w2)), hi = max(w0, max(w1, w2));
-    if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return;
+    p.w0 = c0.xy * hs + hs; p.w1 = c1.xy * hs + hs; p.w2 = c2.xy * hs + hs;   // window coordinates
+    p.z0 = c0.z; p.z1 = c1.z; p.z2 = c2.z;
+    vec2 lo = min(p.w0, min(p.w1, p.w2)), hi = max(p.w0, max(p.w1, p.w2));
+    if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return false;
     const float S = float(SP_ONE);
-    ivec2 f0 = ivec2(roundEven(w0 * S)), f1 = ivec2(roundEven(w1 * S)), f2 = ivec2(roundEven(w2 * S));
-    ivec2 a = f1 - f0, b = f2 - f0;
-    int area = a.x * b.y - a.y * b.x;
-    if (area == 0) return;
-    ivec2 fmin = min(f0, min(f1, f2)), fmax = max(f0, max(f1, f2));
-    ivec2 i0, i1;
-    sp_texel_box(fmin, fmax, ls_size, i0, i1);
-    if (any(greaterThan(i0, i1))) return;   // no texel centre in the box: most (triangle, layer) pairs
-    bool cw = area < 0;
-    SpTri tri = sp_ccw(f0, f1, f2, cw);
-    SpPlanes pl = sp_planes(k, cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z, v0, v1, v2);
-    for (int y = i0.y; y <= i1.y; ++y) {
-        for (int x = i0.x; x <= i1.x; ++x) {
+    p.f0 = ivec2(roundEven(p.w0 * S)); p.f1 = ivec2(roundEven(p.w1 * S)); p.f2 = ivec2(roundEven(p.w2 * S));
+    ivec2 a = p.f1 - p.f0, b = p.f2 - p.f0;
+    p.area = a.x * b.y - a.y * b.x;
+    if (p.area == 0) return false;
+    sp_texel_box(min(p.f0, min(p.f1, p.f2)), max(p.f0, max(p.f1, p.f2)), ls_size, p.i0, p.i1);
+    return all(lessThanEqual(p.i0, p.i1));
+}
+
+void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
+    SpPair p;
+    if (!sp_project(k, v0, v1, v2, p)) return;
+    bool cw = p.area < 0;
+    SpTri tri = sp_ccw(p.f0, p.f1, p.f2, cw);
+    SpPlanes pl = sp_planes(k, cw, tri.f0, tri.f1, tri.f2, p.w0, p.w1, p.w2, p.z0, p.z1, p.z2, v0, v1, v2);
+    for (int y = p.i0.y; y <= p.i1.y; ++y) {
+        for (int x = p.i0.x; x <= p.i1.x; ++x) {
             if (!sp_covers(tri, ivec2(x, y))) continue;
             vec2 q = vec2(x, y) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
@@ -65,27 +76,76 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     }
 }
 
+vec3 sp_vertex(uint t, uint j) {
+    uint o = 21u * t + 7u * j;
+    return vec3(sp_vtx[o], sp_vtx[o + 1u], sp_vtx[o + 2u]);
+}
+vec3 sp_normal(uint t) { return vec3(sp_vtx[21u * t + 3u], sp_vtx[21u * t + 4u], sp_vtx[21u * t + 5u]); }
+uint sp_material(uint t) { return uint(sp_vtx[21u * t + 6u] + 0.5); }
+
+// whether triangle t is left to the long triangles' pass (longer than splat_max in some layer, or not finite);
+// the invocation of the first layer batch appends it to sp_large
+bool sp_long(uint t, vec3 v0, vec3 v1, vec3 v2) {
+    float e = max(max(distance(v0, v1), distance(v1, v2)), distance(v2, v0));
+    if (e * splat_scale <= splat_max) return false;
+    if (gl_WorkGroupID.y == 0u) {
+        uint i = atomicAdd(sp_cmd[0], 3u);
+        sp_large[i] = 3u * t;
+        sp_large[i + 1u] = 3u * t + 1u;
+        sp_large[i + 2u] = 3u * t + 2u;
+    }
+    return true;
+}
+
+#if SPLAT_QUEUE
+// the pairs of this workgroup's triangles whose box holds a texel centre: triangle (low 16 bits, within the
+// workgroup) and layer (high 16 bits, within the batch); a pair beyond SP_QUEUE_N is rasterized at once
+#define SP_QUEUE_N (SPLAT_GROUP * 8)
+shared uint sp_queue[SP_QUEUE_N];
+shared uint sp_queued;
+
+void main() {
+    uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
+    uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
+    uint lid = gl_LocalInvocationID.x;
+    uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);
+    for (uint base = gl_WorkGroupID.x * uint(SPLAT_GROUP); base < n_triangles; base += stride) {
+        if (lid == 0u) sp_queued = 0u;
+        barrier();
+        uint t = base + lid;
+        if (t < n_triangles) {
+            vec3 v0 = sp_vertex(t, 0u), v1 = sp_vertex(t, 1u), v2 = sp_vertex(t, 2u);
+            if (!sp_long(t, v0, v1, v2)) {
+                for (uint k = k0; k < k1; ++k) {
+                    SpPair p;
+                    if (!sp_project(k, v0, v1, v2, p)) continue;
+                    uint slot = atomicAdd(sp_queued, 1u);
+                    if (slot < uint(SP_QUEUE_N)) sp_queue[slot] = lid | ((k - k0) << 16);
+                    else sp_layer(k, v0, v1, v2, sp_normal(t), sp_material(t));
+                }
+            }
+        }
+        barrier();
+        uint m = min(sp_queued, uint(SP_QUEUE_N));
+        for (uint e = lid; e < m; e += uint(SPLAT_GROUP)) {   // the queued pairs by consecutive invocations
+            uint q = sp_queue[e], tq = base + (q & 0xFFFFu);
+            sp_layer(k0 + (q >> 16), sp_vertex(tq, 0u), sp_vertex(tq, 1u), sp_vertex(tq, 2u), sp_normal(tq),
+                     sp_material(tq));
+        }
+        barrier();
+    }
+}
+#else
 void main() {
     uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
     uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
     uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);
     for (uint t = gl_GlobalInvocationID.x; t < n_triangles; t += stride) {
-        uint o = 21u * t;
-        vec3 v0 = vec3(sp_vtx[o], sp_vtx[o + 1u], sp_vtx[o + 2u]);
-        vec3 v1 = vec3(sp_vtx[o + 7u], sp_vtx[o + 8u], sp_vtx[o + 9u]);
-        vec3 v2 = vec3(sp_vtx[o + 14u], sp_vtx[o + 15u], sp_vtx[o + 16u]);
-        float e = max(max(distance(v0, v1), distance(v1, v2)), distance(v2, v0));
-        if (!(e * splat_scale <= splat_max)) {   // large (or not finite): the second pass's
-            if (gl_WorkGroupID.y == 0u) {
-                uint i = atomicAdd(sp_cmd[0], 3u);
-                sp_large[i] = 3u * t;
-                sp_large[i + 1u] = 3u * t + 1u;
-                sp_large[i + 2u] = 3u * t + 2u;
-            }
-            continue;
-        }
-        vec3 normal = vec3(sp_vtx[o + 3u], sp_vtx[o + 4u], sp_vtx[o + 5u]);
-        uint material = uint(sp_vtx[o + 6u] + 0.5);
+        vec3 v0 = sp_vertex(t, 0u), v1 = sp_vertex(t, 1u), v2 = sp_vertex(t, 2u);
+        if (sp_long(t, v0, v1, v2)) continue;
+        vec3 normal = sp_normal(t);
+        uint material = sp_material(t);
         for (uint k = k0; k < k1; ++k) sp_layer(k, v0, v1, v2, normal, material);
     }
 }
+#endif

@@ -69,6 +69,8 @@ class StructureSpec(ParamsBase):
                              lo=1e-6, hi=float(SPLAT_MAX_LIMIT))
     splat_batch: int = param(8, "splat: layers per compute invocation", lo=1)
     splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))
+    splat_queue: bool = param(False, "splat: the (triangle, layer) pairs that reach a texel centre queued in "
+                              "shared memory and rasterized by consecutive invocations (the same fragments)")
     splat_large: str = param("tiles", "splat: the triangles longer than splat_max, by the hardware raster or "
                              "by a compute pass over tiles of the layers (the same fragments)", choices=SPLAT_LARGE)
     max_layers: int = param(1024, "peel: depth-peeling passes at most", lo=1, hi=1 << 20)

@@ -162,6 +162,7 @@ class Splat(FragmentSource):
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
+                "SPLAT_QUEUE": int(self.s.spec.splat_queue),
                 **rule_defines(self.rule)}
 
     def _large_vao(self, prog):
