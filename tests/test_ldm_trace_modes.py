@@ -184,12 +184,12 @@ def test_prefetch_gives_the_same_ao(gpu, layout, query):
 
 @pytest.mark.parametrize("layout, query", [("linked", "two_way"), ("linear", "one_way")])
 def test_map_batches_give_the_same_ao(gpu, layout, query):
-    """AO over dispatches of 1, 7 (a partial last batch), 12, 24 and 64 maps (the adapter's 24 two-way or 48
+    """AO over dispatches (trace.map_schedule) of 1, 7 (a partial last batch), 12, 24 and 64 maps (the adapter's 24 two-way or 48
     one-way maps), alone and with prefetch 5, equals one dispatch over all maps, bit for bit; and a larger
     second image reallocates the sums."""
     sc = scene()
     eff = Effect("ao", d_max=0.8, falloff="quadratic")
-    kw = {"structure.layout": layout, "trace.query": query}
+    kw = {"structure.layout": layout, "trace.query": query, "trace.map_schedule": "dispatches"}
     base, _ = run(gpu, sc, eff, **kw, **{"trace.map_batch": 0})
     for m, k in ((1, 1), (7, 1), (12, 1), (7, 5), (24, 1), (64, 1)):
         got, _ = run(gpu, sc, eff, **kw, **{"trace.map_batch": m, "trace.prefetch": k})
@@ -201,6 +201,31 @@ def test_map_batches_give_the_same_ao(gpu, layout, query):
         for size, want in (((20, 12), small), ((SIZE, SIZE), base)):
             got = m.frame(View(sc.camera, *size), eff).resolve()
             assert np.array_equal(got.image, want.image), size
+    finally:
+        m.release()
+
+
+@pytest.mark.parametrize("layout, query, estimator", [("linked", "two_way", "ratio"), ("linear", "one_way", "paper")])
+def test_map_grid_gives_the_ao_of_one_dispatch(gpu, layout, query, estimator):
+    """All batches in one dispatch (trace.map_schedule = grid: 1, 7 with a partial last batch, 12 maps), their
+    partial sums added by a pass over the pixels, give one dispatch's image to float rounding (background
+    pixels included); a larger second image reallocates the partial sums."""
+    sc = scene()
+    eff = Effect("ao", d_max=0.8, falloff="quadratic")
+    kw = {"structure.layout": layout, "trace.query": query, "trace.estimator": estimator}
+    base, _ = run(gpu, sc, eff, **kw, **{"trace.map_batch": 0})
+    assert (base.image == 1.0).any() and (base.image < 0.5).any()
+    for m in (1, 7, 12):
+        got, _ = run(gpu, sc, eff, **kw, **{"trace.map_batch": m, "trace.map_schedule": "grid"})
+        np.testing.assert_allclose(got.image, base.image, rtol=0, atol=1e-6, err_msg=str(m))
+    small, _ = run(gpu, sc, eff, size=(20, 12), **kw, **{"trace.map_batch": 0})
+    m = Ldm(LdmParams.from_dict({"directions": N, "resolution": RES, **kw, "trace.map_batch": 7,
+                                 "trace.map_schedule": "grid"}))
+    m.setup(gpu, sc)
+    try:
+        for size, want in (((20, 12), small), ((SIZE, SIZE), base)):
+            got = m.frame(View(sc.camera, *size), eff).resolve()
+            np.testing.assert_allclose(got.image, want.image, rtol=0, atol=1e-6, err_msg=str(size))
     finally:
         m.release()
 

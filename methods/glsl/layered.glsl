@@ -9,6 +9,7 @@
 //   uint  ls_first(list)             first node of the list (nearest depth), or LS_END
 //   uint  ls_next(list, node)        the next node, or LS_END (every walk is bounded: see ls_bound)
 //   float ls_depth(node)             the node's depth (ascending along a list once built)
+//   float ls_step(list, inout node)  the node's depth, and node moved to the next: one load of a linked node
 //   uint  ls_payload(node, k)        payload word k < LS_PAYLOAD
 //   uint  ls_bound()                 an upper bound of any list's length (loop guard)
 //   uint  ls_count(list)             number of nodes (linear: O(1); linked: a bounded walk)
@@ -35,6 +36,7 @@ uint ls_list(uint layer, ivec2 px, ivec2 size) { return ll_list_index(layer, px,
 uint ls_first(uint list) { return ll_head[list]; }
 uint ls_next(uint list, uint node) { return ll_next(node); }
 float ls_depth(uint node) { return ll_depth(node); }
+float ls_step(uint list, inout uint node) { LLNode n = ll_node(node); node = n.next; return n.depth; }
 uint ls_bound() { return ll_capacity_bound(); }
 #if LS_PAYLOAD > 0
 uint ls_payload(uint node, uint k) { return ll_payload[node * uint(LS_PAYLOAD) + k]; }
@@ -50,6 +52,7 @@ uint ls_list(uint layer, ivec2 px, ivec2 size) { return la_list_index(layer, px,
 uint ls_first(uint list) { uint b = la_begin(list); return b < la_end(list) ? b : LS_END; }
 uint ls_next(uint list, uint node) { return node + 1u < la_end(list) ? node + 1u : LS_END; }
 float ls_depth(uint node) { return la_depth[node]; }
+float ls_step(uint list, inout uint node) { float z = la_depth[node]; node = ls_next(list, node); return z; }
 uint ls_bound() { return la_counters[LA_C_CAPACITY]; }
 #if LS_PAYLOAD > 0
 uint ls_payload(uint node, uint k) { return la_payload[node * uint(LS_PAYLOAD) + k]; }

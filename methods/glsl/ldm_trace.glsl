@@ -88,17 +88,18 @@ float ldm_walk(LdmQuery q, float sigma, uint first) {
     }
     return best;
 #else
+    // ls_step: a node's depth and link in one load
     uint bound = ls_bound(), steps = 0u;
     if (sigma > 0.0) {
-        for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
-            float t = ls_depth(i) - q.zx;
+        for (uint i = first; i != LS_END && steps < bound; ++steps) {
+            float t = ls_step(q.list, i) - q.zx;
             if (t > q.thr) return max(t, 0.0);
         }
         return -1.0;
     }
     float best = -1.0;
-    for (uint i = first; i != LS_END && steps < bound; i = ls_next(q.list, i), ++steps) {
-        float t = q.zx - ls_depth(i);
+    for (uint i = first; i != LS_END && steps < bound; ++steps) {
+        float t = q.zx - ls_step(q.list, i);
         if (t <= q.thr) break;
         best = max(t, 0.0);
     }

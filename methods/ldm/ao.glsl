@@ -9,14 +9,21 @@
 // LDM_MAP_BATCH (trace.map_batch): one dispatch walks maps [k_begin, k_end) only, so that the lists of the
 // maps in flight stay in cache; the pixel's two sums carry over in ldm_ao_sums, and the sums run over k in
 // the same order, so the image is the same bit for bit. The dispatch of the last batch writes the image.
+// LDM_AO_GRID (trace.map_schedule = grid): all batches in one dispatch, batch = workgroup z (the slowest, so
+// the batches still run one after another in cache, without a drain between them); each writes its own
+// partial sums, ldm_ao_sums[batch * pixels + pixel], and LDM_AO_COMBINE (a pass over the pixels) adds them
+// in batch order: the image differs from one dispatch's by float rounding only.
 #include "ldm_trace.glsl"
 #ifndef LDM_PREFETCH
 #define LDM_PREFETCH 1
 #endif
-#if defined(LDM_MAP_BATCH)
+#if defined(LDM_MAP_BATCH) || defined(LDM_AO_GRID) || defined(LDM_AO_COMBINE)
 layout(std430, binding = B_LDM_AO_SUMS) buffer LdmAoSums { vec2 ldm_ao_sums[]; };
 uniform uint k_begin;
 uniform uint k_end;
+#endif
+#if defined(LDM_AO_GRID) || defined(LDM_AO_COMBINE)
+uniform uint map_batch;   // maps per batch (workgroup z)
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -36,16 +43,46 @@ float rho(float t) {
     return 1.0 - q * q;
 }
 
+float ldm_ao(float sum_vc, float sum_c) {
+#if defined(LDM_ONE_WAY)
+    float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
+#else
+    float n_dirs = float(n_maps);
+#endif
+    return estimator == 0 ? (sum_c > 0.0 ? sum_vc / sum_c : 1.0) : 2.0 / n_dirs * sum_vc;
+}
+
+#if defined(LDM_AO_COMBINE)
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, imageSize(out_image)))) return;
+    if (texelFetch(g_position, p, 0).w < 0.5) { imageStore(out_image, p, vec4(1.0)); return; }
+    uint npix = uint(imageSize(out_image).x * imageSize(out_image).y);
+    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    vec2 s = vec2(0.0);
+    for (uint b = 0u; b * map_batch < n_maps; ++b) s += ldm_ao_sums[b * npix + idx];
+    imageStore(out_image, p, vec4(ldm_ao(s.x, s.y)));
+}
+#else
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(out_image)))) return;
     vec4 pos = texelFetch(g_position, p, 0);
-    if (pos.w < 0.5) { imageStore(out_image, p, vec4(1.0)); return; }
+    if (pos.w < 0.5) {   // background: 1 (by the combine pass in a grid)
+#if !defined(LDM_AO_GRID)
+        imageStore(out_image, p, vec4(1.0));
+#endif
+        return;
+    }
     vec3 x = pos.xyz;
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
     uint kb = 0u, ke = n_maps;
-#if defined(LDM_MAP_BATCH)
+#if defined(LDM_AO_GRID)
+    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    kb = gl_WorkGroupID.z * map_batch;
+    ke = min(kb + map_batch, n_maps);
+#elif defined(LDM_MAP_BATCH)
     uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
     kb = k_begin;
     ke = k_end;
@@ -81,17 +118,17 @@ void main() {
             sum_c += ct;
         }
     }
+#if defined(LDM_AO_GRID)
+    ldm_ao_sums[gl_WorkGroupID.z * uint(imageSize(out_image).x * imageSize(out_image).y) + idx] =
+        vec2(sum_vc, sum_c);
+#else
 #if defined(LDM_MAP_BATCH)
     if (ke < n_maps) {
         ldm_ao_sums[idx] = vec2(sum_vc, sum_c);
         return;
     }
 #endif
-#if defined(LDM_ONE_WAY)
-    float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
-#else
-    float n_dirs = float(n_maps);
+    imageStore(out_image, p, vec4(ldm_ao(sum_vc, sum_c)));
 #endif
-    float A = estimator == 0 ? (sum_c > 0.0 ? sum_vc / sum_c : 1.0) : 2.0 / n_dirs * sum_vc;
-    imageStore(out_image, p, vec4(A));
 }
+#endif
