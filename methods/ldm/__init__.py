@@ -38,7 +38,8 @@ V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i,
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
 Defaults are the fastest build that stores the same lists (the compute splat, yang2010's insert and a sort
-pass, no read-back: docs/fast_builds.md); ``preset = "paper"`` is the paper's build (hardware raster,
+pass, no read-back: docs/fast_builds.md) and the AO's batches of maps in one dispatch (the same image to float
+rounding); ``preset = "paper"`` is the paper's build (hardware raster,
 pre-sorted lock-free insert), which every ``reproduce`` entry runs; both render the same images.
 
 Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
@@ -66,10 +67,15 @@ Parameter                        Default   Paper    Meaning
 ``structure.sorted_insert``      False     True     lock-free sorted insert; False = yang2010 + sort pass
 ``structure.max_list``           64                 register-array length of the sort passes (longer: slow path)
 ``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
-``structure.aggregate``          False              one atomicAdd per subgroup on the node counter (ARB_shader_ballot)
+``structure.aggregate``          True               one atomicAdd per subgroup on the node counter (needs
+                                                    ARB_shader_ballot: False on a driver without it)
 ``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
 ``structure.splat_large``        tiles              splat: triangles longer than 16 texels by a compute pass over
                                                     tiles of the maps | raster (the hardware; the same fragments)
+``structure.splat_batch``        16                 splat: maps per invocation of the small triangles' pass
+``structure.splat_queue``        True               splat: (triangle, map) pairs reaching a texel centre queued in
+                                                    shared memory, rasterized by consecutive invocations (the same
+                                                    fragments)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
 ``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
@@ -81,6 +87,9 @@ Parameter                        Default   Paper    Meaning
                                                     (1: one map at a time; the same image)
 ``trace.map_batch``              64                 (ao) maps per dispatch, each pixel's sums carried between
                                                     dispatches (0: all maps in one; the same image)
+``trace.map_schedule``           grid               (ao) a dispatch per batch of maps, or ``grid``: one dispatch
+                                                    of all (batch = workgroup z), partial sums added in batch
+                                                    order by a pass over the pixels (same image to rounding)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -175,6 +184,10 @@ class LdmTrace(ParamsBase):
                           "same image)", lo=1, hi=16)
     map_batch: int = param(64, "(ao) maps walked per dispatch, the pixels' sums carried between dispatches "
                            "(0: all in one; the same image)", lo=0, hi=1 << 16)
+    map_schedule: str = param("grid", "(ao) the batches of map_batch maps: one dispatch each, or one "
+                              "dispatch of all (batch = workgroup z) whose partial sums a pass over the pixels "
+                              "adds in batch order (the same image to float rounding)",
+                              choices=("dispatches", "grid"))
 
     def defines(self) -> dict:
         """The GLSL defines of the query and walk modes (methods/glsl/ldm_trace.glsl) and of the AO pass."""
@@ -229,7 +242,7 @@ class LdmIndirect(ParamsBase):
 
 #: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
 LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorted_insert", "max_list",
-                 "instanced", "aggregate", "indexed", "splat_large")
+                 "instanced", "aggregate", "indexed", "splat_large", "splat_batch", "splat_queue")
 
 
 @dataclass(frozen=True)
@@ -240,7 +253,8 @@ class LdmParams(ParamsBase):
     structure: StructureSpec = group(StructureSpec, "the N maps as one layered structure", expose=LDM_STRUCTURE,
                                      choices={"source": ("raster", "one_pass", "splat")},
                                      paper={"layout": "linked", "source": "raster", "sorted_insert": True},
-                                     source="splat", sorted_insert=False, pool="lazy")
+                                     source="splat", sorted_insert=False, pool="lazy", aggregate=True,
+                                     splat_queue=True, splat_batch=16)
     trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
     rays: LdmRays = group(LdmRays, "effect rays")
     indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")
@@ -330,23 +344,36 @@ class Ldm(Method):
             self._out_size = (w, h)
         batches = p.trace.map_batches(self.n_maps)
         batched = len(batches) > 1
-        cs = self.gpu.compute(self.shader("ao.glsl"), {**self.ls.defines(), **p.trace.defines(),
-                                                       **({"LDM_MAP_BATCH": 1} if batched else {})})
-        if batched and self._sums_n != w * h:
-            self.ao_sums = self.res.buffer("ldm.ao_sums", reserve=8 * w * h)
-            self._sums_n = w * h
-        cs["g_position"].value = 0
-        cs["g_normal"].value = 1
-        cs["d_max"].value = FAR if math.isinf(effect.d_max) else float(effect.d_max)
-        cs["falloff"].value = 0 if effect.falloff == "step" else 1
-        cs["estimator"].value = 0 if p.trace.estimator == "ratio" else 1
+        grid = batched and p.trace.map_schedule == "grid"
+        mode = {"LDM_AO_GRID": 1} if grid else {"LDM_MAP_BATCH": 1} if batched else {}
+        defines = {**self.ls.defines(), **p.trace.defines()}
+        passes = [self.gpu.compute(self.shader("ao.glsl"), {**defines, **mode})]
+        if grid:
+            passes.append(self.gpu.compute(self.shader("ao.glsl"), {**defines, "LDM_AO_COMBINE": 1}))
+        n_sums = w * h * (len(batches) if grid else 1)
+        if batched and self._sums_n != n_sums:
+            self.ao_sums = self.res.buffer("ldm.ao_sums", reserve=8 * n_sums)
+            self._sums_n = n_sums
+        for cs in passes:
+            for name, v in (("g_position", 0), ("g_normal", 1), ("falloff", int(effect.falloff != "step")),
+                            ("d_max", FAR if math.isinf(effect.d_max) else float(effect.d_max)),
+                            ("estimator", int(p.trace.estimator != "ratio")), ("n_maps", self.n_maps),
+                            ("map_batch", batches[0][1])):
+                if name in cs:
+                    cs[name].value = v
+        cs = passes[0]
         with gpu.stage("ao"):
             self.gbuf.bind(0)
             self._bind_maps(cs)
             self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             if batched:
                 self.ao_sums.bind_to_storage_buffer(B.LDM_AO_SUMS)
-            for k0, k1 in batches:
+            if grid:
+                cs.run((w + 7) // 8, (h + 7) // 8, len(batches))
+                gpu.ctx.memory_barrier()
+                passes[1].run((w + 7) // 8, (h + 7) // 8)
+                gpu.ctx.memory_barrier()
+            for k0, k1 in ([] if grid else batches):
                 if batched:
                     cs["k_begin"].value, cs["k_end"].value = k0, k1
                 cs.run((w + 7) // 8, (h + 7) // 8)

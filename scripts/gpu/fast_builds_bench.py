@@ -61,9 +61,18 @@ VARIANTS = {
                                         aggregate=True),
     **{f"splat/linked-yang-group{g}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                            splat_group=g) for g in (32, 128, 256)},
+    # the small triangles' pairs queued in shared memory
+    **{f"splat/linked-yang-queue{suffix}": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                                splat_queue=True, **kw)
+       for suffix, kw in (("", {}), ("-batch16", dict(splat_batch=16)), ("-batch32", dict(splat_batch=32)),
+                          ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
+                          ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)))},
+    "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
     # the LDI adapter's default structure (payload, ties in payload order), at --fig8 260000,96,128
     **{f"ldi/splat-sort-group{g}": {**LDI_STRUCTURE, "splat_group": g} for g in (32, 64, 128, 256)},
     "ldi/splat-sort-grow": {**LDI_STRUCTURE, "pool": "grow"},
+    "ldi/splat-sort-queue": {**LDI_STRUCTURE, "splat_queue": True},
+    "ldi/splat-sort-queue-batch16": {**LDI_STRUCTURE, "splat_queue": True, "splat_batch": 16},
 }
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 

@@ -7,21 +7,32 @@
 # (6) the tiles testing coverage but storing nothing; (7) without the sort pass. Cut builds store fewer
 # fragments or leave lists unsorted: their rows read "degraded", and only their times mean anything. The
 # checkout itself is not touched.
+# The AO pass of the default Figure 8 frame (scripts/gpu/fast_defaults.py --only fig8 --labels default), cut
+# the same way: (1) as is; (2) each map's walk cut to its list's first node; (3) to the head only (no node
+# read); (4) to the query (the list's index, no list read). Their images are wrong; their ao times are not.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
+# LDBENCH_SPLIT: which splits (default "build ao"); LDBENCH_SPLIT_VARIANT: the build's variant of
+# fast_builds_bench.py (default: the Figure 8 default's, splat/linked-yang-queue-batch16-aggregate).
 set -u
 PY="${PYTHON:-python3}"
 src=$PWD
 W="$(mktemp -d "${TMPDIR:-/tmp}/fig8-split.XXXXXX")"
 trap 'rm -rf "$W"' EXIT
-V=splat/linked-yang
+V=${LDBENCH_SPLIT_VARIANT:-splat/linked-yang-queue-batch16-aggregate}
 ARGS=("$@")
 run() {  # run LABEL: the bench in the copy, with this script's arguments
     echo "== $1"
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
      timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep -o "variant=[^ ]* build_ms=[^ ]*\|stages=[^ ]*" | paste - -)
+}
+frame() {  # frame LABEL: the default Figure 8 frame in the copy; its stage times
+    echo "== $1"
+    (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
+     timeout 250 "$PY" scripts/gpu/fast_defaults.py "$W/out-$1" --only fig8 --labels default ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
+     grep "^fig8 default total")
 }
 copy() {  # the package's folders and the scripts, as they are in the working tree
     rm -rf "$W/tree"; mkdir -p "$W/tree"
@@ -39,9 +50,11 @@ PYEOF
 cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE
     copy; patch "$2" "$3" "$4"; run "$1"
 }
+for split in ${LDBENCH_SPLIT-build ao}; do
+if [ "$split" = build ]; then
 copy; run as-is
-cut no-small-triangles methods/glsl/splat_raster.glsl $'        for (uint k = k0; k < k1; ++k) sp_layer(' \
-    $'        for (uint k = k0; k < k1 && false; ++k) sp_layer('
+cut no-small-triangles methods/glsl/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
+    $'            if (!sp_long(t, v0, v1, v2) && false) {'
 cut no-tiles methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
 cut small-triangles-no-store methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' \
     $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
@@ -50,3 +63,17 @@ cut small-triangles-counter-only methods/glsl/linked_list.glsl $'    uint old = 
 cut tiles-no-store methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
     $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
 cut no-sort methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
+cut tiles-no-coverage-loop methods/glsl/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
+    $'        uint m = sp_bin_n == 0xFFFFFFFFu ? 1u : 0u;\n'
+fi
+if [ "$split" = ao ]; then
+W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
+copy; frame ao-as-is
+copy; patch methods/ldm/ao.glsl "$W_AO" \
+    '            float t = first[j] == LS_END ? -1.0 : ls_depth(first[j]) - q[j].zx;'; frame ao-first-node-only
+copy; patch methods/ldm/ao.glsl "$W_AO" \
+    '            float t = first[j] == LS_END ? -1.0 : float(first[j] & 1u);'; frame ao-head-only
+copy; patch methods/ldm/ao.glsl "$W_AO" \
+    '            float t = q[j].zx + float(q[j].list & 1u) - 1.0;'; frame ao-query-only
+fi
+done
