@@ -66,7 +66,10 @@ VARIANTS = {
                                                 splat_queue=True, **kw)
        for suffix, kw in (("", {}), ("-batch16", dict(splat_batch=16)), ("-batch32", dict(splat_batch=32)),
                           ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
-                          ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)))},
+                          ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)),
+                          ("-aggregate", dict(aggregate=True)))},
+    "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
+                                                splat_batch=16, aggregate=True),
     "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
     # the LDI adapter's default structure (payload, ties in payload order), at --fig8 260000,96,128
     **{f"ldi/splat-sort-group{g}": {**LDI_STRUCTURE, "splat_group": g} for g in (32, 64, 128, 256)},
