@@ -67,8 +67,8 @@ Parameter                        Default   Paper    Meaning
 ``structure.sorted_insert``      False     True     lock-free sorted insert; False = yang2010 + sort pass
 ``structure.max_list``           64                 register-array length of the sort passes (longer: slow path)
 ``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
-``structure.aggregate``          True               one atomicAdd per subgroup on the node counter (needs
-                                                    ARB_shader_ballot: False on a driver without it)
+``structure.aggregate``          True      False    one atomicAdd per subgroup on the node counter (needs
+                                                    ARB_shader_ballot: set False on a driver without it)
 ``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
 ``structure.splat_large``        tiles              splat: triangles longer than 16 texels by a compute pass over
                                                     tiles of the maps | raster (the hardware; the same fragments)
@@ -85,11 +85,13 @@ Parameter                        Default   Paper    Meaning
                                                     full: walk the whole list (unsorted lists' walk; same answers)
 ``trace.prefetch``               1                  (ao) maps whose first list node is loaded before any is walked
                                                     (1: one map at a time; the same image)
-``trace.map_batch``              64                 (ao) maps per dispatch, each pixel's sums carried between
-                                                    dispatches (0: all maps in one; the same image)
-``trace.map_schedule``           grid               (ao) a dispatch per batch of maps, or ``grid``: one dispatch
-                                                    of all (batch = workgroup z), partial sums added in batch
-                                                    order by a pass over the pixels (same image to rounding)
+``trace.map_batch``              64        0        (ao) maps per batch: a dispatch each, or a z-slice of one
+                                                    dispatch (``map_schedule``); 0: all maps in one batch
+``trace.map_schedule``           grid               (ao) a dispatch per batch of maps (pixel sums carried over:
+                                                    the same image), or ``grid``: one dispatch of all (batch =
+                                                    workgroup z), partial sums added in batch order by a pass
+                                                    (same image to rounding; dispatches where the partial sums
+                                                    would pass the driver's largest buffer)
 ``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
                                                     (methods/directions.py; the true nearest for all but ~1e-5 of
                                                     directions, then the second nearest) or ``scan`` of all N axes
@@ -182,11 +184,12 @@ class LdmTrace(ParamsBase):
                       choices=("early_stop", "full"), paper="early_stop")
     prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (the "
                           "same image)", lo=1, hi=16)
-    map_batch: int = param(64, "(ao) maps walked per dispatch, the pixels' sums carried between dispatches "
-                           "(0: all in one; the same image)", lo=0, hi=1 << 16)
+    map_batch: int = param(64, "(ao) maps per batch: a dispatch each, or a z-slice of one dispatch "
+                           "(map_schedule); 0: all maps in one batch", lo=0, hi=1 << 16)
     map_schedule: str = param("grid", "(ao) the batches of map_batch maps: one dispatch each, or one "
                               "dispatch of all (batch = workgroup z) whose partial sums a pass over the pixels "
-                              "adds in batch order (the same image to float rounding)",
+                              "adds in batch order (the same image to float rounding; dispatches where the "
+                              "partial sums would pass the driver's largest buffer)",
                               choices=("dispatches", "grid"))
 
     def defines(self) -> dict:
@@ -196,7 +199,7 @@ class LdmTrace(ParamsBase):
                 **({"LDM_PREFETCH": self.prefetch} if self.prefetch > 1 else {})}
 
     def map_batches(self, n_maps: int) -> list:
-        """The AO pass's dispatches: ``[(k_begin, k_end), ...]`` over the ``n_maps`` maps."""
+        """The AO pass's batches of maps: ``[(k_begin, k_end), ...]`` over the ``n_maps`` maps."""
         m = self.map_batch if 0 < self.map_batch < n_maps else n_maps
         return [(k, min(k + m, n_maps)) for k in range(0, n_maps, m)]
 
@@ -267,7 +270,8 @@ class LdmParams(ParamsBase):
         "and adds the same splats over the same pixels with float atomics (the indirect image to the order "
         "of the sums, docs/fast_builds.md)",
         {"structure.layout": "linked", "structure.source": "raster", "structure.sorted_insert": True,
-         "structure.pool": "grow", "indirect.splat": "blend", "trace.map_batch": 0})}
+         "structure.pool": "grow", "structure.aggregate": False, "indirect.splat": "blend",
+         "trace.map_batch": 0})}
 
     renamed = {"layout": "structure.layout", "build": "structure.source", "assembly": "structure.assembly",
                "pool": "structure.pool", "pool_capacity": "structure.pool_capacity",
@@ -344,7 +348,8 @@ class Ldm(Method):
             self._out_size = (w, h)
         batches = p.trace.map_batches(self.n_maps)
         batched = len(batches) > 1
-        grid = batched and p.trace.map_schedule == "grid"
+        grid = (batched and p.trace.map_schedule == "grid"
+                and 8 * w * h * len(batches) <= self.ls.ssbo_limit and w * h * len(batches) < 1 << 32)
         mode = {"LDM_AO_GRID": 1} if grid else {"LDM_MAP_BATCH": 1} if batched else {}
         defines = {**self.ls.defines(), **p.trace.defines()}
         passes = [self.gpu.compute(self.shader("ao.glsl"), {**defines, **mode})]

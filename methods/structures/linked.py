@@ -106,7 +106,7 @@ class LayeredLinkedLists(LayeredStructure):
                        if e not in gpu.ctx.extensions]
             if missing:
                 raise LdbenchError(f"warp-aggregated atomics need {' and '.join(missing)}, "
-                                   "which this OpenGL driver lacks")
+                                   "which this OpenGL driver lacks: set structure.aggregate=false")
         limit = self.ssbo_limit
         pn = min(_floor_pow2(max(limit // NODE_BYTES, 1)), 1 << 30) if not spec.page_nodes else spec.page_nodes
         self.page_nodes, self.page_shift = pn, pn.bit_length() - 1

@@ -67,7 +67,7 @@ class StructureSpec(ParamsBase):
                              lo=0)
     splat_max: float = param(16.0, "splat: longest edge (texels) splatted; longer triangles go to splat_large",
                              lo=1e-6, hi=float(SPLAT_MAX_LIMIT))
-    splat_batch: int = param(8, "splat: layers per compute invocation", lo=1)
+    splat_batch: int = param(8, "splat: layers per compute invocation", lo=1, hi=65535)
     splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))
     splat_queue: bool = param(False, "splat: the (triangle, layer) pairs that reach a texel centre queued in "
                               "shared memory and rasterized by consecutive invocations (the same fragments)")
