@@ -373,16 +373,17 @@ class Ldm(Method):
             self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
             if batched:
                 self.ao_sums.bind_to_storage_buffer(B.LDM_AO_SUMS)
-            if grid:
+            if grid:  # the partial sums, then the pass adding them
                 cs.run((w + 7) // 8, (h + 7) // 8, len(batches))
                 gpu.ctx.memory_barrier()
                 passes[1].run((w + 7) // 8, (h + 7) // 8)
                 gpu.ctx.memory_barrier()
-            for k0, k1 in ([] if grid else batches):
-                if batched:
-                    cs["k_begin"].value, cs["k_end"].value = k0, k1
-                cs.run((w + 7) // 8, (h + 7) // 8)
-                gpu.ctx.memory_barrier()  # the sums for the next batch; the image for the read-back
+            else:
+                for k0, k1 in batches:
+                    if batched:
+                        cs["k_begin"].value, cs["k_end"].value = k0, k1
+                    cs.run((w + 7) // 8, (h + 7) // 8)
+                    gpu.ctx.memory_barrier()  # the sums for the next batch; the image for the read-back
         out = self.out
         return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask,
                       memory_bytes=self.res.by_buffer(), counters=self._counters,

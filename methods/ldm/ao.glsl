@@ -19,6 +19,8 @@
 #endif
 #if defined(LDM_MAP_BATCH) || defined(LDM_AO_GRID) || defined(LDM_AO_COMBINE)
 layout(std430, binding = B_LDM_AO_SUMS) buffer LdmAoSums { vec2 ldm_ao_sums[]; };
+#endif
+#if defined(LDM_MAP_BATCH)
 uniform uint k_begin;
 uniform uint k_end;
 #endif
@@ -43,6 +45,10 @@ float rho(float t) {
     return 1.0 - q * q;
 }
 
+// the pixel's index in the image, and the image's pixels: the sums' layout
+uint ldm_pixel(ivec2 p) { return uint(p.y) * uint(imageSize(out_image).x) + uint(p.x); }
+uint ldm_pixels() { return uint(imageSize(out_image).x * imageSize(out_image).y); }
+
 float ldm_ao(float sum_vc, float sum_c) {
 #if defined(LDM_ONE_WAY)
     float n_dirs = 0.5 * float(n_maps);   // 2N one-way maps answer the N directions of the hemisphere
@@ -57,8 +63,7 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(p, imageSize(out_image)))) return;
     if (texelFetch(g_position, p, 0).w < 0.5) { imageStore(out_image, p, vec4(1.0)); return; }
-    uint npix = uint(imageSize(out_image).x * imageSize(out_image).y);
-    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    uint npix = ldm_pixels(), idx = ldm_pixel(p);
     vec2 s = vec2(0.0);
     for (uint b = 0u; b * map_batch < n_maps; ++b) s += ldm_ao_sums[b * npix + idx];
     imageStore(out_image, p, vec4(ldm_ao(s.x, s.y)));
@@ -79,11 +84,11 @@ void main() {
     float sum_vc = 0.0, sum_c = 0.0;
     uint kb = 0u, ke = n_maps;
 #if defined(LDM_AO_GRID)
-    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    uint idx = ldm_pixel(p);
     kb = gl_WorkGroupID.z * map_batch;
     ke = min(kb + map_batch, n_maps);
 #elif defined(LDM_MAP_BATCH)
-    uint idx = uint(p.y) * uint(imageSize(out_image).x) + uint(p.x);
+    uint idx = ldm_pixel(p);
     kb = k_begin;
     ke = k_end;
     if (kb > 0u) {
@@ -119,8 +124,7 @@ void main() {
         }
     }
 #if defined(LDM_AO_GRID)
-    ldm_ao_sums[gl_WorkGroupID.z * uint(imageSize(out_image).x * imageSize(out_image).y) + idx] =
-        vec2(sum_vc, sum_c);
+    ldm_ao_sums[gl_WorkGroupID.z * ldm_pixels() + idx] = vec2(sum_vc, sum_c);
 #else
 #if defined(LDM_MAP_BATCH)
     if (ke < n_maps) {
