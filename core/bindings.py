@@ -73,6 +73,8 @@ _TABLE = {
                     "LSAlbedo"),
     "SPLAT_LARGE": _b("ssbo", 10, "structure", "splat build: indirect command and triangles too large to splat",
                       "SplatLarge"),
+    "SPLAT_SORT": _b("ssbo", 12, "structure.splat", "splat build, tiles sorting their lists: the lists left to the "
+                     "sort pass (count, then list indices)", "SplatSortLists"),
     "ORTHO_AXES": _b("ssbo", 11, "trace", "axes of the orthographic layer sets the traces walk (ortho_layers)",
                      "OrthoAxes"),
     "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit.glsl)", "OITMaterials"),

@@ -226,6 +226,10 @@ VARIANTS = {
     "splat-queue-yang-aggregate-batch16": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True,
                                                           aggregate=True, splat_batch=16, pool="lazy")),
     "splat-queue-sort-lazy": ("linear", dict(source="splat", assembly="sort", pool="lazy", splat_queue=True)),
+    # the tiles sort the lists they own
+    "splat-tile-sort": ("linked", dict(source="splat", sorted_insert=False, splat_sort=True)),
+    "splat-tile-sort-ldm": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True, aggregate=True,
+                                           splat_batch=16, pool="lazy", splat_sort=True)),
 }
 
 
@@ -264,6 +268,59 @@ def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
                 splat_group=32)
     assert got.invariants(got.stats()) == []
     assert_same_lists(multisets(ref), multisets(got), "queue overflow")
+
+
+def stacks_scene() -> Scene:
+    """Lists longer than the tiles' registers (8 nodes), each path of splat_sort: 12 long triangles stacked over
+    one region (their fragments beyond 8 pushed at once), 12 small ones stacked over another (the small
+    triangles' chain longer than the registers), 5 + 5 over a third (both, 10 in all), 3 + 3 (relinked in
+    order), and 3 small ones alone in decreasing and in increasing depth."""
+    ms = []
+    big = lambda x, y, z: [[x, y, z], [x + 0.9, y + 0.05, z + 0.01], [x + 0.1, y + 0.8, z - 0.01]]  # noqa: E731
+    small = lambda x, y, z: [[x, y, z], [x + 3 * T, y + 0.2 * T, z], [x + 0.3 * T, y + 3 * T, z]]  # noqa: E731
+    for name, (x, y), n_big, n_small in (("a", (-0.95, -0.95), 12, 0), ("b", (0.2, -0.9), 0, 12),
+                                         ("c", (-0.9, 0.1), 5, 5), ("d", (0.1, 0.1), 3, 3)):
+        tris = [big(x, y, 0.8 - 0.13 * i) for i in range(n_big)]
+        tris += [small(x + 0.1, y + 0.1, 0.75 - 0.11 * i) for i in range(n_small)]
+        ms.append(_mesh(name, tris))
+    ms.append(_mesh("down", [small(0.6, 0.6, 0.2 - 0.1 * i) for i in range(3)]))
+    ms.append(_mesh("up", [small(0.8, 0.8, -0.2 + 0.1 * i) for i in range(3)]))
+    return Scene("stacks", ms, Camera((0, 0, 5), (0, 0, 0)))
+
+
+@pytest.mark.parametrize("payload", [(), ("material", "normal")], ids=["depth", "payload"])
+def test_tile_sort_of_lists_longer_than_its_registers(gpu, payload):
+    """splat_sort on lists of up to 12 nodes: the raster's lists (with their payload), sorted, the long ones
+    left to the sort pass; when they are more than its buffer holds, the sort pass sorts every list."""
+    res = gpu.resources()
+    try:
+        geo = SceneGeometry(gpu, stacks_scene(), res)
+        got = {}
+        for name, kw in (("ref", dict(layout="linear")),
+                         ("tiles", dict(layout="linked", source="splat", sorted_insert=False, splat_sort=True)),
+                         ("full", dict(layout="linked", source="splat", sorted_insert=False, splat_sort=True))):
+            s = make_structure(StructureSpec(payload=payload, **kw), gpu, geo, res, layers=3, width=W,
+                               prefix=f"st.{name}.")
+            clip, rows = edge_case_layers()
+            s.set_layers(clip, rows)
+            if name == "full":
+                s.source.sort_cap = 1  # more lists left than the buffer holds
+            s.build()
+            st = s.stats()
+            assert s.invariants(st) == [] and st["unsorted_lists"] == 0, name
+            got[name] = ([sorted(d) for layer in s.lists(payload=bool(payload)) for row in layer for d in row],
+                         st)
+        ref, st = got["ref"]
+        assert st["max_list_length"] == 12
+        for name in ("tiles", "full"):
+            lists, st = got[name]
+            assert st["splat_sort_left"] > 1 and st["max_list_length"] == 12, name
+            assert len(lists) == len(ref) and all(len(a) == len(b) for a, b in zip(ref, lists)), name
+            for a, b in zip(ref, lists):
+                for x, y in zip(a, b):
+                    assert (abs(x - y) <= 5e-4) if not payload else (abs(x[0] - y[0]) <= 5e-4 and x[1] == y[1]), name
+    finally:
+        res.release()
 
 
 def expected_large(splat_max):
@@ -351,8 +408,11 @@ def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scen
 
 @pytest.mark.parametrize("layout, kw", [("linear", dict(assembly="sort")),
                                         ("linear", dict(assembly="sort", source="splat")),
-                                        ("linked", dict(sorted_insert=False, source="splat"))],
-                         ids=["sort", "splat-sort", "splat-linked-yang"])
+                                        ("linked", dict(sorted_insert=False, source="splat")),
+                                        ("linked", dict(sorted_insert=False, source="splat", splat_sort=True)),
+                                        ("linked", dict(sorted_insert=False, source="splat", splat_sort=True,
+                                                        payload=("material",)))],
+                         ids=["sort", "splat-sort", "splat-linked-yang", "splat-tile-sort", "splat-tile-sort-payload"])
 def test_overflow_is_reported(scene_geo, reference, layout, kw):
     """A fixed pool of 500 nodes: 500 stored, every other fragment counted as overflow."""
     s = build(scene_geo, layout, "fixed" + layout + str(len(kw)), pool="fixed", pool_capacity=500, **kw)
@@ -395,7 +455,8 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
     imgs = {}
     for name, kw in {"raster": {}, "splat": dict(source="splat"), "splat-linear-sort": dict(
             layout="linear", source="splat", assembly="sort", pool="lazy"), "raster-sort-lazy": dict(
-            layout="linear", assembly="sort", pool="lazy"), "aggregate": dict(aggregate=True)}.items():
+            layout="linear", assembly="sort", pool="lazy"), "aggregate": dict(aggregate=True),
+            "tile-sort": dict(source="splat", sorted_insert=False, splat_sort=True)}.items():
         m = Ldm(LdmParams(directions=24, resolution=48, structure=kw))
         m.setup(gpu, sc)
         for _ in range(2):

@@ -1,4 +1,5 @@
-// Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant).
+// Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant), or with
+// LL_SORT_LISTED only the lists the build left unsorted.
 // Lists of up to LL_MAX_LIST nodes: gathered into a local array, insertion sort, the depths that moved (and
 // payload words) written back along the same chain. Longer lists: counted in ll_counters[LL_C_SORT_LONG]
 // and sorted in place in global memory (selection sort over the chain: O(L^2) but exact), so nothing is
@@ -68,8 +69,22 @@ void ll_sort_list(uint list, uint cap) {
     }
 }
 
+#if defined(LL_SORT_LISTED)
+// only the lists a pass left unsorted (splat_tiles.glsl, SP_TILE_SORT); every list when they were more than
+// the buffer holds
+layout(std430, binding = B_SPLAT_SORT) readonly buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
+uniform uint sp_sort_cap;
+#endif
+
 void main() {
     uint stride = gl_NumWorkGroups.x * 64u;
     uint cap = ll_capacity_bound();
+#if defined(LL_SORT_LISTED)
+    uint listed = sp_sort_n;
+    if (listed <= sp_sort_cap) {
+        for (uint e = gl_GlobalInvocationID.x; e < listed; e += stride) ll_sort_list(sp_sort_list[e], cap);
+        return;
+    }
+#endif
     for (uint list = gl_GlobalInvocationID.x; list < n_lists; list += stride) ll_sort_list(list, cap);
 }

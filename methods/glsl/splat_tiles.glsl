@@ -8,6 +8,16 @@
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.
+// SP_TILE_SORT (structure.splat_sort, with that insert): the pass also sorts the lists it owns, so that the sort
+// pass after it sorts only the lists left here. An invocation keeps its texel's fragments in registers,
+// ascending, up to SP_SORT_R of them, and writes their nodes only at the end (with a payload, each node is
+// allocated and its payload written at once; without, the nodes are allocated at the end in depth order, so
+// that a tile's nodes of one rank lie together; a fragment beyond the registers is pushed onto the head at
+// once). At the end it adds the nodes the
+// small triangles' splat linked at the head, while the registers hold them, and links what it holds in depth
+// order, a node's depth and link in one store: the whole list when it fits; otherwise in front of the chain's
+// remaining nodes, and the list is appended to sp_sort_list for the sort pass (linked_list_sort.glsl,
+// LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE² (a literal:
 // GLSL 4.30 sizes a workgroup by one).
@@ -24,6 +34,27 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 
 #if LS_LAYOUT == 1 && !defined(LL_SORTED) && !defined(LS_PASS_COUNT)
 #define SP_OWNED_HEAD 1
+#if defined(SP_TILE_SORT)
+#define SP_SORTING 1
+#endif
+#endif
+
+#if defined(SP_SORTING)
+#define SP_SORT_R 8
+#define SP_LATE 0xFFFFFFFEu   // a held fragment whose node is allocated at the end (no payload)
+layout(std430, binding = B_SPLAT_SORT) coherent buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
+uniform uint sp_sort_cap;
+
+// (z, n) into the ascending registers d, m holding c < SP_SORT_R entries, after those of equal depth; constant
+// indices only, so that the arrays stay in registers
+void sp_insert(inout float d[SP_SORT_R], inout uint m[SP_SORT_R], uint c, float z, uint n) {
+    for (int j = SP_SORT_R - 1; j > 0; --j) {
+        if (uint(j) > c) continue;
+        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }
+        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }
+    }
+    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }
+}
 #endif
 
 struct SpBinned { FrTri tri; SpPlanes pl; vec3 normal; uint material; };
@@ -42,6 +73,12 @@ void main() {
 #if defined(SP_OWNED_HEAD)
     uint head = LL_EOL, head0 = LL_EOL;   // the list's head, loaded at the first fragment
     bool loaded = false;
+#endif
+#if defined(SP_SORTING)
+    float sd[SP_SORT_R];   // the texel's fragments held, ascending
+    uint sn[SP_SORT_R];    // and their nodes
+    for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = 0.0; sn[j] = LL_EOL; }
+    uint held = 0u;
 #endif
     uint n_large = sp_cmd[0] / 3u;
     mat4 M = ls_layers[k].clip;
@@ -73,15 +110,21 @@ void main() {
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
             float depth = pl.d0 + dot(pl.dd, q);
 #if defined(SP_OWNED_HEAD)
-            if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }
+#if defined(SP_SORTING) && LS_PAYLOAD == 0
+            if (held < uint(SP_SORT_R)) { sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }
+#endif
             uint n = ll_alloc(ls_capacity);
             if (n == LL_EOL) continue;
-            ll_set_node(n, depth, head);
 #if LS_PAYLOAD > 0
             uint w[LS_PAYLOAD];
             ls_payload_words(sp_bin[i].normal, sp_bin[i].material, w);
             ll_set_payload(n, w);
 #endif
+#if defined(SP_SORTING) && LS_PAYLOAD > 0
+            if (held < uint(SP_SORT_R)) { sp_insert(sd, sn, held, depth, n); ++held; continue; }
+#endif
+            if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }
+            ll_set_node(n, depth, head);
             head = n;
 #else
             ls_store(list, depth, sp_bin[i].normal, sp_bin[i].material);
@@ -89,6 +132,39 @@ void main() {
         }
         barrier();
     }
+#if defined(SP_SORTING)
+    if (!inside) return;
+    if (!loaded) { head = ll_head[list]; head0 = head; }
+    // the chain at the head (the small triangles' nodes, and this pass's beyond the registers) while it fits
+    bool own = held > 0u, in_order = true;
+    float prev = -uintBitsToFloat(0x7F800000u);
+    uint i = head;
+    for (int j = 0; j < SP_SORT_R; ++j) {
+        if (i == LL_EOL || held >= uint(SP_SORT_R)) break;
+        LLNode nd = ll_node(i);
+        in_order = in_order && nd.depth >= prev;
+        prev = nd.depth;
+        sp_insert(sd, sn, held, nd.depth, i);
+        ++held;
+        i = nd.next;
+    }
+    if (i != LL_EOL) {   // longer than the registers: the rest of the chain from i, sorted by the sort pass
+        uint e = atomicAdd(sp_sort_n, 1u);
+        if (e < sp_sort_cap) sp_sort_list[e] = list;
+    } else if (!own && in_order) {
+        return;          // only the chain, already in order: nothing changes
+    }
+#if LS_PAYLOAD == 0
+    for (int j = 0; j < SP_SORT_R; ++j)   // the held fragments' nodes, in depth order: a tile's nodes of one rank together
+        if (uint(j) < held && sn[j] == SP_LATE) sn[j] = ll_alloc(ls_capacity);
+#endif
+    for (int j = SP_SORT_R - 1; j >= 0; --j) {   // linked from the back; a fragment the full pool refused is left out
+        if (uint(j) >= held || sn[j] == LL_EOL) continue;
+        ll_set_node(sn[j], sd[j], i);
+        i = sn[j];
+    }
+    head = i;
+#endif
 #if defined(SP_OWNED_HEAD)
     if (head != head0) ll_head[list] = head;
 #endif

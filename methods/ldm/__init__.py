@@ -245,7 +245,8 @@ class LdmIndirect(ParamsBase):
 
 #: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
 LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorted_insert", "max_list",
-                 "instanced", "aggregate", "indexed", "splat_large", "splat_batch", "splat_queue")
+                 "instanced", "aggregate", "indexed", "splat_large", "splat_batch", "splat_queue",
+                 "splat_sort")
 
 
 @dataclass(frozen=True)

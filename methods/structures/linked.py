@@ -214,12 +214,19 @@ class LayeredLinkedLists(LayeredStructure):
         self.build_passes += 1
 
     def sort(self):
-        """Sort every list in place by ascending depth (for lists built unsorted)."""
+        """Sort every list in place by ascending depth (for lists built unsorted); after a pass whose
+        source sorted most lists itself (``structure.splat_sort``), only the lists it left."""
+        left = self.source.unsorted_lists() if self.source is not None else None
+        listed = {"LL_SORT_LISTED": 1} if left is not None else {}
         cs = self.gpu.compute(GLSL_DIR / "linked_list_sort.glsl",
-                              {**self.defines(), "LL_MAX_LIST": self.max_list})
-        cs["n_lists"].value = self.n_lists
+                              {**self.defines(), "LL_MAX_LIST": self.max_list, **listed})
+        if "n_lists" in cs:
+            cs["n_lists"].value = self.n_lists
         self.bind()
-        cs.run(min(-(-self.n_lists // 64), 65535))
+        if left is not None:
+            left.bind_sort(cs)
+        n = left.sort_cap if left is not None else self.n_lists
+        cs.run(min(-(-n // 64), 65535))
         self.gpu.ctx.memory_barrier()
 
     # ---- read-back ---------------------------------------------------------------------------

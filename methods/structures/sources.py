@@ -57,6 +57,11 @@ class FragmentSource:
     def free_scratch(self):
         """Release buffers only the build needs (none by default)."""
 
+    def unsorted_lists(self):
+        """``None``: the last pass may have left any list unsorted (the splat's tiles may sort most of them:
+        :meth:`ldbench.methods.structures.splat.Splat.unsorted_lists`)."""
+        return None
+
     def uniforms(self, prog, capacity: int):
         """Bind the structure and set the uniforms every build shader may use."""
         s = self.s

@@ -71,6 +71,9 @@ class StructureSpec(ParamsBase):
     splat_group: int = param(64, "splat: invocations per workgroup", choices=(32, 64, 128, 256))
     splat_queue: bool = param(False, "splat: the (triangle, layer) pairs that reach a texel centre queued in "
                               "shared memory and rasterized by consecutive invocations (the same fragments)")
+    splat_sort: bool = param(False, "splat, linked lists with yang2010's insert (sorted_insert = False) and the "
+                             "long triangles by tiles: the tiles' pass sorts the lists it owns (up to 8 nodes, in "
+                             "registers) and leaves only the longer ones to the sort pass (the same lists)")
     splat_large: str = param("tiles", "splat: the triangles longer than splat_max, by the hardware raster or "
                              "by a compute pass over tiles of the layers (the same fragments)", choices=SPLAT_LARGE)
     max_layers: int = param(1024, "peel: depth-peeling passes at most", lo=1, hi=1 << 20)

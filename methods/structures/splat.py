@@ -33,7 +33,7 @@ from ldbench.core.gpu import GLSL_DIR
 from .core import fill_uint
 from .sources import FragmentSource, Raster
 
-B_VERTICES, B_LARGE = B.SPLAT_VERTICES, B.SPLAT_LARGE
+B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
 TILE = 8                   # texels per tile side of the long triangles' pass (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
@@ -159,6 +159,13 @@ class Splat(FragmentSource):
         cmd[1], cmd[2] = structure.layers, CMD_WORDS  # instances = layers; the indices follow the command
         self.large.write(cmd.tobytes())
         self._vaos: dict = {}
+        spec = structure.spec
+        self.tile_sort = (spec.splat_sort and self.large_mode == "tiles" and structure.layout == "linked"
+                          and not spec.sorted_insert)
+        self.sort_cap = structure.n_lists // 16 + 64   # lists the tiles may leave to the sort pass (then: all)
+        self.sort_buf = (structure.res.buffer(structure.prefix + "splat.sort", reserve=4 * (1 + self.sort_cap))
+                         if self.tile_sort else None)
+        self._sorted_pass = False
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
@@ -180,6 +187,8 @@ class Splat(FragmentSource):
         if not s.layers_affine:
             raise LdbenchError("build 'splat' needs affine layer transforms (orthographic maps)")
         fill_uint(gpu, self.large, 1, 0)  # the index count of the draw command
+        # the tiles sort the lists of the linked insert's pass (not of a counting pass)
+        self._sorted_pass = self.tile_sort and "LS_PASS_COUNT" not in extra and "LL_SORTED" not in extra
         cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", self.defines(extra))
         self.uniforms(cs, capacity)
         for name, v in (("n_triangles", s.geo.triangles), ("n_layers", s.layers),
@@ -199,8 +208,12 @@ class Splat(FragmentSource):
     def _tiles(self, extra: dict, capacity: int):
         """The long triangles by the compute pass over tiles (``splat_tiles.glsl``)."""
         s = self.s
+        sort = {"SP_TILE_SORT": 1} if self._sorted_pass else {}
         cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl",
-                           {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE})
+                           {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE, **sort})
+        if sort:  # before the structure's bindings: the fill binds its buffer where the counters go
+            fill_uint(s.gpu, self.sort_buf, 1, 0)
+            self.bind_sort(cs)
         self.uniforms(cs, capacity)
         cs.run(-(-s.width // TILE), -(-s.height // TILE), s.layers)
         s.gpu.ctx.memory_barrier()
@@ -218,8 +231,21 @@ class Splat(FragmentSource):
         self._large_vao(prog).render_indirect(self.large, ctx.TRIANGLES, 1, 0)
         ctx.memory_barrier()
 
+    def bind_sort(self, prog):
+        """The lists the tiles left unsorted, for the tiles' pass and the sort pass (``LL_SORT_LISTED``)."""
+        prog["sp_sort_cap"].value = self.sort_cap
+        self.sort_buf.bind_to_storage_buffer(B_SORT)
+
+    def unsorted_lists(self):
+        """``None`` when the last pass may have left any list unsorted; else this source, whose
+        :meth:`bind_sort` binds the lists it left (the tiles sorted the others)."""
+        return self if self._sorted_pass else None
+
     def stats(self) -> dict:
-        return {"splat_large_triangles": self.large_triangles()}
+        out = {"splat_large_triangles": self.large_triangles()}
+        if self._sorted_pass:  # lists longer than the tiles' registers, left to the sort pass
+            out["splat_sort_left"] = int(np.frombuffer(self.s.gpu.read(self.sort_buf, 4), np.uint32)[0])
+        return out
 
     def large_triangles(self) -> int:
         """Long triangles the last pass left to the tiles or the hardware (a read-back)."""

@@ -68,6 +68,9 @@ VARIANTS = {
                           ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
                           ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)),
                           ("-aggregate", dict(aggregate=True)))},
+    "splat/linked-yang-queue-batch16-aggregate-tilesort": dict(layout="linked", pool="lazy", source="splat",
+                                                               sorted_insert=False, splat_queue=True, splat_batch=16,
+                                                               aggregate=True, splat_sort=True),
     "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                                 splat_batch=16, aggregate=True),
     "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
@@ -90,7 +93,7 @@ def sizes(dry: bool) -> dict:
 
 
 BUILD_FIELDS = ("sweep", "scene", "triangles", "maps", "resolution", "variant", "build_ms", "wall_ms", "first_build_ms",
-                "stages", "fragments", "max_list", "large_triangles", "memory_mb", "structure_mb",
+                "stages", "fragments", "max_list", "large_triangles", "sort_left", "memory_mb", "structure_mb",
                 "bandwidth_fraction", "splat_batch", "splat_max", "device", "status")
 
 
@@ -188,7 +191,7 @@ def measure(gpu, geo, scene_label, maps, res, name, kw, frames, bw, rows: Rows, 
                    build_ms=total, wall_ms=wall, first_build_ms=first_ms,
                    stages=";".join(f"{k}={v:.3f}" for k, v in stages.items()),
                    fragments=st["fragments"], max_list=st["max_list_length"],
-                   large_triangles=st.get("splat_large_triangles", ""),
+                   large_triangles=st.get("splat_large_triangles", ""), sort_left=st.get("splat_sort_left", ""),
                    memory_mb=sum(s.memory().values()) / 2**20, structure_mb=out / 2**20,
                    bandwidth_fraction=out / (total * 1e-3 * bw) if bw and total > 0 else float("nan"),
                    device=gpu.device, status="ok" if not bad else "degraded: " + "; ".join(bad))

@@ -48,6 +48,8 @@ ROWS = {
                                          "default, splat_batch 8": ["--set", "ldm.structure.splat_batch=8"],
                                          "default, map dispatches": ["--set", "ldm.trace.map_schedule=dispatches"],
                                          "default, aggregate": ["--set", "ldm.structure.aggregate=true"],
+                                         "default, splat_sort": ["--set", "ldm.structure.splat_sort=true"],
+                                         "default, no splat_sort": ["--set", "ldm.structure.splat_sort=false"],
                                          "default, prefetch 4": ["--set", "ldm.trace.prefetch=4"],
                                          "default, prefetch 8": ["--set", "ldm.trace.prefetch=8"],
                                          "default, prefetch 16": ["--set", "ldm.trace.prefetch=16"],
@@ -64,6 +66,8 @@ ROWS = {
                                              "--set", "cdi-vpl.structure.source=splat", "--set",
                                              "cdi-vpl.structure.splat_large=raster"]}),
     "fig10": ("ldm", "indirect", FIG10, {"paper": ["--set", "ldm.preset=paper"], "default": [],
+                                         "default, splat_sort": ["--set", "ldm.structure.splat_sort=true"],
+                                         "default, no splat_sort": ["--set", "ldm.structure.splat_sort=false"],
                                          "default, long triangles by the hardware": [
                                              "--set", "ldm.structure.splat_large=raster"],
                                          "default, blended splats": ["--set", "ldm.indirect.splat=blend"]}),
