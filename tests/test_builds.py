@@ -260,15 +260,6 @@ def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw):
     assert_same_lists(multisets(ref), multisets(tiles), "36 x 27 tiles")
 
 
-def test_linked_heads_in_tiles_hold_the_texels_lists(scene_geo):
-    """The linked layout's heads in tiles of 8 x 8 texels (36 x 27 layers: partial tiles on both sides, two
-    layers): each texel's list is the linear layout's, whose offsets are row-major."""
-    linear = build(scene_geo, "linear", "p36-row-major", width=36, height=27, layers=2)
-    linked = build(scene_geo, "linked", "p36-tiles-heads", width=36, height=27, layers=2)
-    assert linked.n_slots == 2 * 40 * 32 and linked.memory()["b.p36-tiles-heads.heads"] == 4 * 2 * 40 * 32
-    assert_same_lists(multisets(linear), multisets(linked), "heads in tiles")
-
-
 def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
     """16 layers in one batch of 32 invocations give up to 512 pairs a workgroup, twice its queue: the grid's
     pairs overflow it. The lists are the raster's."""

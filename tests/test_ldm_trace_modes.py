@@ -182,24 +182,6 @@ def test_prefetch_gives_the_same_ao(gpu, layout, query):
             run(gpu, sc, other, rays_batch(sc) if other.name == "rays" else None, **{"trace.prefetch": 4})
 
 
-@pytest.mark.parametrize("sched", [{"trace.map_batch": 0}, {"trace.map_batch": 7, "trace.map_schedule": "grid"},
-                                   {"trace.map_batch": 7, "trace.map_schedule": "dispatches"}],
-                         ids=["one", "grid", "dispatches"])
-def test_axes_in_shared_memory_give_the_same_ao(gpu, monkeypatch, sched):
-    """The AO pass reading its maps' axes from a copy in shared memory (100 maps in one batch: more than a
-    workgroup's invocations copy at once; batches of 7) equals reading them from the buffer, bit for bit."""
-    from ldbench.methods import ldm
-
-    sc = scene()
-    eff = Effect("ao", d_max=0.8, falloff="quadratic")
-    kw = {**sched, "directions": 100 if sched["trace.map_batch"] == 0 else N}
-    shared, _ = run(gpu, sc, eff, **kw)
-    monkeypatch.setattr(ldm, "SHARED_AXES", 0)
-    plain, _ = run(gpu, sc, eff, **kw)
-    assert 0.2 < float(plain.image[..., 0].mean()) < 0.99
-    assert np.array_equal(shared.image, plain.image)
-
-
 @pytest.mark.parametrize("layout, query", [("linked", "two_way"), ("linear", "one_way")])
 def test_map_batches_give_the_same_ao(gpu, layout, query):
     """AO over dispatches (trace.map_schedule) of 1, 7 (a partial last batch), 12, 24 and 64 maps (the adapter's 24 two-way or 48

@@ -42,7 +42,7 @@ uniform float ldm_crease;  // world units (0 = no crease rule)
 struct LdmQuery { uint list; float zx; float thr; };
 
 LdmQuery ldm_query(uint k, float sigma, vec3 x, vec3 n, float bias) {
-    vec3 u = OL_AXIS(k).u.xyz, w = OL_AXIS(k).w.xyz, v = OL_AXIS(k).v.xyz;
+    vec3 u = ol_axes[k].u.xyz, w = ol_axes[k].w.xyz, v = ol_axes[k].v.xyz;
     ivec2 px;
     vec2 delta;  // x -> texel centre, (u, w)
     LdmQuery q;

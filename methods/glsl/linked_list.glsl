@@ -115,13 +115,9 @@ uint ll_next(uint i) {
     return r;
 }
 
-// Index of the list of layer `layer`, pixel `px` (OpenGL rows: y = 0 at the bottom): tile-major, tiles of
-// 8 x 8 texels, each row-major, so that the heads of neighbouring texels lie together (a tile's 256 bytes);
-// the layer's sides rounded up to whole tiles (methods/structures/linked.py LL_TILE).
+// Index of the list of layer `layer`, pixel `px` (row-major within a layer, OpenGL rows: y = 0 at the bottom).
 uint ll_list_index(uint layer, ivec2 px, ivec2 size) {
-    uint tw = (uint(size.x) + 7u) >> 3u, th = (uint(size.y) + 7u) >> 3u;
-    uvec2 p = uvec2(px);
-    return (((layer * th + (p.y >> 3u)) * tw + (p.x >> 3u)) << 6u) | ((p.y & 7u) << 3u) | (p.x & 7u);
+    return (layer * uint(size.y) + uint(px.y)) * uint(size.x) + uint(px.x);
 }
 
 #ifdef LL_WRITABLE

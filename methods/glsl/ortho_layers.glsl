@@ -8,9 +8,6 @@
 
 struct OrthoAxis { vec4 u; vec4 w; vec4 v; };
 layout(std430, binding = B_ORTHO_AXES) readonly buffer OrthoAxes { OrthoAxis ol_axes[]; };
-#ifndef OL_AXIS   // layer k's axes; a pass may read them from its own copy (methods/ldm/ao.glsl)
-#define OL_AXIS(k) ol_axes[k]
-#endif
 uniform vec3 ol_centre;
 uniform float ol_radius;
 uniform ivec2 ol_size;
@@ -19,10 +16,10 @@ uniform ivec2 ol_size;
 // units along (u_k, w_k), and (returned) p's depth dot(p - c, v_k).
 float ol_locate(uint k, vec3 p, out ivec2 px, out vec2 to_centre) {
     vec3 r = p - ol_centre;
-    vec2 f = (vec2(dot(r, OL_AXIS(k).u.xyz), dot(r, OL_AXIS(k).w.xyz)) / ol_radius * 0.5 + 0.5) * vec2(ol_size);
+    vec2 f = (vec2(dot(r, ol_axes[k].u.xyz), dot(r, ol_axes[k].w.xyz)) / ol_radius * 0.5 + 0.5) * vec2(ol_size);
     px = clamp(ivec2(floor(f)), ivec2(0), ol_size - 1);
     to_centre = (vec2(px) + 0.5 - f) * (2.0 * ol_radius / vec2(ol_size));
-    return dot(r, OL_AXIS(k).v.xyz);
+    return dot(r, ol_axes[k].v.xyz);
 }
 
 // The row of direction d's cell in methods/directions.py nearest_axis_table(axes, res): the half cube's

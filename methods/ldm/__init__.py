@@ -127,7 +127,6 @@ from ldbench.methods.scan import groups_2d
 
 LUT_RES = 128
 FAR = 3.0e38
-SHARED_AXES = 256   # the AO pass copies the axes of a batch of at most this many maps into shared memory
 
 
 ONE_WAY_SLOTS = 12  # candidates per cell of the one-way table (3 uvec4): the 9 samples never need more
@@ -354,9 +353,7 @@ class Ldm(Method):
                 and 8 * w * h * len(batches) <= self.ls.ssbo_limit and w * h * len(batches) < 1 << 32)
         mode = {"LDM_AO_GRID": 1} if grid else {"LDM_MAP_BATCH": 1} if batched else {}
         defines = {**self.ls.defines(), **p.trace.defines()}
-        most = max(k1 - k0 for k0, k1 in batches)
-        shared = {"LDM_SHARED_AXES": most} if most <= SHARED_AXES else {}
-        passes = [self.gpu.compute(self.shader("ao.glsl"), {**defines, **mode, **shared})]
+        passes = [self.gpu.compute(self.shader("ao.glsl"), {**defines, **mode})]
         if grid:
             passes.append(self.gpu.compute(self.shader("ao.glsl"), {**defines, "LDM_AO_COMBINE": 1}))
         n_sums = w * h * (len(batches) if grid else 1)

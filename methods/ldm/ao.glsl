@@ -6,8 +6,6 @@
 // Background pixels hold 1. LDM_ONE_WAY (trace.query = one_way: 2N maps along +-v_i, each answering its own
 // axis): only the maps whose axis lies in the hemisphere contribute, the same N directions as two-way maps.
 // LDM_PREFETCH (trace.prefetch, default 1): maps whose first list node is loaded before any is walked.
-// LDM_SHARED_AXES: the workgroup's maps' axes read from a copy in shared memory (their batch of at most that
-// many maps), not from the buffer in every query.
 // LDM_MAP_BATCH (trace.map_batch): one dispatch walks maps [k_begin, k_end) only, so that the lists of the
 // maps in flight stay in cache; the pixel's two sums carry over in ldm_ao_sums, and the sums run over k in
 // the same order, so the image is the same bit for bit. The dispatch of the last batch writes the image.
@@ -15,13 +13,6 @@
 // the batches still run one after another in cache, without a drain between them); each writes its own
 // partial sums, ldm_ao_sums[batch * pixels + pixel], and LDM_AO_COMBINE (a pass over the pixels) adds them
 // in batch order: the image differs from one dispatch's by float rounding only.
-#if defined(LDM_SHARED_AXES)
-// the axes of the workgroup's maps (at most LDM_SHARED_AXES), copied into shared memory once
-struct LdmAxis { vec4 u; vec4 w; vec4 v; };
-shared LdmAxis ldm_axes_sh[LDM_SHARED_AXES];
-uint ldm_k0 = 0u;   // the first of them
-#define OL_AXIS(k) ldm_axes_sh[(k) - ldm_k0]
-#endif
 #include "ldm_trace.glsl"
 #ifndef LDM_PREFETCH
 #define LDM_PREFETCH 1
@@ -80,20 +71,6 @@ void main() {
 #else
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    uint kb = 0u, ke = n_maps;
-#if defined(LDM_AO_GRID)
-    kb = gl_WorkGroupID.z * map_batch;
-    ke = min(kb + map_batch, n_maps);
-#elif defined(LDM_MAP_BATCH)
-    kb = k_begin;
-    ke = k_end;
-#endif
-#if defined(LDM_SHARED_AXES)
-    ldm_k0 = kb;
-    for (uint j = gl_LocalInvocationIndex; kb + j < ke; j += 64u)
-        ldm_axes_sh[j] = LdmAxis(ol_axes[kb + j].u, ol_axes[kb + j].w, ol_axes[kb + j].v);
-    barrier();
-#endif
     if (any(greaterThanEqual(p, imageSize(out_image)))) return;
     vec4 pos = texelFetch(g_position, p, 0);
     if (pos.w < 0.5) {   // background: 1 (by the combine pass in a grid)
@@ -105,10 +82,15 @@ void main() {
     vec3 x = pos.xyz;
     vec3 n = normalize(texelFetch(g_normal, p, 0).xyz);
     float sum_vc = 0.0, sum_c = 0.0;
+    uint kb = 0u, ke = n_maps;
 #if defined(LDM_AO_GRID)
     uint idx = ldm_pixel(p);
+    kb = gl_WorkGroupID.z * map_batch;
+    ke = min(kb + map_batch, n_maps);
 #elif defined(LDM_MAP_BATCH)
     uint idx = ldm_pixel(p);
+    kb = k_begin;
+    ke = k_end;
     if (kb > 0u) {
         vec2 s = ldm_ao_sums[idx];
         sum_vc = s.x;
@@ -122,7 +104,7 @@ void main() {
         float cs[LDM_PREFETCH];   // c = n . v_k of a map that contributes, 0 for one that does not
         for (int j = 0; j < LDM_PREFETCH; ++j) {
             uint k = k0 + uint(j);
-            float c = k < ke ? dot(n, OL_AXIS(k).v.xyz) : 0.0;
+            float c = k < ke ? dot(n, ol_axes[k].v.xyz) : 0.0;
             bool skip = abs(c) < 1e-6;
 #if defined(LDM_ONE_WAY)
             skip = skip || c < 0.0;  // a one-way map answers +v_k only: the maps facing away give no direction

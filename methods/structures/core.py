@@ -68,9 +68,8 @@ class LayeredStructure:
         self.payload = spec.payload
         self.instanced, self.indexed = spec.instanced, spec.indexed
         self.n_lists = self.layers * self.width * self.height
-        self.n_slots = self.list_slots()
         self.ssbo_limit = int(gpu.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE") or (1 << 27))
-        per_texel = self.n_slots + (1 if self.layout == "linear" else 0)  # heads, or offsets + the total
+        per_texel = self.n_lists + (1 if self.layout == "linear" else 0)  # heads, or offsets + the total
         if per_texel * 4 > self.ssbo_limit:
             raise LdbenchError(
                 f"{self.layers} layers of {self.width}x{self.height} texels need a {per_texel * 4 / 2**20:.1f} "
@@ -82,10 +81,6 @@ class LayeredStructure:
         self.source = None
         self.have_layers = False
         self.layer_scale, self.layers_affine = 0.0, True
-
-    def list_slots(self) -> int:
-        """Slots of the per-list buffer (heads or offsets): one per texel (the linked layout pads its tiles)."""
-        return self.n_lists
 
     def resize_pool(self, need: int) -> None:
         """Before a build (the count and lazy pools): reallocate to ``need`` slots when they would not fit
@@ -154,9 +149,9 @@ class LayeredStructure:
         c[first:last + 1] = 0
         self.counters_buf.write(c.tobytes())
         cs = self.gpu.compute(GLSL_DIR / shader, self.defines())
-        cs["n_lists"].value = self.n_slots
+        cs["n_lists"].value = self.n_lists
         self.bind()
-        cs.run(min(-(-self.n_slots // 64), 8192))
+        cs.run(min(-(-self.n_lists // 64), 8192))
         self.gpu.ctx.memory_barrier()
         return self.read_counters()
 

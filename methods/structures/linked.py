@@ -3,8 +3,7 @@
 :class:`LayeredLinkedLists` holds ``layers`` maps of ``width × height`` per-pixel linked lists, e.g. the
 N orthographic layered depth maps (LDMs) of aalund2015, in one head buffer and one node pool:
 
-- **heads**: one ``uint`` per list (layer-major; within a layer, tiles of 8 × 8 texels, each row-major in
-  OpenGL rows, the sides rounded up to whole tiles: ``ll_list_index``), initialised
+- **heads**: one ``uint`` per list (``layers × height × width``, layer-major, OpenGL rows), initialised
   to the end-of-list value ``LL_EOL = 0xFFFFFFFF`` by a compute pass every build.
 - **node pool**: 8-byte nodes ``{float depth; uint next}`` (one load per step of a list walk), split
   into up to 4 SSBO *pages* so that no buffer exceeds ``GL_MAX_SHADER_STORAGE_BLOCK_SIZE`` (128 MiB on
@@ -72,7 +71,6 @@ from ldbench.core.gpu import GLSL_DIR
 from .core import B_COUNTERS, B_HEADS, B_LAYERS, B_NODES0, B_PAYLOAD, LayeredStructure, fill_uint
 
 EOL = 0xFFFFFFFF
-LL_TILE = 8   # texels per side of the heads' tiles (methods/glsl/linked_list.glsl ll_list_index)
 MAX_PAGES = 4
 NODE_BYTES = 8
 NODE_DTYPE = np.dtype([("depth", "<f4"), ("next", "<u4")])
@@ -115,7 +113,7 @@ class LayeredLinkedLists(LayeredStructure):
         self.max_capacity = min(MAX_PAGES * pn, EOL - 1)
         if self.payload:
             self.max_capacity = min(self.max_capacity, limit // (4 * len(self.payload)))
-        self.heads = res.buffer(prefix + "heads", reserve=4 * self.n_slots)
+        self.heads = res.buffer(prefix + "heads", reserve=4 * self.n_lists)
         self.node_pages: list = []
         self.payload_buf = None
         self.capacity = 0
@@ -124,11 +122,6 @@ class LayeredLinkedLists(LayeredStructure):
         self._shrink_to = 0
         self.build_passes = 0
         self._built = False
-
-    def list_slots(self) -> int:
-        """Heads: tile-major (``ll_list_index``), each layer's sides rounded up to whole tiles."""
-        t = LL_TILE
-        return self.layers * (-(-self.width // t) * t) * (-(-self.height // t) * t)
 
     # ---- allocation ------------------------------------------------------------------------
     def allocate(self, capacity: int):
@@ -175,7 +168,7 @@ class LayeredLinkedLists(LayeredStructure):
         return d
 
     def _clear_heads(self):
-        fill_uint(self.gpu, self.heads, self.n_slots, EOL)
+        fill_uint(self.gpu, self.heads, self.n_lists, EOL)
 
     def read_counter(self) -> int:
         """Fragments of the last pass: nodes handed out plus allocations refused (needs a read-back)."""
@@ -228,11 +221,11 @@ class LayeredLinkedLists(LayeredStructure):
         cs = self.gpu.compute(GLSL_DIR / "linked_list_sort.glsl",
                               {**self.defines(), "LL_MAX_LIST": self.max_list, **listed})
         if "n_lists" in cs:
-            cs["n_lists"].value = self.n_slots
+            cs["n_lists"].value = self.n_lists
         self.bind()
         if left is not None:
             left.bind_sort(cs)
-        n = left.sort_cap if left is not None else self.n_slots
+        n = left.sort_cap if left is not None else self.n_lists
         cs.run(min(-(-n // 64), 65535))
         self.gpu.ctx.memory_barrier()
 
@@ -275,10 +268,7 @@ class LayeredLinkedLists(LayeredStructure):
     def read(self):
         """(heads (layers, H, W) uint32 with row 0 = OpenGL's bottom row, depth (capacity,) f4,
         next (capacity,) u4) — for tests and debugging."""
-        t = LL_TILE
-        th, tw = -(-self.height // t), -(-self.width // t)
-        heads = (np.frombuffer(self.gpu.read(self.heads), np.uint32).reshape(self.layers, th, tw, t, t)
-                 .transpose(0, 1, 3, 2, 4).reshape(self.layers, th * t, tw * t)[:, :self.height, :self.width])
+        heads = np.frombuffer(self.gpu.read(self.heads), np.uint32).reshape(self.layers, self.height, self.width)
         nodes = np.concatenate([np.frombuffer(self.gpu.read(self.node_pages[p]), NODE_DTYPE)
                                 for p in range(self.pages)])
         return heads, nodes["depth"].copy(), nodes["next"].copy()
