@@ -26,7 +26,7 @@ from testkit import cornell_like
 
 def test_paper_preset_is_the_paper_build():
     fast, paper = LdmParams().structure, LdmParams.from_dict({"preset": "paper"}).structure
-    assert (fast.source, fast.sorted_insert, fast.pool) == ("splat", False, "lazy")
+    assert (fast.source, fast.sorted_insert, fast.pool, fast.splat_sort) == ("splat", False, "lazy", True)
     assert (paper.layout, paper.source, paper.sorted_insert, paper.pool) == ("linked", "raster", True, "grow")
     c = CdiVplParams.from_dict({"preset": "paper"}).structure
     assert (c.source, c.assembly, c.pool, c.max_list) == ("one_pass", "direct", "grow", 32)

@@ -37,10 +37,11 @@ direction d_i = sign(n·v_i) v_i, cos θ_i = |n·v_i|, V_i = 1 − ρ(t_i) with 
 V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i, exact for an unoccluded
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
-Defaults are the fastest build that stores the same lists (the compute splat, yang2010's insert and a sort
-pass, no read-back: docs/fast_builds.md) and the AO's batches of maps in one dispatch (the same image to float
-rounding); ``preset = "paper"`` is the paper's build (hardware raster,
-pre-sorted lock-free insert), which every ``reproduce`` entry runs; both render the same images.
+Defaults are the fastest build that stores the same lists (the compute splat, yang2010's insert, the lists
+sorted by the long triangles' tiles and a sort pass of the longer ones, no read-back: docs/fast_builds.md) and
+the AO's batches of maps in one dispatch (the same image to float rounding); ``preset = "paper"`` is the
+paper's build (hardware raster, pre-sorted lock-free insert), which every ``reproduce`` entry runs; both
+render the same images.
 
 Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
 still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
@@ -76,6 +77,9 @@ Parameter                        Default   Paper    Meaning
 ``structure.splat_queue``        True               splat: (triangle, map) pairs reaching a texel centre queued in
                                                     shared memory, rasterized by consecutive invocations (the same
                                                     fragments)
+``structure.splat_sort``         True               splat: the long triangles' tiles sort the lists they own (up to
+                                                    8 nodes, in registers); the sort pass sorts only longer ones
+                                                    (the same lists)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
 ``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
@@ -258,7 +262,7 @@ class LdmParams(ParamsBase):
                                      choices={"source": ("raster", "one_pass", "splat")},
                                      paper={"layout": "linked", "source": "raster", "sorted_insert": True},
                                      source="splat", sorted_insert=False, pool="lazy", aggregate=True,
-                                     splat_queue=True, splat_batch=16)
+                                     splat_queue=True, splat_batch=16, splat_sort=True)
     trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
     rays: LdmRays = group(LdmRays, "effect rays")
     indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")

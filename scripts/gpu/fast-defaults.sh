@@ -31,12 +31,12 @@ step() {  # step SECONDS NAME CMD...
 nvidia-smi --query-gpu=name,driver_version,clocks.max.sm --format=csv >> "$W/log.txt" 2>&1
 step 60 bandwidth "$PY" scripts/gpu/fast_builds_bench.py "$W" bandwidth "${DRY[@]}"
 step 330 before-after "$PY" scripts/gpu/fast_defaults.py "$W" "${DRY[@]}" "${ONLY[@]}"
-F8=${LDBENCH_GPU_FIG8_VARIANTS:-splat/linked-yang-queue-batch16-aggregate,splat/linked-yang,splat/linear-sort}
+F8=${LDBENCH_GPU_FIG8_VARIANTS:-splat/linked-yang-queue-batch16-aggregate-tilesort,splat/linked-yang-queue-batch16-aggregate,splat/linear-sort}
 step 120 fig8-build "$PY" scripts/gpu/fast_builds_bench.py "$W" fig8 "${DRY[@]}" --variants "$F8"
 GB=()
 [ "${LDBENCH_GPU_DRY:-0}" = 1 ] && GB=(--dry)
 step 90 gbuffer "$PY" scripts/gpu/gbuffer_bench.py "${GB[@]}"
-V=splat/linked-yang-queue-batch16-aggregate   # the Figure 8 default structure
+V=splat/linked-yang-queue-batch16-aggregate-tilesort   # the Figure 8 default structure
 for sweep in ${LDBENCH_GPU_SWEEPS-triangles maps}; do
     step 150 "$sweep" "$PY" scripts/gpu/fast_builds_bench.py "$W" "$sweep" "${DRY[@]}" --variants "$V"
 done
