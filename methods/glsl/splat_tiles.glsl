@@ -13,11 +13,10 @@
 // ascending, up to SP_SORT_R of them, and writes their nodes only at the end (with a payload, each node is
 // allocated and its payload written at once; without, the nodes are allocated at the end in depth order, so
 // that a tile's nodes of one rank lie together; a fragment beyond the registers is pushed onto the head at
-// once). At the end it adds the nodes the
-// small triangles' splat linked at the head, while the registers hold them, and links what it holds in depth
-// order, a node's depth and link in one store: the whole list when it fits; otherwise in front of the chain's
-// remaining nodes, and the list is appended to sp_sort_list for the sort pass (linked_list_sort.glsl,
-// LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
+// once). At the end it adds the nodes the small triangles' splat linked at the head, while the registers hold
+// them, and links what it holds in depth order, a node's depth and link in one store: the whole list when it
+// fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
+// sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE² (a literal:
 // GLSL 4.30 sizes a workgroup by one).
