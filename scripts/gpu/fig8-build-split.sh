@@ -10,11 +10,16 @@
 # The AO pass of the default Figure 8 frame (scripts/gpu/fast_defaults.py --only fig8 --labels default), cut
 # the same way: (1) as is; (2) each map's walk cut to its list's first node; (3) to the head only (no node
 # read); (4) to the query (the list's index, no list read). Their images are wrong; their ao times are not.
+# The tiles' sort of the lists (structure.splat_sort, split "sort"): its build alone as is and with the tiles
+# holding 4 or 6 nodes instead of 8, and the default Figure 8 frame as is and with the held fragments' nodes
+# allocated when found (as with a payload) instead of at the end in depth order. These copies build the same
+# lists; only the times differ.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
-# LDBENCH_SPLIT: which splits (default "build ao"); LDBENCH_SPLIT_VARIANT: the build's variant of
-# fast_builds_bench.py (default: the Figure 8 default's, splat/linked-yang-queue-batch16-aggregate).
+# LDBENCH_SPLIT: which splits (default "build ao"; also "sort"); LDBENCH_SPLIT_VARIANT: the build's variant of
+# fast_builds_bench.py for the build split (default splat/linked-yang-queue-batch16-aggregate: the Figure 8
+# default without the tiles' sort, whose parts its cuts address).
 set -u
 PY="${PYTHON:-python3}"
 src=$PWD
@@ -65,6 +70,16 @@ cut tiles-no-store methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc
 cut no-sort methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
 cut tiles-no-coverage-loop methods/glsl/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
     $'        uint m = sp_bin_n == 0xFFFFFFFFu ? 1u : 0u;\n'
+fi
+if [ "$split" = sort ]; then
+TS=splat/linked-yang-queue-batch16-aggregate-tilesort
+copy; V=$TS run sort-build-as-is
+for r in 4 6; do V=$TS cut "sort-build-$r-nodes" methods/glsl/splat_tiles.glsl '#define SP_SORT_R 8' "#define SP_SORT_R $r"; done
+copy; frame sort-frame-as-is
+copy; patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
+    $'#if 0\n            if (held'
+patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
+frame sort-frame-nodes-when-found
 fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
