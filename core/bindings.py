@@ -75,6 +75,8 @@ _TABLE = {
                       "SplatLarge"),
     "SPLAT_SORT": _b("ssbo", 12, "structure.splat", "splat build, tiles sorting their lists: the lists left to the "
                      "sort pass (count, then list indices)", "SplatSortLists"),
+    "SPLAT_BOXES": _b("ssbo", 13, "structure.splat", "splat build, tiles: the long triangles' texel boxes in every "
+                      "layer", "SplatBoxes"),
     "ORTHO_AXES": _b("ssbo", 11, "trace", "axes of the orthographic layer sets the traces walk (ortho_layers)",
                      "OrthoAxes"),
     "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit.glsl)", "OITMaterials"),

@@ -246,14 +246,24 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
         assert st["splat_large_triangles"] == expected_large(kw.get("splat_max", 16.0))
 
 
+@pytest.mark.parametrize("box_cap", [None, 3], ids=["boxes", "boxes-of-3"])
 @pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False)), ("linear", {}),
-                                        ("linear", dict(assembly="sort"))], ids=["yang", "linear", "sort"])
-def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw):
+                                        ("linear", dict(assembly="sort")),
+                                        ("linked", dict(sorted_insert=False, splat_sort=True))],
+                         ids=["yang", "linear", "sort", "tile-sort"])
+def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw, box_cap, monkeypatch):
     """Layers of 36 × 27 texels end in partial tiles on both axes; with splat_max = 2.5 most triangles (more
-    than a tile's 64 at a time) take the tiles' pass. The lists are the raster's."""
-    ref = build(scene_geo, layout, f"p36-raster-{layout}", width=36, height=27, **kw)
-    tiles = build(scene_geo, layout, f"p36-tiles-{layout}", width=36, height=27, source="splat", splat_max=2.5,
+    than a tile's 64 at a time) take the tiles' pass. The lists are the raster's, also when the boxes pass
+    precomputes the boxes of only the first 3 long triangles (the tiles set up the others themselves)."""
+    from ldbench.methods.structures import splat
+
+    if box_cap is not None:
+        monkeypatch.setattr(splat, "BOX_CAP", box_cap)
+    name = f"{layout}-{'-'.join(kw)}-{box_cap}"
+    ref = build(scene_geo, layout, f"p36-raster-{name}", width=36, height=27, **kw)
+    tiles = build(scene_geo, layout, f"p36-tiles-{name}", width=36, height=27, source="splat", splat_max=2.5,
                   **kw)
+    assert tiles.source.box_cap == min(scene_geo[1].triangles, box_cap or splat.BOX_CAP)
     for s in (ref, tiles):
         assert s.invariants(s.stats()) == []
     assert tiles.stats()["splat_large_triangles"] > 64
@@ -322,6 +332,44 @@ def test_tile_sort_of_lists_longer_than_its_registers(gpu, payload):
             for a, b in zip(ref, lists):
                 for x, y in zip(a, b):
                     assert (abs(x - y) <= 5e-4) if not payload else (abs(x[0] - y[0]) <= 5e-4 and x[1] == y[1]), name
+    finally:
+        res.release()
+
+
+def wide_scenes() -> tuple[Scene, Scene]:
+    """Long triangles beyond the tiles' int32 steps (fill_rule.glsl fr_tile). "sliver": two slivers 2,240 texels
+    long in the 32² edge-case layers (edges over 1,024 texels: the doubles' path), laid along the direction in
+    which no layer's depth changes. "far": in a layer of 1024 × 8 texels, one triangle with edges under 1,024
+    texels whose edge functions at the tiles reach 2^36 (clamped to 2^30 before the steps)."""
+    q, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(3, 3)))  # edge_case_layers' layer 2
+    d = np.cross([0.0, 0.0, 1.0], q[:, 2])
+    d /= np.linalg.norm(d)
+    w, c, L = np.cross([0.0, 0.0, 1.0], d) * 0.19, np.array([0.1, -0.2, 0.65]), 70.0
+    up = np.array([0.0, 0.0, 0.1])
+    sliver = [[c - L * d - w, c + L * d - 0.3 * w, c + 0.2 * L * d + w],
+              [c - 0.9 * L * d + 0.5 * w + up, c + 0.2 * L * d + 2 * w + up, c + 0.95 * L * d + 1.2 * up]]
+    texel = lambda x, y, z: [x / 512.0 - 1.0, y / 4.0 - 1.0, z]  # noqa: E731  (texels of the 1024 × 8 layer 0)
+    far = [[texel(-5, -500, 0.3), texel(1010, 4, 0.2), texel(-5, 500, 0.4)]]
+    cam = Camera((0, 0, 5), (0, 0, 0))
+    return Scene("sliver", [_mesh("sliver", sliver)], cam), Scene("far", [_mesh("far", far)], cam)
+
+
+@pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False, splat_sort=True)), ("linear", {})],
+                         ids=["tile-sort", "linear"])
+def test_tiles_of_triangles_beyond_the_int32_steps(gpu, layout, kw):
+    """The tiles' coverage of triangles whose edges or edge functions leave int32 is the raster's."""
+    res = gpu.resources()
+    try:
+        for scene, size, layers in zip(wide_scenes(), ((W, H), (1024, 8)), (3, 1)):
+            geo = SceneGeometry(gpu, scene, res)
+            sg = (gpu, geo, res)
+            ref = build(sg, layout, f"w-ref-{scene.name}", width=size[0], height=size[1], layers=layers, **kw)
+            got = build(sg, layout, f"w-tiles-{scene.name}", width=size[0], height=size[1], layers=layers,
+                        source="splat", **kw)
+            st = got.stats()
+            assert got.invariants(st) == [] and st["splat_large_triangles"] == geo.triangles > 0
+            assert st["fragments"] == ref.stats()["fragments"] > 100, scene.name
+            assert_same_lists(multisets(ref), multisets(got), scene.name)
     finally:
         res.release()
 

@@ -30,8 +30,57 @@ double fr_edge(ivec2 f, ivec2 g, ivec2 p) {
     return double(e.x) * double(p.y - f.y) - double(e.y) * double(p.x - f.x);
 }
 
-bool fr_covers(FrTri t, ivec2 pixel) {
+bool fr_covers_at(ivec2 f0, ivec2 f1, ivec2 f2, ivec3 b, ivec2 pixel) {
     ivec2 p = pixel * SP_ONE + SP_HALF;
-    return t.ok && fr_edge(t.f0, t.f1, p) >= double(t.b0) && fr_edge(t.f1, t.f2, p) >= double(t.b1) &&
-           fr_edge(t.f2, t.f0, p) >= double(t.b2);
+    return fr_edge(f0, f1, p) >= double(b.x) && fr_edge(f1, f2, p) >= double(b.y) && fr_edge(f2, f0, p) >= double(b.z);
+}
+
+bool fr_covers(FrTri t, ivec2 pixel) {
+    return t.ok && fr_covers_at(t.f0, t.f1, t.f2, ivec3(t.b0, t.b1, t.b2), pixel);
+}
+
+// A triangle's edge functions over one tile of texels whose first texel is t0, for tests at many of its
+// texels: c, each edge function at t0's centre less its bias, and the edges e; at texel t0 + d the edge
+// function less its bias is c + e.x * d.y - e.y * d.x (d in sub-pixel steps), in int32. Exact: a c beyond
+// +-2^30 is clamped, which no step within the tile can bring across zero while every edge component is at
+// most lim (callers: 2^30 / (SP_ONE * (tile width + tile height))). A longer edge makes the triangle wide: it
+// keeps its vertices (in e) and biases (in c) for the doubles of fr_covers_at. span: the last texel's d. full:
+// it covers every texel centre of the tile; none: no texel centre (each from the edges' extremes over the tile;
+// both false when wide).
+struct FrTile { ivec3 c; ivec2 e0, e1, e2; bool wide, full, none; };
+
+int fr_clamp30(double v) { return int(clamp(v, -1073741824.0lf, 1073741824.0lf)); }
+
+// the least and the greatest step of edge e over the tile (d from 0 to span)
+ivec2 fr_step_range(ivec2 e, ivec2 span) {
+    int a = e.x * span.y, b = -e.y * span.x;
+    return ivec2(min(a, 0) + min(b, 0), max(a, 0) + max(b, 0));
+}
+
+FrTile fr_tile(FrTri t, ivec2 t0, ivec2 span, int lim) {
+    FrTile r;
+    r.e0 = t.f1 - t.f0; r.e1 = t.f2 - t.f1; r.e2 = t.f0 - t.f2;
+    ivec2 m = max(max(abs(r.e0), abs(r.e1)), abs(r.e2));
+    r.wide = max(m.x, m.y) > lim;
+    r.full = false;
+    r.none = false;
+    if (r.wide) {
+        r.c = ivec3(t.b0, t.b1, t.b2);
+        r.e0 = t.f0; r.e1 = t.f1; r.e2 = t.f2;
+        return r;
+    }
+    ivec2 p = t0 * SP_ONE + SP_HALF;
+    r.c = ivec3(fr_clamp30(fr_edge(t.f0, t.f1, p) - double(t.b0)), fr_clamp30(fr_edge(t.f1, t.f2, p) - double(t.b1)),
+                fr_clamp30(fr_edge(t.f2, t.f0, p) - double(t.b2)));
+    ivec2 s0 = fr_step_range(r.e0, span), s1 = fr_step_range(r.e1, span), s2 = fr_step_range(r.e2, span);
+    r.full = r.c.x + s0.x >= 0 && r.c.y + s1.x >= 0 && r.c.z + s2.x >= 0;
+    r.none = r.c.x + s0.y < 0 || r.c.y + s1.y < 0 || r.c.z + s2.y < 0;
+    return r;
+}
+
+// whether texel t0 + d / SP_ONE (pixel) of the tile is covered
+bool fr_tile_covers(FrTile r, ivec2 d, ivec2 pixel) {
+    if (r.wide) return fr_covers_at(r.e0, r.e1, r.e2, r.c, pixel);
+    return r.c.x + r.e0.x * d.y - r.e0.y * d.x >= 0 && r.c.y + r.e1.x * d.y - r.e1.y * d.x >= 0 &&
+           r.c.z + r.e2.x * d.y - r.e2.y * d.x >= 0;
 }

@@ -1,10 +1,12 @@
 // The long triangles of the splat build (methods/structures/splat.py, splat_large = "tiles"): those
-// splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE² texels:
-// one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins, SPLAT_TILE² at a time, the
-// long triangles whose snapped box meets its tile (each projected and set up once, into shared memory);
-// then every invocation tests its texel centre against the binned ones. Coverage is the hardware's at any
-// size (fill_rule.glsl: edge functions in doubles), depth and the near/far test are splat_raster.glsl's
-// (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
+// splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE_X ×
+// SPLAT_TILE_Y texels: one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins,
+// SP_TILE_N at a time, the long triangles whose snapped box meets its tile (each projected and set up once,
+// into shared memory, with its edge functions at the tile's first texel); then every invocation tests its
+// texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
+// (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
+// near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
+// "raster" mode.
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.
@@ -18,13 +20,21 @@
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
 // sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
-// Defines: as splat_raster.glsl, SPLAT_TILE (texels per tile side) and SP_TILE_N = SPLAT_TILE² (a literal:
-// GLSL 4.30 sizes a workgroup by one).
+// SP_BOXES_PASS: the pass before, one workgroup per layer: the texel box of each of the first sp_box_cap long
+// triangles in the layer, as the tiles' setup computes it (sp_tile_setup), so that a tile sets up only the
+// triangles whose box meets it (most meet a few of the tiles); a tile sets up the triangles beyond sp_box_cap
+// itself.
+//
+// Defines: as splat_raster.glsl, SPLAT_TILE_X and SPLAT_TILE_Y (texels per tile side) and SP_TILE_N, their
+// product (a literal: GLSL 4.30 sizes a workgroup by one).
 #include "layered_write.glsl"
 
 layout(local_size_x = SP_TILE_N) in;
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
 layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
+// per layer k, sp_box_cap boxes: (lo.x | lo.y << 16, hi.x | hi.y << 16), texels; (~0, 0) when empty
+layout(std430, binding = B_SPLAT_BOXES) buffer SplatBoxes { uvec2 sp_box[]; };
+uniform uint sp_box_cap;
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
 #include "layered_store.glsl"
@@ -44,29 +54,68 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 layout(std430, binding = B_SPLAT_SORT) coherent buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
 uniform uint sp_sort_cap;
 
-// (z, n) into the ascending registers d, m holding c < SP_SORT_R entries, after those of equal depth; constant
-// indices only, so that the arrays stay in registers
+// (z, n) into the ascending registers d, m holding c < SP_SORT_R entries, after those of equal depth: carried
+// up from the front, swapped with each greater entry, and put at c; the loop ends there (c + 1 steps: a tile's
+// texels mostly hold as many fragments, so its warps rarely diverge here). Constant indices only, so that the
+// arrays stay in registers.
 void sp_insert(inout float d[SP_SORT_R], inout uint m[SP_SORT_R], uint c, float z, uint n) {
-    for (int j = SP_SORT_R - 1; j > 0; --j) {
-        if (uint(j) > c) continue;
-        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }
-        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }
+    for (int j = 0; j < SP_SORT_R; ++j) {
+        if (uint(j) == c) { d[j] = z; m[j] = n; break; }
+        if (d[j] > z) {
+            float tz = d[j]; d[j] = z; z = tz;
+            uint tn = m[j]; m[j] = n; n = tn;
+        }
     }
-    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }
 }
 #endif
 
-struct SpBinned { FrTri tri; SpPlanes pl; vec3 normal; uint material; };
+vec3 sp_vertex(uint i) { return vec3(sp_vtx[7u * i], sp_vtx[7u * i + 1u], sp_vtx[7u * i + 2u]); }
+
+// the triangle whose first vertex is v (3t) in layer k: its vertices, window positions and clip z, snapped
+FrTri sp_tile_setup(uint k, uint v, out vec3 v0, out vec3 v1, out vec3 v2, out vec2 w0, out vec2 w1,
+                    out vec2 w2, out vec3 z) {
+    mat4 M = ls_layers[k].clip;
+    vec2 hs = vec2(ls_size) * 0.5;
+    v0 = sp_vertex(v); v1 = sp_vertex(v + 1u); v2 = sp_vertex(v + 2u);
+    vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
+    w0 = c0.xy * hs + hs; w1 = c1.xy * hs + hs; w2 = c2.xy * hs + hs;
+    z = vec3(c0.z, c1.z, c2.z);
+    return fr_setup(w0, w1, w2, ls_size);
+}
+
+#if defined(SP_BOXES_PASS)
+void main() {
+    uint k = gl_WorkGroupID.x, n = min(sp_cmd[0] / 3u, sp_box_cap);
+    for (uint i = gl_LocalInvocationIndex; i < n; i += uint(SP_TILE_N)) {
+        vec3 v0, v1, v2, z;
+        vec2 w0, w1, w2;
+        FrTri tri = sp_tile_setup(k, sp_large[3u * i], v0, v1, v2, w0, w1, w2, z);
+        bool empty = !tri.ok || any(greaterThan(tri.lo, tri.hi));
+        uvec2 lo = uvec2(tri.lo), hi = uvec2(tri.hi);
+        sp_box[k * sp_box_cap + i] = empty ? uvec2(0xFFFFFFFFu, 0u) : uvec2(lo.x | lo.y << 16, hi.x | hi.y << 16);
+    }
+}
+#else
+struct SpBinned { FrTile tri; SpPlanes pl; vec3 normal; uint material; };
 shared SpBinned sp_bin[SP_TILE_N];
 shared uint sp_bin_n;
 
-vec3 sp_vertex(uint i) { return vec3(sp_vtx[7u * i], sp_vtx[7u * i + 1u], sp_vtx[7u * i + 2u]); }
+// whether the packed box b (SP_BOXES_PASS) meets the tile t0 .. t1
+bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
+    ivec2 lo = ivec2(b.x & 0xFFFFu, b.x >> 16), hi = ivec2(b.y & 0xFFFFu, b.y >> 16);
+    return all(lessThanEqual(max(lo, t0), min(hi, t1)));
+}
 
 void main() {
     uint k = gl_WorkGroupID.z, lid = gl_LocalInvocationIndex;
-    ivec2 t0 = ivec2(gl_WorkGroupID.xy) * SPLAT_TILE;
-    ivec2 t1 = t0 + SPLAT_TILE - 1;   // the triangles' boxes are clamped to the layer
-    ivec2 px = t0 + ivec2(int(lid) % SPLAT_TILE, int(lid) / SPLAT_TILE);
+    const ivec2 tile = ivec2(SPLAT_TILE_X, SPLAT_TILE_Y);
+    const int lim = (1 << 30) / (SP_ONE * (SPLAT_TILE_X + SPLAT_TILE_Y));   // fr_tile's longest stepped edge
+    const ivec2 span = (tile - 1) * SP_ONE;                                  // and its last texel's step
+    ivec2 t0 = ivec2(gl_WorkGroupID.xy) * tile;
+    ivec2 t1 = t0 + tile - 1;   // the triangles' boxes are clamped to the layer
+    ivec2 d = ivec2(int(lid) % SPLAT_TILE_X, int(lid) / SPLAT_TILE_X);
+    ivec2 px = t0 + d;
+    d *= SP_ONE;
     bool inside = all(lessThan(px, ls_size));
     uint list = inside ? ls_list(k, px, ls_size) : 0u;
 #if defined(SP_OWNED_HEAD)
@@ -80,21 +129,22 @@ void main() {
     uint held = 0u;
 #endif
     uint n_large = sp_cmd[0] / 3u;
-    mat4 M = ls_layers[k].clip;
-    vec2 hs = vec2(ls_size) * 0.5;
     for (uint c = 0u; c < n_large; c += uint(SP_TILE_N)) {
         if (lid == 0u) sp_bin_n = 0u;
         barrier();
-        if (c + lid < n_large) {
-            uint v = sp_large[3u * (c + lid)];   // the triangle's first vertex (3t)
-            vec3 v0 = sp_vertex(v), v1 = sp_vertex(v + 1u), v2 = sp_vertex(v + 2u);
-            vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
-            vec2 w0 = c0.xy * hs + hs, w1 = c1.xy * hs + hs, w2 = c2.xy * hs + hs;
-            FrTri tri = fr_setup(w0, w1, w2, ls_size);
-            if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) {
+        uint e = c + lid;
+        if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {
+            uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
+            vec3 v0, v1, v2, z;
+            vec2 w0, w1, w2;
+            FrTri tri = sp_tile_setup(k, v, v0, v1, v2, w0, w1, w2, z);
+            FrTile ft;
+            if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) ft = fr_tile(tri, t0, span, lim);
+            else ft.none = true;
+            if (!ft.none) {
                 uint slot = atomicAdd(sp_bin_n, 1u);
-                sp_bin[slot].tri = tri;
-                sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, c0.z, c1.z, c2.z,
+                sp_bin[slot].tri = ft;
+                sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z,
                                             v0, v1, v2);
                 sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
                 sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
@@ -103,7 +153,7 @@ void main() {
         barrier();
         uint m = sp_bin_n;
         for (uint i = 0u; inside && i < m; ++i) {
-            if (!fr_covers(sp_bin[i].tri, px)) continue;
+            if (!sp_bin[i].tri.full && !fr_tile_covers(sp_bin[i].tri, d, px)) continue;
             SpPlanes pl = sp_bin[i].pl;
             vec2 q = vec2(px) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
@@ -168,3 +218,4 @@ void main() {
     if (head != head0) ll_head[list] = head;
 #endif
 }
+#endif

@@ -33,8 +33,9 @@ from ldbench.core.gpu import GLSL_DIR
 from .core import fill_uint
 from .sources import FragmentSource, Raster
 
-B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
-TILE = 8                   # texels per tile side of the long triangles' pass (splat_tiles.glsl)
+B_VERTICES, B_LARGE, B_SORT, B_BOXES = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT, B.SPLAT_BOXES
+TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
+BOX_CAP = 1024             # long triangles whose boxes in every layer the boxes pass writes (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -166,6 +167,9 @@ class Splat(FragmentSource):
         self.sort_buf = (structure.res.buffer(structure.prefix + "splat.sort", reserve=4 * (1 + self.sort_cap))
                          if self.tile_sort else None)
         self._sorted_pass = False
+        self.box_cap = min(n, BOX_CAP) if self.large_mode == "tiles" else 0
+        self.boxes = (structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * max(1, self.box_cap * structure.layers))
+                      if self.box_cap else None)
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
@@ -206,16 +210,25 @@ class Splat(FragmentSource):
             self._hardware(extra, capacity)
 
     def _tiles(self, extra: dict, capacity: int):
-        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``)."""
+        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``), after the pass of their
+        boxes in every layer."""
         s = self.s
+        tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y}
+        if self.boxes is not None:
+            self.boxes.bind_to_storage_buffer(B_BOXES)
+            cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, "SP_BOXES_PASS": 1})
+            self.uniforms(cs, capacity)
+            cs["sp_box_cap"].value = self.box_cap
+            cs.run(s.layers)
+            s.gpu.ctx.memory_barrier()
         sort = {"SP_TILE_SORT": 1} if self._sorted_pass else {}
-        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl",
-                           {**self.defines(extra), "SPLAT_TILE": TILE, "SP_TILE_N": TILE * TILE, **sort})
+        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, **sort})
         if sort:  # before the structure's bindings: the fill binds its buffer where the counters go
             fill_uint(s.gpu, self.sort_buf, 1, 0)
             self.bind_sort(cs)
         self.uniforms(cs, capacity)
-        cs.run(-(-s.width // TILE), -(-s.height // TILE), s.layers)
+        cs["sp_box_cap"].value = self.box_cap
+        cs.run(-(-s.width // TILE_X), -(-s.height // TILE_Y), s.layers)
         s.gpu.ctx.memory_barrier()
 
     def _hardware(self, extra: dict, capacity: int):
