@@ -281,15 +281,15 @@ def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
 
 
 def stacks_scene() -> Scene:
-    """Lists longer than the tiles' registers (8 nodes), each path of splat_sort: 12 long triangles stacked over
-    one region (their fragments beyond 8 pushed at once), 12 small ones stacked over another (the small
-    triangles' chain longer than the registers), 5 + 5 over a third (both, 10 in all), 3 + 3 (relinked in
+    """Lists longer than the tiles' registers (10 nodes), each path of splat_sort: 12 long triangles stacked over
+    one region (their fragments beyond 10 pushed at once), 12 small ones stacked over another (the small
+    triangles' chain longer than the registers), 6 + 6 over a third (both, 12 in all), 3 + 3 (relinked in
     order), and 3 small ones alone in decreasing and in increasing depth."""
     ms = []
     big = lambda x, y, z: [[x, y, z], [x + 0.9, y + 0.05, z + 0.01], [x + 0.1, y + 0.8, z - 0.01]]  # noqa: E731
     small = lambda x, y, z: [[x, y, z], [x + 3 * T, y + 0.2 * T, z], [x + 0.3 * T, y + 3 * T, z]]  # noqa: E731
     for name, (x, y), n_big, n_small in (("a", (-0.95, -0.95), 12, 0), ("b", (0.2, -0.9), 0, 12),
-                                         ("c", (-0.9, 0.1), 5, 5), ("d", (0.1, 0.1), 3, 3)):
+                                         ("c", (-0.9, 0.1), 6, 6), ("d", (0.1, 0.1), 3, 3)):
         tris = [big(x, y, 0.8 - 0.13 * i) for i in range(n_big)]
         tris += [small(x + 0.1, y + 0.1, 0.75 - 0.11 * i) for i in range(n_small)]
         ms.append(_mesh(name, tris))

@@ -49,7 +49,7 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 #endif
 
 #if defined(SP_SORTING)
-#define SP_SORT_R 8
+#define SP_SORT_R 10
 #define SP_LATE 0xFFFFFFFEu   // a held fragment whose node is allocated at the end (no payload)
 layout(std430, binding = B_SPLAT_SORT) coherent buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
 uniform uint sp_sort_cap;
@@ -96,7 +96,17 @@ void main() {
     }
 }
 #else
-struct SpBinned { FrTile tri; SpPlanes pl; vec3 normal; uint material; };
+#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)
+#define SP_ATTRIBUTES 1   // the stores read the triangle's normal and material
+#endif
+struct SpBinned {
+    FrTile tri;
+    SpPlanes pl;
+#if defined(SP_ATTRIBUTES)
+    vec3 normal;
+    uint material;
+#endif
+};
 shared SpBinned sp_bin[SP_TILE_N];
 shared uint sp_bin_n;
 
@@ -146,8 +156,10 @@ void main() {
                 sp_bin[slot].tri = ft;
                 sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z,
                                             v0, v1, v2);
+#if defined(SP_ATTRIBUTES)
                 sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
                 sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
+#endif
             }
         }
         barrier();
