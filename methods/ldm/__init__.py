@@ -78,7 +78,7 @@ Parameter                        Default   Paper    Meaning
                                                     shared memory, rasterized by consecutive invocations (the same
                                                     fragments)
 ``structure.splat_sort``         True               splat: the long triangles' tiles sort the lists they own (up to
-                                                    8 nodes, in registers); the sort pass sorts only longer ones
+                                                    10 nodes, in registers); the sort pass sorts only longer ones
                                                     (the same lists)
 ``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
                                                     photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)

@@ -72,7 +72,7 @@ class StructureSpec(ParamsBase):
     splat_queue: bool = param(False, "splat: the (triangle, layer) pairs that reach a texel centre queued in "
                               "shared memory and rasterized by consecutive invocations (the same fragments)")
     splat_sort: bool = param(False, "splat, linked lists with yang2010's insert (sorted_insert = False) and the "
-                             "long triangles by tiles: the tiles' pass sorts the lists it owns (up to 8 nodes, in "
+                             "long triangles by tiles: the tiles' pass sorts the lists it owns (up to 10 nodes, in "
                              "registers) and leaves only the longer ones to the sort pass (the same lists)")
     splat_large: str = param("tiles", "splat: the triangles longer than splat_max, by the hardware raster or "
                              "by a compute pass over tiles of the layers (the same fragments)", choices=SPLAT_LARGE)

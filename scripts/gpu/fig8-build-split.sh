@@ -11,14 +11,17 @@
 # the same way: (1) as is; (2) each map's walk cut to its list's first node; (3) to the head only (no node
 # read); (4) to the query (the list's index, no list read). Their images are wrong; their ao times are not.
 # The tiles' sort of the lists (structure.splat_sort, split "sort"): its build alone as is and with the tiles
-# holding 4 or 6 nodes instead of 8, and the default Figure 8 frame as is and with the held fragments' nodes
-# allocated when found (as with a payload) instead of at the end in depth order. These copies build the same
-# lists; only the times differ.
+# holding 4, 6 or 8 nodes instead of 10, and the default Figure 8 frame as is and with the held fragments'
+# nodes allocated when found (as with a payload) instead of at the end in depth order. The long triangles'
+# tiles (split "tiles"): the build alone as is and with one of its parts undone: every texel's edge functions
+# in doubles, no tile found covered fully or not at all, no pass of the boxes, the normal and material binned
+# though no store reads them, 8 nodes held instead of 10, and the register insert from the back. These copies
+# build the same lists; only the times differ.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
-# LDBENCH_SPLIT: which splits (default "build ao"; also "sort"); LDBENCH_SPLIT_VARIANT: the build's variant of
-# fast_builds_bench.py for the build split (default splat/linked-yang-queue-batch16-aggregate: the Figure 8
+# LDBENCH_SPLIT: which splits (default "build ao"; also "sort", "tiles"); LDBENCH_SPLIT_VARIANT: the build's
+# variant of fast_builds_bench.py for the build split (default splat/linked-yang-queue-batch16-aggregate: the Figure 8
 # default without the tiles' sort, whose parts its cuts address).
 set -u
 PY="${PYTHON:-python3}"
@@ -74,12 +77,26 @@ fi
 if [ "$split" = sort ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run sort-build-as-is
-for r in 4 6; do V=$TS cut "sort-build-$r-nodes" methods/glsl/splat_tiles.glsl '#define SP_SORT_R 8' "#define SP_SORT_R $r"; done
+for r in 4 6 8; do V=$TS cut "sort-build-$r-nodes" methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' "#define SP_SORT_R $r"; done
 copy; frame sort-frame-as-is
 copy; patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
     $'#if 0\n            if (held'
 patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
 frame sort-frame-nodes-when-found
+fi
+if [ "$split" = tiles ]; then
+# the long triangles' tiles (splat_tiles.glsl, fill_rule.glsl fr_tile) with one of their parts undone
+TS=splat/linked-yang-queue-batch16-aggregate-tilesort
+copy; V=$TS run tiles-as-is
+V=$TS cut tiles-edges-in-doubles methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
+copy; patch methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
+patch methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
+V=$TS cut tiles-no-boxes-pass methods/structures/splat.py 'BOX_CAP = 1024 ' 'BOX_CAP = 0 '
+V=$TS cut tiles-attributes-binned methods/glsl/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
+V=$TS cut tiles-8-nodes methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
+V=$TS cut tiles-insert-from-the-back methods/glsl/splat_tiles.glsl \
+    $'    for (int j = 0; j < SP_SORT_R; ++j) {\n        if (uint(j) == c) { d[j] = z; m[j] = n; break; }\n        if (d[j] > z) {\n            float tz = d[j]; d[j] = z; z = tz;\n            uint tn = m[j]; m[j] = n; n = tn;\n        }\n    }' \
+    $'    for (int j = SP_SORT_R - 1; j > 0; --j) {\n        if (uint(j) > c) continue;\n        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }\n        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }\n    }\n    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }'
 fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
