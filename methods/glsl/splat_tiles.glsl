@@ -54,7 +54,7 @@ uniform uint ls_capacity;    // nodes / fragments the structure holds
 layout(std430, binding = B_SPLAT_SORT) coherent buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
 uniform uint sp_sort_cap;
 
-// (z, n) into the ascending registers d, m holding c < SP_SORT_R entries, after those of equal depth: carried
+// (z, n) into the ascending registers d, m holding c < SP_SORT_R entries (equal depths in no fixed order): carried
 // up from the front, swapped with each greater entry, and put at c; the loop ends there (c + 1 steps: a tile's
 // texels mostly hold as many fragments, so its warps rarely diverge here). Constant indices only, so that the
 // arrays stay in registers.

@@ -16,7 +16,8 @@ spec's ``splat_large`` rasterizes in the same build:
 
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
-  the same fill rule (edge functions in doubles: any size); its stores: ``splat_tiles.glsl``. Why it is
+  the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass of the long
+  triangles' boxes in every layer; its stores: ``splat_tiles.glsl``. Why it is
   the default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
@@ -168,8 +169,8 @@ class Splat(FragmentSource):
                          if self.tile_sort else None)
         self._sorted_pass = False
         self.box_cap = min(n, BOX_CAP) if self.large_mode == "tiles" else 0
-        self.boxes = (structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * max(1, self.box_cap * structure.layers))
-                      if self.box_cap else None)
+        self.boxes = (structure.res.buffer(structure.prefix + "splat.boxes",
+                                           reserve=8 * self.box_cap * structure.layers) if self.box_cap else None)
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
