@@ -187,19 +187,28 @@ def test_rays_per_second_is_the_ray_count_over_the_trace_time(tmp_path):
     assert implied_ms <= r["wall_ms"] and implied_ms < elapsed_ms
 
 
-#: measured hit agreement per (ray kind, tracer) on cornell, 24², 1 ray per hit pixel (ldm 128 maps of 64²,
-#: ldi 54 LDIs of 64², cdi-vpl 169 deep images of 64²); the thresholds just below
-KIND_AGREEMENT = {"diffuse": {"ldm": 0.9566, "ldi": 0.9236, "cdi-vpl": 0.9184},
-                  "glossy": {"ldm": 0.9271, "ldi": 0.8003, "cdi-vpl": 0.8681},
-                  "shadow": {"ldm": 0.8142, "ldi": 0.9288, "cdi-vpl": 0.8941},
-                  "ao": {"ldm": 0.9427, "ldi": 0.9497, "cdi-vpl": 0.9410}}
+#: measured hit agreement per device, (ray kind, tracer) on cornell, 24², 1 ray per hit pixel (ldm 128 maps of
+#: 64², ldi 54 LDIs of 64², cdi-vpl 169 deep images of 64²), on llvmpipe ("cpu-software") and an NVIDIA H200
+#: ("nvidia", which rasterizes and interpolates depth on the snapped vertices: a few of the 576 rays differ);
+#: the thresholds just below
+KIND_AGREEMENT = {
+    "cpu-software": {"diffuse": {"ldm": 0.9566, "ldi": 0.9236, "cdi-vpl": 0.9184},
+                     "glossy": {"ldm": 0.9271, "ldi": 0.8003, "cdi-vpl": 0.8681},
+                     "shadow": {"ldm": 0.8142, "ldi": 0.9288, "cdi-vpl": 0.8941},
+                     "ao": {"ldm": 0.9427, "ldi": 0.9497, "cdi-vpl": 0.9410}},
+    "nvidia": {"diffuse": {"ldm": 0.9497, "ldi": 0.9184, "cdi-vpl": 0.9115},
+               "glossy": {"ldm": 0.9323, "ldi": 0.8021, "cdi-vpl": 0.8681},
+               "shadow": {"ldm": 0.8229, "ldi": 0.9288, "cdi-vpl": 0.8854},
+               "ao": {"ldm": 0.9514, "ldi": 0.9497, "cdi-vpl": 0.9427}}}
 
 
-@pytest.mark.parametrize("kind", list(KIND_AGREEMENT))
+@pytest.mark.parametrize("kind", list(KIND_AGREEMENT["cpu-software"]))
 def test_every_ray_kind_through_every_tracer(gpu, kind):
     """Each ray kind (diffuse, glossy, shadow rays to the light with occlusion only, AO rays up to d_max)
-    answered by each tracer against the oracle: hit agreement as measured, distances only where defined
-    (not for shadow rays), no violated invariant."""
+    answered by each tracer against the oracle: hit agreement as measured on this device, distances only where
+    defined (not for shadow rays), no violated invariant."""
+    if gpu.device not in KIND_AGREEMENT:
+        pytest.skip(f"no hit agreement measured on {gpu.device}")
     from ldbench.core.scenes import load_scene
     from ldbench.methods.base import View, get_method
 
@@ -209,7 +218,7 @@ def test_every_ray_kind_through_every_tracer(gpu, kind):
     ref = render_effect(sc, e, width=24, height=24, spp=1, seed=0, inputs=batch)
     sizes = {"ldm": dict(directions=128, resolution=64), "ldi": dict(directions=54, resolution=64),
              "cdi-vpl": dict(directions=169, resolution=64)}
-    for name, want in KIND_AGREEMENT[kind].items():
+    for name, want in KIND_AGREEMENT[gpu.device][kind].items():
         cls = get_method(name)
         m = cls(cls.Params(**sizes[name]))
         m.setup(gpu, sc)
