@@ -77,6 +77,8 @@ _TABLE = {
                      "sort pass (count, then list indices)", "SplatSortLists"),
     "SPLAT_BOXES": _b("ssbo", 13, "structure.splat", "splat build, tiles: the long triangles' texel boxes in every "
                       "layer", "SplatBoxes"),
+    "SPLAT_SETUPS": _b("ssbo", 14, "structure.splat", "splat build, tiles: the long triangles' edges, biases and "
+                       "planes in every layer, set up by the boxes pass", "SplatSetups"),
     "ORTHO_AXES": _b("ssbo", 11, "trace", "axes of the orthographic layer sets the traces walk (ortho_layers)",
                      "OrthoAxes"),
     "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit.glsl)", "OITMaterials"),

@@ -1,6 +1,6 @@
 """Build variants of the layered structures (methods/structures/, docs/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
-vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, zero-area and sliver
+vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, triangles under a texel with a vertex on a texel centre, zero-area and sliver
 triangles, triangles larger than the map, triangles crossing the far and the near plane); the sort
 assembly, the lazy pool policy (no read-back inside a build), and LDM AO images across builds.
 
@@ -61,6 +61,15 @@ def edge_case_scene() -> Scene:
         e = d * T
         snap += [[x0 + e, y0 - e, 0.3], [x1 - e, y0 + e, 0.3], [x0 - e, y1 + e, 0.3]]
     ms.append(_mesh("snap", snap))
+    # under a texel across, a vertex on a texel centre (or snapped onto it from 1/1024 texel inside) and its two
+    # legs along the axes, in the four directions: the box's one centre lies on its edge
+    tiny = []
+    for n, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
+        for m, off in enumerate((0.0, 1 / 1024)):
+            x0, y0 = centre(26 + 2 * m, 4 + 2 * n)
+            x0, y0 = x0 + sx * off * T, y0 + sy * off * T
+            tiny += [[x0, y0, -0.3], [x0 + sx * 0.6 * T, y0, -0.3], [x0, y0 + sy * 0.6 * T, -0.3]]
+    ms.append(_mesh("tiny", tiny))
     # zero-area triangles (collinear through centres, a repeated vertex, a point) and slivers
     deg = []
     (x0, y0), (x1, y1) = centre(2, 28), centre(8, 28)
@@ -222,6 +231,7 @@ VARIANTS = {
     "splat-large-raster-linear": ("linear", dict(source="splat", splat_large="raster")),
     "splat-queue-yang": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True)),
     "splat-queue-sorted": ("linked", dict(source="splat", splat_queue=True)),
+    "splat-queue-batch2": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True, splat_batch=2)),
     # the ldm adapter's default structure
     "splat-queue-yang-aggregate-batch16": ("linked", dict(source="splat", sorted_insert=False, splat_queue=True,
                                                           aggregate=True, splat_batch=16, pool="lazy")),
@@ -268,6 +278,17 @@ def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw, box_c
         assert s.invariants(s.stats()) == []
     assert tiles.stats()["splat_large_triangles"] > 64
     assert_same_lists(multisets(ref), multisets(tiles), "36 x 27 tiles")
+
+
+def test_layers_beyond_the_framebuffer_limit_are_refused(scene_geo):
+    """A layer side past GL_MAX_FRAMEBUFFER_WIDTH is refused with a message before any buffer is made; the tiles'
+    boxes pass packs texel indices in 16 bits (at most 65,536 texels), which this limit keeps."""
+    gpu, geo, res = scene_geo
+    lim = int(gpu.ctx.info["GL_MAX_FRAMEBUFFER_WIDTH"])
+    assert lim <= 1 << 16
+    with pytest.raises(LdbenchError, match="exceeds this GPU"):
+        make_structure(StructureSpec(layout="linked", source="splat"), gpu, geo, res, layers=1, width=lim + 1,
+                       height=1, prefix="toowide.")
 
 
 def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
@@ -462,8 +483,11 @@ def test_lazy_pool_reads_nothing_inside_a_build_and_grows_after_an_overflow(scen
                                         ("linked", dict(sorted_insert=False, source="splat")),
                                         ("linked", dict(sorted_insert=False, source="splat", splat_sort=True)),
                                         ("linked", dict(sorted_insert=False, source="splat", splat_sort=True,
-                                                        payload=("material",)))],
-                         ids=["sort", "splat-sort", "splat-linked-yang", "splat-tile-sort", "splat-tile-sort-payload"])
+                                                        payload=("material",))),
+                                        ("linked", dict(sorted_insert=False, source="splat", splat_sort=True,
+                                                        aggregate=True))],
+                         ids=["sort", "splat-sort", "splat-linked-yang", "splat-tile-sort", "splat-tile-sort-payload",
+                              "splat-tile-sort-aggregate"])
 def test_overflow_is_reported(scene_geo, reference, layout, kw):
     """A fixed pool of 500 nodes: 500 stored, every other fragment counted as overflow."""
     s = build(scene_geo, layout, "fixed" + layout + str(len(kw)), pool="fixed", pool_capacity=500, **kw)

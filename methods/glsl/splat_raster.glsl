@@ -2,9 +2,11 @@
 // build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
 // stored with the same ls_store as the hardware raster (layered_store.glsl).
 // SPLAT_QUEUE (structure.splat_queue): a workgroup's invocations first project their triangles into the
-// batch's layers and queue, in shared memory, the pairs whose box holds a texel centre (a few in a hundred);
-// then consecutive invocations rasterize the queued pairs, so that the lanes of a warp that have a box to
-// walk are together, not scattered among the rejected pairs. The same fragments.
+// batch's layers and queue, in shared memory, the pairs whose box may hold a texel centre (a few in a hundred;
+// tested in floats, sp_reaches); then consecutive invocations rasterize the queued pairs, so that the lanes of
+// a warp that have a box to walk are together, not scattered among the rejected pairs, and put the fragments
+// in shared memory; then consecutive invocations store them, so that a warp's stores are not spread over its
+// lanes' unequal boxes. The same fragments.
 //
 // Coverage is the hardware's (gbuffer_fill_rule.glsl, shared with the compute G-buffer): window coordinates
 // snapped to LS_SUBPIXEL_BITS of fixed point, samples at texel centres, exact integer edge functions, and
@@ -60,7 +62,37 @@ bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
     return all(lessThanEqual(p.i0, p.i1));
 }
 
-void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
+// whether the pair (triangle, layer k) may reach a texel centre: its window box, clamped to the layer and
+// widened by more than the snap (half a sub-pixel step) and the rounding of these sums (layers under 16,384
+// texels), holds one. SPLAT_QUEUE's first phase: no fixed point for the pairs it rejects (most), sp_project
+// decides the others exactly.
+bool sp_reaches(uint k, vec3 v0, vec3 v1, vec3 v2) {
+    mat4 M = ls_layers[k].clip;
+    vec2 hs = vec2(ls_size) * 0.5;
+    vec2 w0 = (M * vec4(v0, 1.0)).xy * hs + hs, w1 = (M * vec4(v1, 1.0)).xy * hs + hs;
+    vec2 w2 = (M * vec4(v2, 1.0)).xy * hs + hs;
+    const float SP_MARGIN = 1.0 / 128.0;
+    vec2 lo = max(min(w0, min(w1, w2)), vec2(0.0)), hi = min(max(w0, max(w1, w2)), vec2(ls_size));
+    return all(greaterThanEqual(floor(hi + (SP_MARGIN - 0.5)), ceil(lo - (SP_MARGIN + 0.5))));
+}
+
+#if SPLAT_QUEUE
+// the fragments of a workgroup's queued pairs, stored together once they are all found (so that a warp's stores
+// are not spread over its lanes' unequal boxes): (list, depth bits, triangle); past SP_FRAG_N, stored at once
+#define SP_FRAG_N (SPLAT_GROUP * 2)
+shared uvec3 sp_frag[SP_FRAG_N];
+shared uint sp_frags;
+#endif
+
+void sp_store(uint t, uint list, float depth, vec3 normal, uint material) {
+#if SPLAT_QUEUE
+    uint slot = atomicAdd(sp_frags, 1u);
+    if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = uvec3(list, floatBitsToUint(depth), t); return; }
+#endif
+    ls_store(list, depth, normal, material);
+}
+
+void sp_layer(uint t, uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
     SpPair p;
     if (!sp_project(k, v0, v1, v2, p)) return;
     bool cw = p.area < 0;
@@ -71,7 +103,7 @@ void sp_layer(uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint material) {
             if (!sp_covers(tri, ivec2(x, y))) continue;
             vec2 q = vec2(x, y) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
-            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0 + dot(pl.dd, q), normal, material);
+            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0 + dot(pl.dd, q), normal, material);
         }
     }
 }
@@ -110,18 +142,17 @@ void main() {
     uint lid = gl_LocalInvocationID.x;
     uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);
     for (uint base = gl_WorkGroupID.x * uint(SPLAT_GROUP); base < n_triangles; base += stride) {
-        if (lid == 0u) sp_queued = 0u;
+        if (lid == 0u) { sp_queued = 0u; sp_frags = 0u; }
         barrier();
         uint t = base + lid;
         if (t < n_triangles) {
             vec3 v0 = sp_vertex(t, 0u), v1 = sp_vertex(t, 1u), v2 = sp_vertex(t, 2u);
             if (!sp_long(t, v0, v1, v2)) {
                 for (uint k = k0; k < k1; ++k) {
-                    SpPair p;
-                    if (!sp_project(k, v0, v1, v2, p)) continue;
+                    if (!sp_reaches(k, v0, v1, v2)) continue;
                     uint slot = atomicAdd(sp_queued, 1u);
                     if (slot < uint(SP_QUEUE_N)) sp_queue[slot] = lid | ((k - k0) << 16);
-                    else sp_layer(k, v0, v1, v2, sp_normal(t), sp_material(t));
+                    else sp_layer(t, k, v0, v1, v2, sp_normal(t), sp_material(t));
                 }
             }
         }
@@ -129,8 +160,14 @@ void main() {
         uint m = min(sp_queued, uint(SP_QUEUE_N));
         for (uint e = lid; e < m; e += uint(SPLAT_GROUP)) {   // the queued pairs by consecutive invocations
             uint q = sp_queue[e], tq = base + (q & 0xFFFFu);
-            sp_layer(k0 + (q >> 16), sp_vertex(tq, 0u), sp_vertex(tq, 1u), sp_vertex(tq, 2u), sp_normal(tq),
+            sp_layer(tq, k0 + (q >> 16), sp_vertex(tq, 0u), sp_vertex(tq, 1u), sp_vertex(tq, 2u), sp_normal(tq),
                      sp_material(tq));
+        }
+        barrier();
+        uint nf = min(sp_frags, uint(SP_FRAG_N));
+        for (uint e = lid; e < nf; e += uint(SPLAT_GROUP)) {   // their fragments, by consecutive invocations
+            uvec3 f = sp_frag[e];
+            ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));
         }
         barrier();
     }
@@ -145,7 +182,7 @@ void main() {
         if (sp_long(t, v0, v1, v2)) continue;
         vec3 normal = sp_normal(t);
         uint material = sp_material(t);
-        for (uint k = k0; k < k1; ++k) sp_layer(k, v0, v1, v2, normal, material);
+        for (uint k = k0; k < k1; ++k) sp_layer(t, k, v0, v1, v2, normal, material);
     }
 }
 #endif

@@ -20,13 +20,16 @@
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
 // sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
-// SP_BOXES_PASS: the pass before, one workgroup per layer: the texel box of each of the first sp_box_cap long
-// triangles in the layer, as the tiles' setup computes it (sp_tile_setup), so that a tile sets up only the
-// triangles whose box meets it (most meet a few of the tiles); a tile sets up the triangles beyond sp_box_cap
-// itself.
+// Without a payload the held fragments' nodes are reserved at the end by one atomic per warp (LL_AGGREGATE), rank
+// by rank as ll_alloc would hand them out.
+// SP_BOXES_PASS: the pass before, one workgroup per layer: each of the first sp_box_cap long triangles set up in
+// the layer (sp_tile_setup): its texel box, snapped vertices, edge biases and planes (sp_setup), so that a tile
+// reads the set-up of only the triangles whose box meets it (most meet a few of the tiles), from the same
+// arithmetic as their box; a tile sets up the triangles beyond sp_box_cap itself.
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE_X and SPLAT_TILE_Y (texels per tile side) and SP_TILE_N, their
-// product (a literal: GLSL 4.30 sizes a workgroup by one).
+// product (a literal: GLSL 4.30 sizes a workgroup by one), SP_TILE_LAYERS (layers a workgroup takes in turn:
+// fewer workgroups to launch).
 #include "layered_write.glsl"
 
 layout(local_size_x = SP_TILE_N) in;
@@ -34,7 +37,10 @@ layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float
 layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
 // per layer k, sp_box_cap boxes: (lo.x | lo.y << 16, hi.x | hi.y << 16), texels; (~0, 0) when empty
 layout(std430, binding = B_SPLAT_BOXES) buffer SplatBoxes { uvec2 sp_box[]; };
+// and, per box not empty, the triangle set up: (f0, f1), (f2, biases), (w0, d0, z0), (dd, dz) of SpPlanes
+layout(std430, binding = B_SPLAT_SETUPS) buffer SplatSetups { uvec4 sp_setup[]; };
 uniform uint sp_box_cap;
+uniform uint sp_layers;      // layers of the structure
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
 #include "layered_store.glsl"
@@ -67,6 +73,13 @@ void sp_insert(inout float d[SP_SORT_R], inout uint m[SP_SORT_R], uint c, float 
         }
     }
 }
+// the same for a depth alone (without a payload, every fragment held in the tiles' loop is SP_LATE)
+void sp_insert_depth(inout float d[SP_SORT_R], uint c, float z) {
+    for (int j = 0; j < SP_SORT_R; ++j) {
+        if (uint(j) == c) { d[j] = z; break; }
+        if (d[j] > z) { float tz = d[j]; d[j] = z; z = tz; }
+    }
+}
 #endif
 
 vec3 sp_vertex(uint i) { return vec3(sp_vtx[7u * i], sp_vtx[7u * i + 1u], sp_vtx[7u * i + 2u]); }
@@ -92,7 +105,14 @@ void main() {
         FrTri tri = sp_tile_setup(k, sp_large[3u * i], v0, v1, v2, w0, w1, w2, z);
         bool empty = !tri.ok || any(greaterThan(tri.lo, tri.hi));
         uvec2 lo = uvec2(tri.lo), hi = uvec2(tri.hi);
-        sp_box[k * sp_box_cap + i] = empty ? uvec2(0xFFFFFFFFu, 0u) : uvec2(lo.x | lo.y << 16, hi.x | hi.y << 16);
+        uint b = k * sp_box_cap + i;
+        sp_box[b] = empty ? uvec2(0xFFFFFFFFu, 0u) : uvec2(lo.x | lo.y << 16, hi.x | hi.y << 16);
+        if (empty) continue;
+        SpPlanes pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
+        sp_setup[4u * b] = uvec4(ivec4(tri.f0, tri.f1));
+        sp_setup[4u * b + 1u] = uvec4(ivec4(tri.f2, tri.b0 | tri.b1 << 1 | tri.b2 << 2, 0));
+        sp_setup[4u * b + 2u] = floatBitsToUint(vec4(pl.w0, pl.d0, pl.z0));
+        sp_setup[4u * b + 3u] = floatBitsToUint(vec4(pl.dd, pl.dz));
     }
 }
 #else
@@ -116,8 +136,9 @@ bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
     return all(lessThanEqual(max(lo, t0), min(hi, t1)));
 }
 
-void main() {
-    uint k = gl_WorkGroupID.z, lid = gl_LocalInvocationIndex;
+// tile gl_WorkGroupID.xy of layer k
+void sp_tile(uint k) {
+    uint lid = gl_LocalInvocationIndex;
     const ivec2 tile = ivec2(SPLAT_TILE_X, SPLAT_TILE_Y);
     const int lim = (1 << 30) / (SP_ONE * (SPLAT_TILE_X + SPLAT_TILE_Y));   // fr_tile's longest stepped edge
     const ivec2 span = (tile - 1) * SP_ONE;                                  // and its last texel's step
@@ -143,24 +164,38 @@ void main() {
         if (lid == 0u) sp_bin_n = 0u;
         barrier();
         uint e = c + lid;
-        if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {
-            uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
+        FrTile ft;
+        ft.none = true;
+        SpPlanes pl;
+        if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass
+            uint b = k * sp_box_cap + e;
+            if (sp_box_meets(sp_box[b], t0, t1)) {
+                uvec4 s0 = sp_setup[4u * b], s1 = sp_setup[4u * b + 1u];
+                FrTri tri;
+                tri.f0 = ivec2(s0.xy); tri.f1 = ivec2(s0.zw); tri.f2 = ivec2(s1.xy);
+                tri.b0 = int(s1.z & 1u); tri.b1 = int(s1.z >> 1 & 1u); tri.b2 = int(s1.z >> 2);
+                ft = fr_tile(tri, t0, span, lim);
+                if (!ft.none) {
+                    vec4 p0 = uintBitsToFloat(sp_setup[4u * b + 2u]), p1 = uintBitsToFloat(sp_setup[4u * b + 3u]);
+                    pl = SpPlanes(p0.xy, p0.z, p0.w, p1.xy, p1.zw);
+                }
+            }
+        } else if (e < n_large) {              // beyond the boxes pass's cap: set up here
             vec3 v0, v1, v2, z;
             vec2 w0, w1, w2;
-            FrTri tri = sp_tile_setup(k, v, v0, v1, v2, w0, w1, w2, z);
-            FrTile ft;
+            FrTri tri = sp_tile_setup(k, sp_large[3u * e], v0, v1, v2, w0, w1, w2, z);
             if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) ft = fr_tile(tri, t0, span, lim);
-            else ft.none = true;
-            if (!ft.none) {
-                uint slot = atomicAdd(sp_bin_n, 1u);
-                sp_bin[slot].tri = ft;
-                sp_bin[slot].pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z,
-                                            v0, v1, v2);
+            if (!ft.none) pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
+        }
+        if (!ft.none) {
+            uint slot = atomicAdd(sp_bin_n, 1u);
+            sp_bin[slot].tri = ft;
+            sp_bin[slot].pl = pl;
 #if defined(SP_ATTRIBUTES)
-                sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
-                sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
+            uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
+            sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
+            sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
 #endif
-            }
         }
         barrier();
         uint m = sp_bin_n;
@@ -172,7 +207,7 @@ void main() {
             float depth = pl.d0 + dot(pl.dd, q);
 #if defined(SP_OWNED_HEAD)
 #if defined(SP_SORTING) && LS_PAYLOAD == 0
-            if (held < uint(SP_SORT_R)) { sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }
+            if (held < uint(SP_SORT_R)) { sp_insert_depth(sd, held, depth); ++held; continue; }
 #endif
             uint n = ll_alloc(ls_capacity);
             if (n == LL_EOL) continue;
@@ -196,6 +231,9 @@ void main() {
 #if defined(SP_SORTING)
     if (!inside) return;
     if (!loaded) { head = ll_head[list]; head0 = head; }
+#if LS_PAYLOAD == 0
+    for (int j = 0; j < SP_SORT_R; ++j) if (uint(j) < held) sn[j] = SP_LATE;
+#endif
     // the chain at the head (the small triangles' nodes, and this pass's beyond the registers) while it fits
     bool own = held > 0u, in_order = true;
     float prev = -uintBitsToFloat(0x7F800000u);
@@ -215,7 +253,33 @@ void main() {
     } else if (!own && in_order) {
         return;          // only the chain, already in order: nothing changes
     }
-#if LS_PAYLOAD == 0
+#if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)
+    // the held fragments' nodes, in depth order (a warp's nodes of one rank together), in one reservation per warp
+    uint total = 0u;
+    for (int j = 0; j < SP_SORT_R; ++j) {
+        uvec2 b = unpackUint2x32(ballotARB(uint(j) < held && sn[j] == SP_LATE));
+        total += uint(bitCount(b.x) + bitCount(b.y));
+    }
+    uvec2 live = unpackUint2x32(ballotARB(true));
+    uint leader = live.x != 0u ? uint(findLSB(live.x)) : 32u + uint(findLSB(live.y)), base = 0u;
+    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[LL_C_NODES], total);
+    base = readInvocationARB(base, leader);
+    for (int j = 0; j < SP_SORT_R; ++j) {
+        bool late = uint(j) < held && sn[j] == SP_LATE;
+        uint64_t b64 = ballotARB(late);
+        uvec2 b = unpackUint2x32(b64), below = unpackUint2x32(b64 & gl_SubGroupLtMaskARB);
+        if (late) {
+            uint n = base + uint(bitCount(below.x) + bitCount(below.y));
+            if (n >= ls_capacity) {   // as ll_alloc: undone, counted as overflow
+                atomicAdd(ll_counters[LL_C_NODES], 0xFFFFFFFFu);
+                atomicAdd(ll_counters[LL_C_OVERFLOW], 1u);
+                n = LL_EOL;
+            }
+            sn[j] = n;
+        }
+        base += uint(bitCount(b.x) + bitCount(b.y));
+    }
+#elif LS_PAYLOAD == 0
     for (int j = 0; j < SP_SORT_R; ++j)   // the held fragments' nodes, in depth order: a tile's nodes of one rank together
         if (uint(j) < held && sn[j] == SP_LATE) sn[j] = ll_alloc(ls_capacity);
 #endif
@@ -229,5 +293,10 @@ void main() {
 #if defined(SP_OWNED_HEAD)
     if (head != head0) ll_head[list] = head;
 #endif
+}
+
+void main() {   // SP_TILE_LAYERS layers of the tile, one after the other
+    uint k0 = gl_WorkGroupID.z * uint(SP_TILE_LAYERS);
+    for (uint k = k0; k < min(k0 + uint(SP_TILE_LAYERS), sp_layers); ++k) sp_tile(k);
 }
 #endif

@@ -16,9 +16,9 @@ spec's ``splat_large`` rasterizes in the same build:
 
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
-  the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass of the long
-  triangles' boxes in every layer; its stores: ``splat_tiles.glsl``. Why it is
-  the default: docs/fast_builds.md.
+  the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass that sets up
+  the long triangles (box, edges, planes) in every layer; its stores: ``splat_tiles.glsl``. Why it is the
+  default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
@@ -34,9 +34,11 @@ from ldbench.core.gpu import GLSL_DIR
 from .core import fill_uint
 from .sources import FragmentSource, Raster
 
-B_VERTICES, B_LARGE, B_SORT, B_BOXES = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT, B.SPLAT_BOXES
+B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
+B_BOXES, B_SETUPS = B.SPLAT_BOXES, B.SPLAT_SETUPS
 TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
-BOX_CAP = 1024             # long triangles whose boxes in every layer the boxes pass writes (splat_tiles.glsl)
+TILE_LAYERS = 4            # layers a workgroup of that pass takes in turn
+BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -168,9 +170,14 @@ class Splat(FragmentSource):
         self.sort_buf = (structure.res.buffer(structure.prefix + "splat.sort", reserve=4 * (1 + self.sort_cap))
                          if self.tile_sort else None)
         self._sorted_pass = False
-        self.box_cap = min(n, BOX_CAP) if self.large_mode == "tiles" else 0
-        self.boxes = (structure.res.buffer(structure.prefix + "splat.boxes",
-                                           reserve=8 * self.box_cap * structure.layers) if self.box_cap else None)
+        # the boxes pack texel indices in 16 bits: wider layers (beyond today's GL limits) go without them
+        fits = max(structure.width, structure.height) <= 1 << 16
+        self.box_cap = min(n, BOX_CAP) if self.large_mode == "tiles" and fits else 0
+        self.boxes = self.setups = None
+        if self.box_cap:
+            self.boxes = structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * self.box_cap * structure.layers)
+            self.setups = structure.res.buffer(structure.prefix + "splat.setups",
+                                               reserve=64 * self.box_cap * structure.layers)
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
@@ -211,12 +218,14 @@ class Splat(FragmentSource):
             self._hardware(extra, capacity)
 
     def _tiles(self, extra: dict, capacity: int):
-        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``), after the pass of their
-        boxes in every layer."""
+        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``), after the pass that sets them
+        up in every layer."""
         s = self.s
-        tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y}
+        tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y,
+                 "SP_TILE_LAYERS": TILE_LAYERS}
         if self.boxes is not None:
             self.boxes.bind_to_storage_buffer(B_BOXES)
+            self.setups.bind_to_storage_buffer(B_SETUPS)
             cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, "SP_BOXES_PASS": 1})
             self.uniforms(cs, capacity)
             cs["sp_box_cap"].value = self.box_cap
@@ -229,7 +238,8 @@ class Splat(FragmentSource):
             self.bind_sort(cs)
         self.uniforms(cs, capacity)
         cs["sp_box_cap"].value = self.box_cap
-        cs.run(-(-s.width // TILE_X), -(-s.height // TILE_Y), s.layers)
+        cs["sp_layers"].value = s.layers
+        cs.run(-(-s.width // TILE_X), -(-s.height // TILE_Y), -(-s.layers // TILE_LAYERS))
         s.gpu.ctx.memory_barrier()
 
     def _hardware(self, extra: dict, capacity: int):

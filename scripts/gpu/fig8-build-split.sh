@@ -15,12 +15,17 @@
 # nodes allocated when found (as with a payload) instead of at the end in depth order. The long triangles'
 # tiles (split "tiles"): the build alone as is and with one of its parts undone: every texel's edge functions
 # in doubles, no tile found covered fully or not at all, no pass of the boxes, the normal and material binned
-# though no store reads them, 8 nodes held instead of 10, and the register insert from the back. These copies
-# build the same lists; only the times differ.
+# though no store reads them, 8 nodes held instead of 10, and the register insert from the back. The parts of
+# the eleventh run (split "undo"): the build alone as is and with one undone: the small triangles' fragments
+# stored at once (no buffer in shared memory), that buffer four times the workgroup (not two), the first phase
+# of their queue in fixed point (not the float test), the tiles' held nodes reserved rank by rank (not in one
+# atomic per warp), one layer per tiles' workgroup (not 4), the tiles' loop inserting nodes with the depths,
+# and every tile setting up its long triangles (not reading the boxes pass's set-ups). These copies build the
+# same lists; only the times differ.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
-# LDBENCH_SPLIT: which splits (default "build ao"; also "sort", "tiles"); LDBENCH_SPLIT_VARIANT: the build's
+# LDBENCH_SPLIT: which splits (default "build ao"; also "sort", "tiles", "undo"); LDBENCH_SPLIT_VARIANT: the build's
 # variant of fast_builds_bench.py for the build split (default splat/linked-yang-queue-batch16-aggregate: the Figure 8
 # default without the tiles' sort, whose parts its cuts address).
 set -u
@@ -91,12 +96,30 @@ copy; V=$TS run tiles-as-is
 V=$TS cut tiles-edges-in-doubles methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
 copy; patch methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
 patch methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
-V=$TS cut tiles-no-boxes-pass methods/structures/splat.py 'BOX_CAP = 1024 ' 'BOX_CAP = 0 '
+V=$TS cut tiles-no-boxes-pass methods/structures/splat.py 'BOX_CAP = 256 ' 'BOX_CAP = 0 '
 V=$TS cut tiles-attributes-binned methods/glsl/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
 V=$TS cut tiles-8-nodes methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
 V=$TS cut tiles-insert-from-the-back methods/glsl/splat_tiles.glsl \
     $'    for (int j = 0; j < SP_SORT_R; ++j) {\n        if (uint(j) == c) { d[j] = z; m[j] = n; break; }\n        if (d[j] > z) {\n            float tz = d[j]; d[j] = z; z = tz;\n            uint tn = m[j]; m[j] = n; n = tn;\n        }\n    }' \
     $'    for (int j = SP_SORT_R - 1; j > 0; --j) {\n        if (uint(j) > c) continue;\n        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }\n        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }\n    }\n    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }'
+fi
+if [ "$split" = undo ]; then
+TS=splat/linked-yang-queue-batch16-aggregate-tilesort
+R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
+copy; V=$TS run undo-as-is
+V=$TS cut undo-fragments-stored-at-once $R $'    uint slot = atomicAdd(sp_frags, 1u);\n    if (slot < uint(SP_FRAG_N)) {' \
+    $'    uint slot = 0u;\n    if (false) {'
+V=$TS cut undo-fragment-buffer-4x $R '#define SP_FRAG_N (SPLAT_GROUP * 2)' '#define SP_FRAG_N (SPLAT_GROUP * 4)'
+V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k, v0, v1, v2)) continue;' \
+    $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
+V=$TS cut undo-nodes-rank-by-rank $T '#if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)' '#if 0'
+V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 4 ' 'TILE_LAYERS = 1 '
+V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, held, depth); ++held; continue; }' \
+    '{ sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }'
+copy; patch $T '        if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '        if (false) {'
+patch $T '        } else if (e < n_large) {              // beyond' \
+    '        } else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
+V=$TS run undo-tiles-set-up-per-tile
 fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
