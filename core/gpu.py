@@ -295,12 +295,9 @@ class Gpu:
         return stages, wall
 
     # ---- limits --------------------------------------------------------------------------
-    def check_image_size(self, width: int, height: int) -> None:
-        """Refuse, before anything is rendered, an image size this GPU or this machine cannot hold:
-        the GL limits (``GL_MAX_TEXTURE_SIZE``, ``GL_MAX_RENDERBUFFER_SIZE``, ``GL_MAX_VIEWPORT_DIMS``,
-        ``GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT``), host memory (:data:`HOST_BYTES_PER_PIXEL` against
-        ``MemAvailable``) and, where the driver reports it (NVX_gpu_memory_info), GPU memory
-        (:data:`GPU_BYTES_PER_PIXEL`)."""
+    def check_gl_size(self, width: int, height: int) -> None:
+        """Refuse a render target of ``width × height`` beyond this GPU's GL limits (``GL_MAX_TEXTURE_SIZE``,
+        ``GL_MAX_RENDERBUFFER_SIZE``, ``GL_MAX_VIEWPORT_DIMS``, ``GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT``)."""
         info = self.ctx.info
         for name, i in (("GL_MAX_TEXTURE_SIZE", None), ("GL_MAX_RENDERBUFFER_SIZE", None),
                         ("GL_MAX_VIEWPORT_DIMS", 0), ("GL_MAX_VIEWPORT_DIMS", 1),
@@ -314,6 +311,14 @@ class Gpu:
             if side > lim:
                 raise LdbenchError(f"size {width}x{height} exceeds this GPU's {name} ({lim}; "
                                    f"{self.info['GL_RENDERER']})")
+
+    def check_image_size(self, width: int, height: int) -> None:
+        """Refuse, before anything is rendered, an image size this GPU or this machine cannot hold:
+        the GL limits (``GL_MAX_TEXTURE_SIZE``, ``GL_MAX_RENDERBUFFER_SIZE``, ``GL_MAX_VIEWPORT_DIMS``,
+        ``GL_MAX_FRAMEBUFFER_WIDTH/HEIGHT``), host memory (:data:`HOST_BYTES_PER_PIXEL` against
+        ``MemAvailable``) and, where the driver reports it (NVX_gpu_memory_info), GPU memory
+        (:data:`GPU_BYTES_PER_PIXEL`)."""
+        self.check_gl_size(width, height)
         px = width * height
         host = _host_available_bytes()
         if host is not None and px * HOST_BYTES_PER_PIXEL > host:

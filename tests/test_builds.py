@@ -1,7 +1,8 @@
 """Build variants of the layered structures (methods/structures/, docs/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
-vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, triangles under a texel with a vertex on a texel centre, zero-area and sliver
-triangles, triangles larger than the map, triangles crossing the far and the near plane); the sort
+vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, triangles under a texel
+with a vertex on a texel centre, zero-area and sliver triangles, triangles larger than the map, triangles
+crossing the far and the near plane); the sort
 assembly, the lazy pool policy (no read-back inside a build), and LDM AO images across builds.
 
 The compute splat's clip dropped on the near side only (``z > 1`` for ``|z| > 1``) fails the variants of
@@ -61,11 +62,11 @@ def edge_case_scene() -> Scene:
         e = d * T
         snap += [[x0 + e, y0 - e, 0.3], [x1 - e, y0 + e, 0.3], [x0 - e, y1 + e, 0.3]]
     ms.append(_mesh("snap", snap))
-    # under a texel across, a vertex on a texel centre (or snapped onto it from 1/1024 texel inside) and its two
+    # under a texel across, a vertex on a texel centre (or snapped onto it from 1.9/1024 texel inside) and its two
     # legs along the axes, in the four directions: the box's one centre lies on its edge
     tiny = []
     for n, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
-        for m, off in enumerate((0.0, 1 / 1024)):
+        for m, off in enumerate((0.0, 1.9 / 1024)):
             x0, y0 = centre(26 + 2 * m, 4 + 2 * n)
             x0, y0 = x0 + sx * off * T, y0 + sy * off * T
             tiny += [[x0, y0, -0.3], [x0 + sx * 0.6 * T, y0, -0.3], [x0, y0 + sy * 0.6 * T, -0.3]]
@@ -256,7 +257,7 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
         assert st["splat_large_triangles"] == expected_large(kw.get("splat_max", 16.0))
 
 
-@pytest.mark.parametrize("box_cap", [None, 3], ids=["boxes", "boxes-of-3"])
+@pytest.mark.parametrize("box_cap", [None, 3, 0], ids=["boxes", "boxes-of-3", "no-boxes"])
 @pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False)), ("linear", {}),
                                         ("linear", dict(assembly="sort")),
                                         ("linked", dict(sorted_insert=False, splat_sort=True))],
@@ -273,7 +274,7 @@ def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw, box_c
     ref = build(scene_geo, layout, f"p36-raster-{name}", width=36, height=27, **kw)
     tiles = build(scene_geo, layout, f"p36-tiles-{name}", width=36, height=27, source="splat", splat_max=2.5,
                   **kw)
-    assert tiles.source.box_cap == min(scene_geo[1].triangles, box_cap or splat.BOX_CAP)
+    assert tiles.source.box_cap == min(scene_geo[1].triangles, splat.BOX_CAP if box_cap is None else box_cap)
     for s in (ref, tiles):
         assert s.invariants(s.stats()) == []
     assert tiles.stats()["splat_large_triangles"] > 64
@@ -281,14 +282,21 @@ def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw, box_c
 
 
 def test_layers_beyond_the_framebuffer_limit_are_refused(scene_geo):
-    """A layer side past GL_MAX_FRAMEBUFFER_WIDTH is refused with a message before any buffer is made; the tiles'
-    boxes pass packs texel indices in 16 bits (at most 65,536 texels), which this limit keeps."""
+    """A layer side past this GPU's GL limits is refused with a message (not a framebuffer error)."""
     gpu, geo, res = scene_geo
     lim = int(gpu.ctx.info["GL_MAX_FRAMEBUFFER_WIDTH"])
-    assert lim <= 1 << 16
     with pytest.raises(LdbenchError, match="exceeds this GPU"):
         make_structure(StructureSpec(layout="linked", source="splat"), gpu, geo, res, layers=1, width=lim + 1,
                        height=1, prefix="toowide.")
+
+
+def test_boxes_and_setups_that_do_not_fit_are_left_to_the_tiles():
+    """The boxes' 16-bit texel indices hold sides up to 2^16; the set-ups as many triangles as one storage buffer
+    holds. Beyond, the tiles set up the long triangles themselves (box_cap 0: the 36 × 27 test)."""
+    from ldbench.methods.structures.splat import boxes_fit, setups_fit
+
+    assert boxes_fit(1 << 16, 8) and not boxes_fit(8, (1 << 16) + 1)
+    assert setups_fit(512, 128 << 20) == 4096 and setups_fit(1 << 21, 128 << 20) == 1
 
 
 def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
@@ -395,6 +403,26 @@ def test_tiles_of_triangles_beyond_the_int32_steps(gpu, layout, kw):
         res.release()
 
 
+@pytest.mark.parametrize("capacity", [37, 333])
+def test_tiles_reservation_crossing_a_fixed_pool(gpu, capacity):
+    """One long triangle alone (the tiles store every fragment), a fixed pool smaller than its fragments: the
+    tiles' one reservation per warp stores exactly the pool and counts every other fragment as overflow."""
+    res = gpu.resources()
+    try:
+        geo = SceneGeometry(gpu, wide_scenes()[1], res)
+        sg = (gpu, geo, res)
+        full = build(sg, "linked", "pool-full", width=1024, height=8, layers=1, source="splat",
+                     sorted_insert=False, splat_sort=True, aggregate=True)
+        n = full.stats()["fragments"]
+        s = build(sg, "linked", f"pool-{capacity}", width=1024, height=8, layers=1, source="splat",
+                  sorted_insert=False, splat_sort=True, aggregate=True, pool="fixed", pool_capacity=capacity)
+        st = s.stats()
+        assert n > capacity and st["fragments"] == n and st["fragments_stored"] == capacity == st["linked_nodes"]
+        assert st["overflow"] == n - capacity
+    finally:
+        res.release()
+
+
 def expected_large(splat_max):
     """Triangles whose longest edge spans more than splat_max texels in some layer (16 texels per unit)."""
     v, f, _, _ = edge_case_scene().merged()
@@ -418,7 +446,8 @@ def test_payload_travels_with_the_splat_and_the_sort(scene_geo):
     for name, layout, kw in (("psplat", "linked", dict(source="splat")),
                              ("psplat-yang", "linked", dict(source="splat", sorted_insert=False)),
                              ("psplat-hw", "linked", dict(source="splat", splat_large="raster")),
-                             ("psort", "linear", dict(source="splat", assembly="sort"))):
+                             ("psort", "linear", dict(source="splat", assembly="sort")),
+                             ("psplat-queue", "linked", dict(source="splat", sorted_insert=False, splat_queue=True))):
         got = lists(build(scene_geo, layout, name, payload=("material", "normal"), **kw))
         bad = sum(len(a) != len(b) or any(pa != pb or abs(za - zb) > 5e-4 for (za, pa), (zb, pb) in zip(a, b))
                   for a, b in zip(want, got))

@@ -45,12 +45,15 @@ uniform float splat_max;     // longest edge (texels) rasterized here
 // The pair (triangle, layer k) projected and snapped; false when its box holds no texel centre (most pairs)
 struct SpPair { vec2 w0, w1, w2; float z0, z1, z2; ivec2 f0, f1, f2; int area; ivec2 i0, i1; };
 
+// window coordinates of world point v under clip matrix M (hs: half the layer's size), one expression for
+// sp_project and sp_reaches
+vec2 sp_window(mat4 M, vec3 v, vec2 hs) { return (M * vec4(v, 1.0)).xy * hs + hs; }
+
 bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
-    vec4 c0 = M * vec4(v0, 1.0), c1 = M * vec4(v1, 1.0), c2 = M * vec4(v2, 1.0);
-    p.w0 = c0.xy * hs + hs; p.w1 = c1.xy * hs + hs; p.w2 = c2.xy * hs + hs;   // window coordinates
-    p.z0 = c0.z; p.z1 = c1.z; p.z2 = c2.z;
+    p.w0 = sp_window(M, v0, hs); p.w1 = sp_window(M, v1, hs); p.w2 = sp_window(M, v2, hs);
+    p.z0 = (M * vec4(v0, 1.0)).z; p.z1 = (M * vec4(v1, 1.0)).z; p.z2 = (M * vec4(v2, 1.0)).z;
     vec2 lo = min(p.w0, min(p.w1, p.w2)), hi = max(p.w0, max(p.w1, p.w2));
     if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return false;
     const float S = float(SP_ONE);
@@ -63,15 +66,14 @@ bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
 }
 
 // whether the pair (triangle, layer k) may reach a texel centre: its window box, clamped to the layer and
-// widened by more than the snap (half a sub-pixel step) and the rounding of these sums (layers under 16,384
-// texels), holds one. SPLAT_QUEUE's first phase: no fixed point for the pairs it rejects (most), sp_project
-// decides the others exactly.
+// widened by two sub-pixel steps (the snap moves a vertex by half of one), holds one. SPLAT_QUEUE's first
+// phase: no fixed point for the pairs it rejects (most), sp_project decides the others exactly from the same
+// window coordinates (sp_window; the margin's rest covers a compiler contracting the two differently).
 bool sp_reaches(uint k, vec3 v0, vec3 v1, vec3 v2) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
-    vec2 w0 = (M * vec4(v0, 1.0)).xy * hs + hs, w1 = (M * vec4(v1, 1.0)).xy * hs + hs;
-    vec2 w2 = (M * vec4(v2, 1.0)).xy * hs + hs;
-    const float SP_MARGIN = 1.0 / 128.0;
+    vec2 w0 = sp_window(M, v0, hs), w1 = sp_window(M, v1, hs), w2 = sp_window(M, v2, hs);
+    const float SP_MARGIN = 2.0 / float(SP_ONE);
     vec2 lo = max(min(w0, min(w1, w2)), vec2(0.0)), hi = min(max(w0, max(w1, w2)), vec2(ls_size));
     return all(greaterThanEqual(floor(hi + (SP_MARGIN - 0.5)), ceil(lo - (SP_MARGIN + 0.5))));
 }
@@ -130,7 +132,7 @@ bool sp_long(uint t, vec3 v0, vec3 v1, vec3 v2) {
 }
 
 #if SPLAT_QUEUE
-// the pairs of this workgroup's triangles whose box holds a texel centre: triangle (low 16 bits, within the
+// the pairs of this workgroup's triangles whose box may hold a texel centre: triangle (low 16 bits, within the
 // workgroup) and layer (high 16 bits, within the batch); a pair beyond SP_QUEUE_N is rasterized at once
 #define SP_QUEUE_N (SPLAT_GROUP * 8)
 shared uint sp_queue[SP_QUEUE_N];

@@ -1,8 +1,9 @@
 // The long triangles of the splat build (methods/structures/splat.py, splat_large = "tiles"): those
 // splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE_X ×
-// SPLAT_TILE_Y texels: one workgroup per (tile x, tile y, layer), one invocation per texel. The workgroup bins,
-// SP_TILE_N at a time, the long triangles whose snapped box meets its tile (each projected and set up once,
-// into shared memory, with its edge functions at the tile's first texel); then every invocation tests its
+// SPLAT_TILE_Y texels: one workgroup per (tile x, tile y, SP_TILE_LAYERS layers taken in turn), one invocation
+// per texel. For each layer the workgroup bins, SP_TILE_N at a time, the long triangles whose snapped box meets
+// its tile (set up by the boxes pass, or here beyond its cap; in shared memory with its edge functions at the
+// tile's first texel); then every invocation tests its
 // texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
 // (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
 // near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
@@ -20,8 +21,8 @@
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
 // sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
-// Without a payload the held fragments' nodes are reserved at the end by one atomic per warp (LL_AGGREGATE), rank
-// by rank as ll_alloc would hand them out.
+// Without a payload the held fragments' nodes are reserved at the end; with LL_AGGREGATE all of a warp's by one
+// atomic, numbered by rank and, within a rank, by lane (as ll_alloc hands them out rank after rank).
 // SP_BOXES_PASS: the pass before, one workgroup per layer: each of the first sp_box_cap long triangles set up in
 // the layer (sp_tile_setup): its texel box, snapped vertices, edge biases and planes (sp_setup), so that a tile
 // reads the set-up of only the triangles whose box meets it (most meet a few of the tiles), from the same
@@ -73,7 +74,7 @@ void sp_insert(inout float d[SP_SORT_R], inout uint m[SP_SORT_R], uint c, float 
         }
     }
 }
-// the same for a depth alone (without a payload, every fragment held in the tiles' loop is SP_LATE)
+// the same for a depth alone (without a payload every fragment the tiles' loop holds is SP_LATE: sn is left as is)
 void sp_insert_depth(inout float d[SP_SORT_R], uint c, float z) {
     for (int j = 0; j < SP_SORT_R; ++j) {
         if (uint(j) == c) { d[j] = z; break; }
@@ -155,8 +156,8 @@ void sp_tile(uint k) {
 #endif
 #if defined(SP_SORTING)
     float sd[SP_SORT_R];   // the texel's fragments held, ascending
-    uint sn[SP_SORT_R];    // and their nodes
-    for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = 0.0; sn[j] = LL_EOL; }
+    uint sn[SP_SORT_R];    // and their nodes (without a payload, SP_LATE until the chain's nodes join)
+    for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = 0.0; sn[j] = LS_PAYLOAD == 0 ? SP_LATE : LL_EOL; }
     uint held = 0u;
 #endif
     uint n_large = sp_cmd[0] / 3u;
@@ -231,9 +232,6 @@ void sp_tile(uint k) {
 #if defined(SP_SORTING)
     if (!inside) return;
     if (!loaded) { head = ll_head[list]; head0 = head; }
-#if LS_PAYLOAD == 0
-    for (int j = 0; j < SP_SORT_R; ++j) if (uint(j) < held) sn[j] = SP_LATE;
-#endif
     // the chain at the head (the small triangles' nodes, and this pass's beyond the registers) while it fits
     bool own = held > 0u, in_order = true;
     float prev = -uintBitsToFloat(0x7F800000u);
@@ -262,7 +260,7 @@ void sp_tile(uint k) {
     }
     uvec2 live = unpackUint2x32(ballotARB(true));
     uint leader = live.x != 0u ? uint(findLSB(live.x)) : 32u + uint(findLSB(live.y)), base = 0u;
-    if (gl_SubGroupInvocationARB == leader) base = atomicAdd(ll_counters[LL_C_NODES], total);
+    if (gl_SubGroupInvocationARB == leader && total > 0u) base = atomicAdd(ll_counters[LL_C_NODES], total);
     base = readInvocationARB(base, leader);
     for (int j = 0; j < SP_SORT_R; ++j) {
         bool late = uint(j) < held && sn[j] == SP_LATE;

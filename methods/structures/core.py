@@ -74,7 +74,7 @@ class LayeredStructure:
             raise LdbenchError(
                 f"{self.layers} layers of {self.width}x{self.height} texels need a {per_texel * 4 / 2**20:.1f} "
                 f"MiB head/offset buffer, above this GPU's SSBO limit of {self.ssbo_limit / 2**20:.0f} MiB")
-        gpu.check_image_size(self.width, self.height)   # the raster's framebuffer; within 16 bits (splat_tiles.glsl)
+        gpu.check_gl_size(self.width, self.height)   # the raster's framebuffer
         self.overflow_allowed = spec.pool == "fixed"  # the adapters add the overflow back (methods/invariants.py)
         self.counters_buf = res.buffer(prefix + "counters", reserve=4 * N_COUNTERS)
         self.layers_buf = res.buffer(prefix + "layers", reserve=80 * self.layers)

@@ -17,8 +17,8 @@ spec's ``splat_large`` rasterizes in the same build:
 - ``tiles`` (default, ``methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
   the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass that sets up
-  the long triangles (box, edges, planes) in every layer; its stores: ``splat_tiles.glsl``. Why it is the
-  default: docs/fast_builds.md.
+  the first ``BOX_CAP`` long triangles (box, edges, planes) in every layer (the tiles set up any others
+  themselves); its stores: ``splat_tiles.glsl``. Why it is the default: docs/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
@@ -145,6 +145,17 @@ def rule_from_probe(px: np.ndarray) -> dict:
     return {k: bool(ccw[k]) for k in ("top", "bottom", "left", "right")}
 
 
+def boxes_fit(width: int, height: int) -> bool:
+    """Whether the boxes pass's 16-bit texel indices hold a layer of ``width × height`` (else the tiles set up
+    every long triangle themselves)."""
+    return max(width, height) <= 1 << 16
+
+
+def setups_fit(layers: int, ssbo_limit: int) -> int:
+    """The most long triangles whose set-ups (64 bytes per layer) fit one storage buffer of ``ssbo_limit``."""
+    return ssbo_limit // (64 * layers)
+
+
 class Splat(FragmentSource):
     """The ``splat`` source of one structure: the compute pass of the small triangles, then the long ones
     by the tiles' pass or the hardware draw (``splat_large``).
@@ -170,9 +181,8 @@ class Splat(FragmentSource):
         self.sort_buf = (structure.res.buffer(structure.prefix + "splat.sort", reserve=4 * (1 + self.sort_cap))
                          if self.tile_sort else None)
         self._sorted_pass = False
-        # the boxes pack texel indices in 16 bits: wider layers (beyond today's GL limits) go without them
-        fits = max(structure.width, structure.height) <= 1 << 16
-        self.box_cap = min(n, BOX_CAP) if self.large_mode == "tiles" and fits else 0
+        self.box_cap = (min(n, BOX_CAP, setups_fit(structure.layers, structure.ssbo_limit))
+                        if self.large_mode == "tiles" and boxes_fit(structure.width, structure.height) else 0)
         self.boxes = self.setups = None
         if self.box_cap:
             self.boxes = structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * self.box_cap * structure.layers)

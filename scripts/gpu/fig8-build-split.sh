@@ -15,7 +15,8 @@
 # nodes allocated when found (as with a payload) instead of at the end in depth order. The long triangles'
 # tiles (split "tiles"): the build alone as is and with one of its parts undone: every texel's edge functions
 # in doubles, no tile found covered fully or not at all, no pass of the boxes, the normal and material binned
-# though no store reads them, 8 nodes held instead of 10, and the register insert from the back. The parts of
+# though no store reads them, 8 nodes held instead of 10, and the register insert from the back (since the
+# eleventh run only the insert of the small triangles' chain: the loop's is sp_insert_depth). The parts of
 # the eleventh run (split "undo"): the build alone as is and with one undone: the small triangles' fragments
 # stored at once (no buffer in shared memory), that buffer four times the workgroup (not two), the first phase
 # of their queue in fixed point (not the float test), the tiles' held nodes reserved rank by rank (not in one
@@ -60,8 +61,8 @@ assert s.count(a) == 1, (p, a)
 open(p, "w").write(s.replace(a, b))
 PYEOF
 }
-cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE
-    copy; patch "$2" "$3" "$4"; run "$1"
+cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE (skipped if absent)
+    copy; if patch "$2" "$3" "$4"; then run "$1"; else echo "== $1: not run, its patch no longer applies"; fi
 }
 for split in ${LDBENCH_SPLIT-build ao}; do
 if [ "$split" = build ]; then
@@ -69,8 +70,8 @@ copy; run as-is
 cut no-small-triangles methods/glsl/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
     $'            if (!sp_long(t, v0, v1, v2) && false) {'
 cut no-tiles methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
-cut small-triangles-no-store methods/glsl/splat_raster.glsl $'            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0' \
-    $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            ls_store(ls_list(k, ivec2(x, y), ls_size), pl.d0'
+cut small-triangles-no-store methods/glsl/splat_raster.glsl $'            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0' \
+    $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0'
 cut small-triangles-counter-only methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
     $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
 cut tiles-no-store methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
