@@ -186,13 +186,13 @@ uint ll_reserve() {
 // Allocate a node; LL_EOL when the pool is full. An allocation past the capacity undoes its add and
 // counts itself in LL_C_OVERFLOW, so the node counter never runs past capacity + the fragments in
 // flight: it cannot wrap around 2^32 and hand out live nodes again, however many fragments arrive.
-uint ll_alloc(uint capacity) {
-    uint n = ll_reserve();
+uint ll_claim(uint n, uint capacity) {   // node n: taken from the counter for this invocation (ll_reserve, or its share of a subgroup's bulk add)
     if (n < capacity) return n;
     atomicAdd(ll_counters[LL_C_NODES], 0xFFFFFFFFu);   // undo: saturate at the capacity
     atomicAdd(ll_counters[LL_C_OVERFLOW], 1u);
     return LL_EOL;
 }
+uint ll_alloc(uint capacity) { return ll_claim(ll_reserve(), capacity); }
 
 // yang2010 insert: push at the head with atomicExchange (lists come out in arbitrary order).
 uint ll_insert_unsorted(uint list, float z, uint capacity) {

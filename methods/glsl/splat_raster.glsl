@@ -45,15 +45,16 @@ uniform float splat_max;     // longest edge (texels) rasterized here
 // The pair (triangle, layer k) projected and snapped; false when its box holds no texel centre (most pairs)
 struct SpPair { vec2 w0, w1, w2; float z0, z1, z2; ivec2 f0, f1, f2; int area; ivec2 i0, i1; };
 
-// window coordinates of world point v under clip matrix M (hs: half the layer's size), one expression for
-// sp_project and sp_reaches
-vec2 sp_window(mat4 M, vec3 v, vec2 hs) { return (M * vec4(v, 1.0)).xy * hs + hs; }
+// window coordinates (xy) and clip z of world point v under clip matrix M (hs: half the layer's size), one
+// expression for sp_project and sp_reaches
+vec3 sp_window(mat4 M, vec3 v, vec2 hs) { vec4 c = M * vec4(v, 1.0); return vec3(c.xy * hs + hs, c.z); }
 
 bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
-    p.w0 = sp_window(M, v0, hs); p.w1 = sp_window(M, v1, hs); p.w2 = sp_window(M, v2, hs);
-    p.z0 = (M * vec4(v0, 1.0)).z; p.z1 = (M * vec4(v1, 1.0)).z; p.z2 = (M * vec4(v2, 1.0)).z;
+    vec3 c0 = sp_window(M, v0, hs), c1 = sp_window(M, v1, hs), c2 = sp_window(M, v2, hs);
+    p.w0 = c0.xy; p.w1 = c1.xy; p.w2 = c2.xy;
+    p.z0 = c0.z; p.z1 = c1.z; p.z2 = c2.z;
     vec2 lo = min(p.w0, min(p.w1, p.w2)), hi = max(p.w0, max(p.w1, p.w2));
     if (!(all(greaterThanEqual(hi, vec2(0.0))) && all(lessThanEqual(lo, vec2(ls_size))))) return false;
     const float S = float(SP_ONE);
@@ -72,7 +73,7 @@ bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
 bool sp_reaches(uint k, vec3 v0, vec3 v1, vec3 v2) {
     mat4 M = ls_layers[k].clip;
     vec2 hs = vec2(ls_size) * 0.5;
-    vec2 w0 = sp_window(M, v0, hs), w1 = sp_window(M, v1, hs), w2 = sp_window(M, v2, hs);
+    vec2 w0 = sp_window(M, v0, hs).xy, w1 = sp_window(M, v1, hs).xy, w2 = sp_window(M, v2, hs).xy;
     const float SP_MARGIN = 2.0 / float(SP_ONE);
     vec2 lo = max(min(w0, min(w1, w2)), vec2(0.0)), hi = min(max(w0, max(w1, w2)), vec2(ls_size));
     return all(greaterThanEqual(floor(hi + (SP_MARGIN - 0.5)), ceil(lo - (SP_MARGIN + 0.5))));

@@ -97,6 +97,25 @@ FrTri sp_tile_setup(uint k, uint v, out vec3 v0, out vec3 v1, out vec3 v2, out v
     return fr_setup(w0, w1, w2, ls_size);
 }
 
+// the set-up of the long triangle of box b (4 words of sp_setup): written by the boxes pass, read by the tiles
+void sp_setup_store(uint b, FrTri t, SpPlanes pl) {
+    sp_setup[4u * b] = uvec4(ivec4(t.f0, t.f1));
+    sp_setup[4u * b + 1u] = uvec4(ivec4(t.f2, t.b0 | t.b1 << 1 | t.b2 << 2, 0));
+    sp_setup[4u * b + 2u] = floatBitsToUint(vec4(pl.w0, pl.d0, pl.z0));
+    sp_setup[4u * b + 3u] = floatBitsToUint(vec4(pl.dd, pl.dz));
+}
+FrTri sp_setup_tri(uint b) {   // its vertices and biases, what fr_tile reads
+    uvec4 s0 = sp_setup[4u * b], s1 = sp_setup[4u * b + 1u];
+    FrTri t;
+    t.f0 = ivec2(s0.xy); t.f1 = ivec2(s0.zw); t.f2 = ivec2(s1.xy);
+    t.b0 = int(s1.z & 1u); t.b1 = int(s1.z >> 1 & 1u); t.b2 = int(s1.z >> 2);
+    return t;
+}
+SpPlanes sp_setup_planes(uint b) {
+    vec4 p0 = uintBitsToFloat(sp_setup[4u * b + 2u]), p1 = uintBitsToFloat(sp_setup[4u * b + 3u]);
+    return SpPlanes(p0.xy, p0.z, p0.w, p1.xy, p1.zw);
+}
+
 #if defined(SP_BOXES_PASS)
 void main() {
     uint k = gl_WorkGroupID.x, n = min(sp_cmd[0] / 3u, sp_box_cap);
@@ -109,11 +128,7 @@ void main() {
         uint b = k * sp_box_cap + i;
         sp_box[b] = empty ? uvec2(0xFFFFFFFFu, 0u) : uvec2(lo.x | lo.y << 16, hi.x | hi.y << 16);
         if (empty) continue;
-        SpPlanes pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
-        sp_setup[4u * b] = uvec4(ivec4(tri.f0, tri.f1));
-        sp_setup[4u * b + 1u] = uvec4(ivec4(tri.f2, tri.b0 | tri.b1 << 1 | tri.b2 << 2, 0));
-        sp_setup[4u * b + 2u] = floatBitsToUint(vec4(pl.w0, pl.d0, pl.z0));
-        sp_setup[4u * b + 3u] = floatBitsToUint(vec4(pl.dd, pl.dz));
+        sp_setup_store(b, tri, sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2));
     }
 }
 #else
@@ -171,15 +186,8 @@ void sp_tile(uint k) {
         if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass
             uint b = k * sp_box_cap + e;
             if (sp_box_meets(sp_box[b], t0, t1)) {
-                uvec4 s0 = sp_setup[4u * b], s1 = sp_setup[4u * b + 1u];
-                FrTri tri;
-                tri.f0 = ivec2(s0.xy); tri.f1 = ivec2(s0.zw); tri.f2 = ivec2(s1.xy);
-                tri.b0 = int(s1.z & 1u); tri.b1 = int(s1.z >> 1 & 1u); tri.b2 = int(s1.z >> 2);
-                ft = fr_tile(tri, t0, span, lim);
-                if (!ft.none) {
-                    vec4 p0 = uintBitsToFloat(sp_setup[4u * b + 2u]), p1 = uintBitsToFloat(sp_setup[4u * b + 3u]);
-                    pl = SpPlanes(p0.xy, p0.z, p0.w, p1.xy, p1.zw);
-                }
+                ft = fr_tile(sp_setup_tri(b), t0, span, lim);
+                if (!ft.none) pl = sp_setup_planes(b);
             }
         } else if (e < n_large) {              // beyond the boxes pass's cap: set up here
             vec3 v0, v1, v2, z;
@@ -253,29 +261,14 @@ void sp_tile(uint k) {
     }
 #if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)
     // the held fragments' nodes, in depth order (a warp's nodes of one rank together), in one reservation per warp
-    uint total = 0u;
-    for (int j = 0; j < SP_SORT_R; ++j) {
-        uvec2 b = unpackUint2x32(ballotARB(uint(j) < held && sn[j] == SP_LATE));
-        total += uint(bitCount(b.x) + bitCount(b.y));
-    }
-    uvec2 live = unpackUint2x32(ballotARB(true));
-    uint leader = live.x != 0u ? uint(findLSB(live.x)) : 32u + uint(findLSB(live.y)), base = 0u;
-    if (gl_SubGroupInvocationARB == leader && total > 0u) base = atomicAdd(ll_counters[LL_C_NODES], total);
-    base = readInvocationARB(base, leader);
+    uint total = 0u, base;
+    for (int j = 0; j < SP_SORT_R; ++j) total += ls_count(ballotARB(uint(j) < held && sn[j] == SP_LATE));
+    LS_SUBGROUP_ADD(ll_counters[LL_C_NODES], ballotARB(true), total, base)
     for (int j = 0; j < SP_SORT_R; ++j) {
         bool late = uint(j) < held && sn[j] == SP_LATE;
-        uint64_t b64 = ballotARB(late);
-        uvec2 b = unpackUint2x32(b64), below = unpackUint2x32(b64 & gl_SubGroupLtMaskARB);
-        if (late) {
-            uint n = base + uint(bitCount(below.x) + bitCount(below.y));
-            if (n >= ls_capacity) {   // as ll_alloc: undone, counted as overflow
-                atomicAdd(ll_counters[LL_C_NODES], 0xFFFFFFFFu);
-                atomicAdd(ll_counters[LL_C_OVERFLOW], 1u);
-                n = LL_EOL;
-            }
-            sn[j] = n;
-        }
-        base += uint(bitCount(b.x) + bitCount(b.y));
+        uint64_t b = ballotARB(late);
+        if (late) sn[j] = ll_claim(base + ls_count(b & gl_SubGroupLtMaskARB), ls_capacity);
+        base += ls_count(b);
     }
 #elif LS_PAYLOAD == 0
     for (int j = 0; j < SP_SORT_R; ++j)   // the held fragments' nodes, in depth order: a tile's nodes of one rank together

@@ -185,9 +185,9 @@ class Splat(FragmentSource):
                         if self.large_mode == "tiles" and boxes_fit(structure.width, structure.height) else 0)
         self.boxes = self.setups = None
         if self.box_cap:
-            self.boxes = structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * self.box_cap * structure.layers)
-            self.setups = structure.res.buffer(structure.prefix + "splat.setups",
-                                               reserve=64 * self.box_cap * structure.layers)
+            per_layer = self.box_cap * structure.layers
+            self.boxes = structure.res.buffer(structure.prefix + "splat.boxes", reserve=8 * per_layer)
+            self.setups = structure.res.buffer(structure.prefix + "splat.setups", reserve=64 * per_layer)
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,

@@ -71,13 +71,6 @@ VARIANTS = {
     "splat/linked-yang-queue-batch16-aggregate-tilesort": dict(layout="linked", pool="lazy", source="splat",
                                                                sorted_insert=False, splat_queue=True, splat_batch=16,
                                                                aggregate=True, splat_sort=True),
-    # the Figure 8 default with another long-edge threshold, layers per invocation or workgroup
-    **{f"splat/linked-yang-queue-batch16-aggregate-tilesort-{suffix}": dict(
-        layout="linked", pool="lazy", source="splat", sorted_insert=False, splat_queue=True, aggregate=True,
-        splat_sort=True, **{"splat_batch": 16, **kw})
-       for suffix, kw in (("max8", dict(splat_max=8.0)), ("max32", dict(splat_max=32.0)),
-                          ("batch32", dict(splat_batch=32)), ("batch8", dict(splat_batch=8)),
-                          ("group128", dict(splat_group=128)), ("group32", dict(splat_group=32)))},
     "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                                 splat_batch=16, aggregate=True),
     "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
@@ -87,6 +80,13 @@ VARIANTS = {
     "ldi/splat-sort-queue": {**LDI_STRUCTURE, "splat_queue": True},
     "ldi/splat-sort-queue-batch16": {**LDI_STRUCTURE, "splat_queue": True, "splat_batch": 16},
 }
+#: the Figure 8 default with another long-edge threshold, layers per invocation or invocations per workgroup
+VARIANTS.update({f"splat/linked-yang-queue-batch16-aggregate-tilesort-{suffix}":
+                 {**VARIANTS["splat/linked-yang-queue-batch16-aggregate-tilesort"], **kw}
+                 for suffix, kw in (("max8", dict(splat_max=8.0)), ("max32", dict(splat_max=32.0)),
+                                    ("batch32", dict(splat_batch=32)), ("batch8", dict(splat_batch=8)),
+                                    ("group128", dict(splat_group=128)), ("group32", dict(splat_group=32)))})
+
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
 
