@@ -21,6 +21,7 @@ from ldbench.core.scene import Camera, Mesh, Scene
 from ldbench.methods.directions import stacks_slices
 from ldbench.methods.gbuffer import SceneGeometry
 from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
+from ldbench.methods.structures.splat import fill_rule
 from ldbench.methods.scan import Scan
 from testkit import LAYER_H as H, LAYER_MESHES, LAYER_W as W, cornell_like, expected_lists, layer_transforms
 
@@ -48,8 +49,10 @@ def lists_of(s) -> list:
 
 
 @pytest.fixture(scope="module")
-def expected():
-    return expected_lists(with_material=True)
+def expected(gpu):
+    """The CPU raster's lists, depths interpolated as this GPU does (given or snapped plane: fill_rule)."""
+    rule = fill_rule(gpu)
+    return expected_lists(with_material=True, snap_bits=rule["subpixel_bits"] if rule["snapped_plane"] else None)
 
 
 @pytest.mark.parametrize("axis", ["z", "x", "y"])

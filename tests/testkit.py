@@ -143,10 +143,13 @@ def _inside(p, tri):
     return not ((min(d1, d2, d3) < 0) and (max(d1, d2, d3) > 0))
 
 
-def expected_lists(with_material: bool = False):
+def expected_lists(with_material: bool = False, snap_bits: int | None = None):
     """Per layer and texel, the sorted depths of every triangle covering the texel centre (CPU);
-    ``with_material``: sorted (depth, material id) pairs (the id is the mesh index, as Scene.merged)."""
+    ``with_material``: sorted (depth, material id) pairs (the id is the mesh index, as Scene.merged).
+    ``snap_bits``: depths on the plane through the vertices snapped to that many sub-pixel bits, as a GPU
+    whose fill rule has ``snapped_plane`` interpolates (methods/structures/splat.py); else through the given ones."""
     clip, rows = layer_transforms()
+    size = np.array([LAYER_W, LAYER_H], np.float64)
     out = np.empty((2, LAYER_H, LAYER_W), object)
     for k in range(2):
         for y in range(LAYER_H):
@@ -158,10 +161,13 @@ def expected_lists(with_material: bool = False):
                         v = m.vertices[f].astype(np.float64)
                         ndc = (clip[k][:2, :3] @ v.T).T
                         if _inside(px, ndc):
-                            # depth at the texel centre: barycentric interpolation in the raster plane
-                            T = np.array([[ndc[0, 0] - ndc[2, 0], ndc[1, 0] - ndc[2, 0]],
-                                          [ndc[0, 1] - ndc[2, 1], ndc[1, 1] - ndc[2, 1]]])
-                            l0, l1 = np.linalg.solve(T, np.array(px) - ndc[2])
+                            # depth at the texel centre: barycentric interpolation in the raster plane (window)
+                            w = (ndc + 1.0) * 0.5 * size
+                            if snap_bits is not None:
+                                w = np.round(w * 2.0 ** snap_bits) / 2.0 ** snap_bits
+                            T = np.array([[w[0, 0] - w[2, 0], w[1, 0] - w[2, 0]],
+                                          [w[0, 1] - w[2, 1], w[1, 1] - w[2, 1]]])
+                            l0, l1 = np.linalg.solve(T, np.array([x + 0.5, y + 0.5]) - w[2])
                             p = l0 * v[0] + l1 * v[1] + (1 - l0 - l1) * v[2]
                             z = rows[k][:3] @ p + rows[k][3]
                             ds.append((z, mid) if with_material else z)
