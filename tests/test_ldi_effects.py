@@ -145,14 +145,21 @@ def test_indirect_on_cornell(gpu, mitsuba):
 
 def test_soft_shadows_on_cornell(gpu, mitsuba):
     """Soft shadows of the blocks (light radius 5 cm) against Mitsuba (1024 samples, 48²): the paper's
-    16 shadow rays per pixel through 96 LDIs of 128²; measured 35.53 dB, mean 0.975 of the reference's
-    (rays grazing the block tops count a few false hits)."""
+    16 shadow rays per pixel through 96 LDIs of 128²; measured 40.20 dB (llvmpipe and Mitsuba's LLVM backend)
+    and 40.25 dB (H200, CUDA backend), mean 0.982 of the reference's (rays grazing the block tops count a few
+    false hits). The camera looks 3 cm to the right of the box's centre: from the centre, the box's corner edges
+    run through the pixel centres of the image's diagonals, where Mitsuba's CUDA and LLVM backends break the tie
+    between the two surfaces differently (7 pixels: 33.0 dB against the CUDA reference, 35.5 against LLVM's)."""
+    import dataclasses
+
     from ldbench.core import metrics
     from ldbench.core.scenes import load_scene
 
     scene, eff = load_scene("cornell"), Effect("soft_shadows", light_radius=0.05)
+    scene = dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, target=(0.03, 1.0, 0.0)))
     ref = render_effect(scene, eff, width=48, height=48, spp=1024, seed=0, inputs=None, progress=False)
     r, stages = _render(gpu, scene, eff, 48, directions=96)
     m = ref.mask
     assert "shadow" not in stages and r.counters["rays_per_pixel"] == 16
-    assert metrics.psnr(r.image, ref.mean, mask=m) > 35.3 and abs(r.image[m].mean() / ref.mean[m].mean() - 1) < 0.03
+    psnr, ratio = metrics.psnr(r.image, ref.mean, mask=m), r.image[m].mean() / ref.mean[m].mean()
+    assert psnr > 40.1 and 0.980 < ratio < 0.984, (psnr, ratio)
