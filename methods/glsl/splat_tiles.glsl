@@ -1,9 +1,11 @@
 // The long triangles of the splat build (methods/structures/splat.py, splat_large = "tiles"): those
 // splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE_X ×
 // SPLAT_TILE_Y texels: one workgroup per (tile x, tile y, SP_TILE_LAYERS layers taken in turn), one invocation
-// per texel. For each layer the workgroup bins, SP_TILE_N at a time, the long triangles whose snapped box meets
-// its tile (set up by the boxes pass, or here beyond its cap; in shared memory with its edge functions at the
-// tile's first texel); then every invocation tests its
+// per texel. For each layer the long triangles whose snapped box meets the tile are binned (set up by the boxes
+// pass, or here beyond its cap, with their edge functions at the tile's first texel): with LL_AGGREGATE each
+// subgroup bins them for itself, a subgroup's width at a time, by ballot, and its lanes read each binned set-up
+// from the lane that made it (no shared memory, no barrier: a tile's warps do not wait on each other); without,
+// the workgroup bins SP_TILE_N at a time in shared memory. Every invocation tests its
 // texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
 // (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
 // near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
@@ -143,14 +145,69 @@ struct SpBinned {
     uint material;
 #endif
 };
-shared SpBinned sp_bin[SP_TILE_N];
-shared uint sp_bin_n;
-
 // whether the packed box b (SP_BOXES_PASS) meets the tile t0 .. t1
 bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
     ivec2 lo = ivec2(b.x & 0xFFFFu, b.x >> 16), hi = ivec2(b.y & 0xFFFFu, b.y >> 16);
     return all(lessThanEqual(max(lo, t0), min(hi, t1)));
 }
+
+#if defined(LL_AGGREGATE)
+// each subgroup bins the long triangles for itself, gl_SubGroupSizeARB at a time, and reads the binned ones from
+// the lane that set each up: no shared memory, no barrier
+#define SP_WARP_BIN 1
+#define SP_CHUNK gl_SubGroupSizeARB
+#define SP_CHUNK_LANE gl_SubGroupInvocationARB
+SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up (j the same in every lane)
+    SpBinned r;
+    r.tri.c = readInvocationARB(b.tri.c, j);
+    r.tri.e0 = readInvocationARB(b.tri.e0, j);
+    r.tri.e1 = readInvocationARB(b.tri.e1, j);
+    r.tri.e2 = readInvocationARB(b.tri.e2, j);
+    uint f = readInvocationARB((b.tri.wide ? 1u : 0u) | (b.tri.full ? 2u : 0u), j);
+    r.tri.wide = (f & 1u) != 0u; r.tri.full = (f & 2u) != 0u; r.tri.none = false;
+    r.pl.w0 = readInvocationARB(b.pl.w0, j);
+    r.pl.d0 = readInvocationARB(b.pl.d0, j);
+    r.pl.z0 = readInvocationARB(b.pl.z0, j);
+    r.pl.dd = readInvocationARB(b.pl.dd, j);
+    r.pl.dz = readInvocationARB(b.pl.dz, j);
+#if defined(SP_ATTRIBUTES)
+    r.normal = readInvocationARB(b.normal, j);
+    r.material = readInvocationARB(b.material, j);
+#endif
+    return r;
+}
+#else
+#define SP_CHUNK uint(SP_TILE_N)
+#define SP_CHUNK_LANE gl_LocalInvocationIndex
+shared SpBinned sp_bin[SP_TILE_N];
+shared uint sp_bin_n;
+#endif
+
+// the long triangle e (of n_large) set up in layer k for the tile t0 .. t1: b.tri.none when it misses the tile
+void sp_bin_setup(uint k, uint e, uint n_large, ivec2 t0, ivec2 t1, ivec2 span, int lim, out SpBinned b) {
+    b.tri.none = true;
+    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass
+        uint i = k * sp_box_cap + e;
+        if (sp_box_meets(sp_box[i], t0, t1)) {
+            b.tri = fr_tile(sp_setup_tri(i), t0, span, lim);
+            if (!b.tri.none) b.pl = sp_setup_planes(i);
+        }
+    } else if (e < n_large) {              // beyond the boxes pass's cap: set up here
+        vec3 v0, v1, v2, z;
+        vec2 w0, w1, w2;
+        FrTri tri = sp_tile_setup(k, sp_large[3u * e], v0, v1, v2, w0, w1, w2, z);
+        if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) b.tri = fr_tile(tri, t0, span, lim);
+        if (!b.tri.none) b.pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
+    }
+#if defined(SP_ATTRIBUTES)
+    if (!b.tri.none) {
+        uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
+        b.normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
+        b.material = uint(sp_vtx[7u * v + 6u] + 0.5);
+    }
+#endif
+}
+
 
 // tile gl_WorkGroupID.xy of layer k
 void sp_tile(uint k) {
@@ -176,41 +233,33 @@ void sp_tile(uint k) {
     uint held = 0u;
 #endif
     uint n_large = sp_cmd[0] / 3u;
-    for (uint c = 0u; c < n_large; c += uint(SP_TILE_N)) {
+    for (uint c = 0u; c < n_large; c += SP_CHUNK) {
+#if !defined(SP_WARP_BIN)
         if (lid == 0u) sp_bin_n = 0u;
         barrier();
-        uint e = c + lid;
-        FrTile ft;
-        ft.none = true;
-        SpPlanes pl;
-        if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass
-            uint b = k * sp_box_cap + e;
-            if (sp_box_meets(sp_box[b], t0, t1)) {
-                ft = fr_tile(sp_setup_tri(b), t0, span, lim);
-                if (!ft.none) pl = sp_setup_planes(b);
-            }
-        } else if (e < n_large) {              // beyond the boxes pass's cap: set up here
-            vec3 v0, v1, v2, z;
-            vec2 w0, w1, w2;
-            FrTri tri = sp_tile_setup(k, sp_large[3u * e], v0, v1, v2, w0, w1, w2, z);
-            if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) ft = fr_tile(tri, t0, span, lim);
-            if (!ft.none) pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
-        }
-        if (!ft.none) {
-            uint slot = atomicAdd(sp_bin_n, 1u);
-            sp_bin[slot].tri = ft;
-            sp_bin[slot].pl = pl;
-#if defined(SP_ATTRIBUTES)
-            uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
-            sp_bin[slot].normal = vec3(sp_vtx[7u * v + 3u], sp_vtx[7u * v + 4u], sp_vtx[7u * v + 5u]);
-            sp_bin[slot].material = uint(sp_vtx[7u * v + 6u] + 0.5);
 #endif
-        }
+        uint e = c + SP_CHUNK_LANE;
+        SpBinned bt;
+        sp_bin_setup(k, e, n_large, t0, t1, span, lim, bt);
+#if defined(SP_WARP_BIN)
+        uint64_t bins = ballotARB(!bt.tri.none);
+        uint m = ls_count(bins);
+#else
+        if (!bt.tri.none) sp_bin[atomicAdd(sp_bin_n, 1u)] = bt;
         barrier();
         uint m = sp_bin_n;
-        for (uint i = 0u; inside && i < m; ++i) {
-            if (!sp_bin[i].tri.full && !fr_tile_covers(sp_bin[i].tri, d, px)) continue;
-            SpPlanes pl = sp_bin[i].pl;
+#endif
+        for (uint i = 0u; i < m; ++i) {
+#if defined(SP_WARP_BIN)
+            uvec2 bw = unpackUint2x32(bins);
+            uint j = bw.x != 0u ? uint(findLSB(bw.x)) : 32u + uint(findLSB(bw.y));
+            bins &= bins - 1ul;
+            SpBinned b = sp_bin_read(bt, j);
+#else
+            SpBinned b = sp_bin[i];
+#endif
+            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;
+            SpPlanes pl = b.pl;
             vec2 q = vec2(px) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
             float depth = pl.d0 + dot(pl.dd, q);
@@ -222,7 +271,7 @@ void sp_tile(uint k) {
             if (n == LL_EOL) continue;
 #if LS_PAYLOAD > 0
             uint w[LS_PAYLOAD];
-            ls_payload_words(sp_bin[i].normal, sp_bin[i].material, w);
+            ls_payload_words(b.normal, b.material, w);
             ll_set_payload(n, w);
 #endif
 #if defined(SP_SORTING) && LS_PAYLOAD > 0
@@ -232,10 +281,12 @@ void sp_tile(uint k) {
             ll_set_node(n, depth, head);
             head = n;
 #else
-            ls_store(list, depth, sp_bin[i].normal, sp_bin[i].material);
+            ls_store(list, depth, b.normal, b.material);
 #endif
         }
+#if !defined(SP_WARP_BIN)
         barrier();
+#endif
     }
 #if defined(SP_SORTING)
     if (!inside) return;

@@ -83,7 +83,8 @@ VARIANTS = {
 #: the Figure 8 default with another long-edge threshold, layers per invocation or invocations per workgroup
 VARIANTS.update({f"splat/linked-yang-queue-batch16-aggregate-tilesort-{suffix}":
                  {**VARIANTS["splat/linked-yang-queue-batch16-aggregate-tilesort"], **kw}
-                 for suffix, kw in (("max8", dict(splat_max=8.0)), ("max32", dict(splat_max=32.0)),
+                 for suffix, kw in (("max4", dict(splat_max=4.0)), ("max8", dict(splat_max=8.0)),
+                                    ("max12", dict(splat_max=12.0)), ("max32", dict(splat_max=32.0)),
                                     ("batch32", dict(splat_batch=32)), ("batch8", dict(splat_batch=8)),
                                     ("group128", dict(splat_group=128)), ("group32", dict(splat_group=32)))})
 
