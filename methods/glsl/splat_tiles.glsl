@@ -152,9 +152,7 @@ bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
 }
 
 #if defined(LL_AGGREGATE)
-// each subgroup bins the long triangles for itself, gl_SubGroupSizeARB at a time, and reads the binned ones from
-// the lane that set each up: no shared memory, no barrier
-#define SP_WARP_BIN 1
+#define SP_WARP_BIN 1   // each subgroup bins for itself (the header)
 #define SP_CHUNK gl_SubGroupSizeARB
 #define SP_CHUNK_LANE gl_SubGroupInvocationARB
 SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up (j the same in every lane)
