@@ -36,13 +36,18 @@ W="$(mktemp -d "${TMPDIR:-/tmp}/fig8-split.XXXXXX")"
 trap 'rm -rf "$W"' EXIT
 V=${LDBENCH_SPLIT_VARIANT:-splat/linked-yang-queue-batch16-aggregate}
 ARGS=("$@")
+stale() {  # stale LABEL: true (and says so) when a patch of this copy failed: its times would be the unpatched build's
+    [ -e "$W/tree/.stale" ] && echo "== $1: not run, a patch of it no longer applies"
+}
 run() {  # run LABEL: the bench in the copy, with this script's arguments
+    stale "$1" && return
     echo "== $1"
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
      timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep -o "variant=[^ ]* build_ms=[^ ]*\|stages=[^ ]*" | paste - -)
 }
 frame() {  # frame LABEL: the default Figure 8 frame in the copy; its stage times
+    stale "$1" && return
     echo "== $1"
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
      timeout 250 "$PY" scripts/gpu/fast_defaults.py "$W/out-$1" --only fig8 --labels default ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
@@ -52,8 +57,8 @@ copy() {  # the package's folders and the scripts, as they are in the working tr
     rm -rf "$W/tree"; mkdir -p "$W/tree"
     for d in core harness methods references reports scripts suites pyproject.toml; do cp -r "$src/$d" "$W/tree/"; done
 }
-patch() {  # patch FILE OLD NEW (exactly one occurrence)
-    "$PY" - "$W/tree/$1" "$2" "$3" <<'PYEOF'
+patch() {  # patch FILE OLD NEW (exactly one occurrence; else the copy is marked stale)
+    "$PY" - "$W/tree/$1" "$2" "$3" <<'PYEOF' || touch "$W/tree/.stale"
 import sys
 p, a, b = sys.argv[1:4]
 s = open(p).read()
@@ -61,8 +66,8 @@ assert s.count(a) == 1, (p, a)
 open(p, "w").write(s.replace(a, b))
 PYEOF
 }
-cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE (skipped if absent)
-    copy; if patch "$2" "$3" "$4"; then run "$1"; else echo "== $1: not run, its patch no longer applies"; fi
+cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced by NEW in FILE
+    copy; patch "$2" "$3" "$4"; run "$1"
 }
 for split in ${LDBENCH_SPLIT-build ao}; do
 if [ "$split" = build ]; then
@@ -117,9 +122,9 @@ V=$TS cut undo-nodes-rank-by-rank $T '#if LS_PAYLOAD == 0 && defined(LL_AGGREGAT
 V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 4 ' 'TILE_LAYERS = 1 '
 V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, held, depth); ++held; continue; }' \
     '{ sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }'
-copy; patch $T '        if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '        if (false) {'
-patch $T '        } else if (e < n_large) {              // beyond' \
-    '        } else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
+copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '    if (false) {'
+patch $T '    } else if (e < n_large) {              // beyond' \
+    '    } else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
 V=$TS run undo-tiles-set-up-per-tile
 fi
 if [ "$split" = ao ]; then
