@@ -145,10 +145,11 @@ struct SpBinned {
     uint material;
 #endif
 };
-// whether the packed box b (SP_BOXES_PASS) meets the tile t0 .. t1
+// whether the texel box lo .. hi meets the tile t0 .. t1
+bool sp_meets(ivec2 lo, ivec2 hi, ivec2 t0, ivec2 t1) { return all(lessThanEqual(max(lo, t0), min(hi, t1))); }
+// the same for a box packed by the boxes pass
 bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
-    ivec2 lo = ivec2(b.x & 0xFFFFu, b.x >> 16), hi = ivec2(b.y & 0xFFFFu, b.y >> 16);
-    return all(lessThanEqual(max(lo, t0), min(hi, t1)));
+    return sp_meets(ivec2(b.x & 0xFFFFu, b.x >> 16), ivec2(b.y & 0xFFFFu, b.y >> 16), t0, t1);
 }
 
 #if defined(LL_AGGREGATE)
@@ -194,7 +195,7 @@ void sp_bin_setup(uint k, uint e, uint n_large, ivec2 t0, ivec2 t1, ivec2 span, 
         vec3 v0, v1, v2, z;
         vec2 w0, w1, w2;
         FrTri tri = sp_tile_setup(k, sp_large[3u * e], v0, v1, v2, w0, w1, w2, z);
-        if (tri.ok && all(lessThanEqual(max(tri.lo, t0), min(tri.hi, t1)))) b.tri = fr_tile(tri, t0, span, lim);
+        if (tri.ok && sp_meets(tri.lo, tri.hi, t0, t1)) b.tri = fr_tile(tri, t0, span, lim);
         if (!b.tri.none) b.pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
     }
 #if defined(SP_ATTRIBUTES)
