@@ -22,11 +22,13 @@
 # of their queue in fixed point (not the float test), the tiles' held nodes reserved rank by rank (not in one
 # atomic per warp), one layer per tiles' workgroup (not 4), the tiles' loop inserting nodes with the depths,
 # and every tile setting up its long triangles (not reading the boxes pass's set-ups). These copies build the
-# same lists; only the times differ.
+# same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
+# PASSES_ARGS: its arguments) as is, and with parts cut out, whose lists are wrong: the small triangles
+# projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain.
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
-# LDBENCH_SPLIT: which splits (default "build ao"; also "sort", "tiles", "undo"); LDBENCH_SPLIT_VARIANT: the build's
+# LDBENCH_SPLIT: which splits (default "build ao"; also "sort", "tiles", "undo", "passes"); LDBENCH_SPLIT_VARIANT: the build's
 # variant of fast_builds_bench.py for the build split (default splat/linked-yang-queue-batch16-aggregate: the Figure 8
 # default without the tiles' sort, whose parts its cuts address).
 set -u
@@ -52,6 +54,12 @@ frame() {  # frame LABEL: the default Figure 8 frame in the copy; its stage time
     (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
      timeout 250 "$PY" scripts/gpu/fast_defaults.py "$W/out-$1" --only fig8 --labels default ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep "^fig8 default total")
+}
+passes() {  # passes LABEL: each dispatch's GPU time in one build of the copy (build_passes.py)
+    stale "$1" && return
+    echo "== $1"
+    (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
+     timeout 200 "$PY" scripts/gpu/build_passes.py ${PASSES_ARGS:-} 2>&1 | grep "ms")
 }
 copy() {  # the package's folders and the scripts, as they are in the working tree
     rm -rf "$W/tree"; mkdir -p "$W/tree"
@@ -126,6 +134,19 @@ copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxe
 patch $T '    } else if (e < n_large) {              // beyond' \
     '    } else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
 V=$TS run undo-tiles-set-up-per-tile
+fi
+if [ "$split" = passes ]; then
+R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
+copy; passes passes-as-is
+copy; patch $R 'if (!sp_reaches(k, v0, v1, v2)) continue;' 'if (!sp_reaches(k, v0, v1, v2) || n_layers > 0u) continue;'
+passes passes-small-projected-none-queued
+copy; patch $R 'if (!sp_reaches(k, v0, v1, v2)) continue;' 'if (n_layers > 0u || !sp_reaches(k, v0, v1, v2)) continue;'
+passes passes-small-nothing-projected
+copy; patch $T '    uint n_large = sp_cmd[0] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[0] / 3u;'
+passes passes-tiles-no-long-triangles
+copy; patch $T '        if (i == LL_EOL || held >= uint(SP_SORT_R)) break;' \
+    '        if (i == LL_EOL || held >= uint(SP_SORT_R) || sp_layers > 0u) break;'
+passes passes-tiles-no-chain
 fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
