@@ -79,6 +79,8 @@ _TABLE = {
                       "layer", "SplatBoxes"),
     "SPLAT_SETUPS": _b("ssbo", 14, "structure.splat", "splat build, tiles: the long triangles' edges, biases and "
                        "planes in every layer, set up by the boxes pass", "SplatSetups"),
+    "SPLAT_POSITIONS": _b("ssbo", 15, "structure.splat", "splat build: each triangle's three positions (vec4), "
+                          "SceneGeometry.triangle_positions", "SplatPositions"),
     "ORTHO_AXES": _b("ssbo", 11, "trace", "axes of the orthographic layer sets the traces walk (ortho_layers)",
                      "OrthoAxes"),
     "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit.glsl)", "OITMaterials"),

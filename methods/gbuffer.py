@@ -46,6 +46,17 @@ class SceneGeometry:
         # vertex shader once per *vertex* per layer instead of three times per triangle).
         self._indexed = None
         self._v, self._f = v, f
+        self._corners = None
+
+    def triangle_positions(self):
+        """Each triangle's three positions as ``vec4`` (w = 0; 48 bytes a triangle, the interleaved buffer's
+        84 hold normals and materials too): for compute passes that load every triangle many times over (the
+        splat build, once per batch of layers)."""
+        if self._corners is None:
+            p = np.zeros((self.triangles, 3, 4), np.float32)
+            p[:, :, :3] = self._v[self._f]
+            self._corners = self._res.buffer("geometry.triangle_positions", p)
+        return self._corners
 
     def vao_positions(self, program):
         """An indexed vertex array with ``in_position`` only (shared vertices, 12 bytes each)."""

@@ -260,11 +260,14 @@ def test_every_variant_stores_the_rasterized_fragments(scene_geo, reference, nam
 @pytest.mark.parametrize("box_cap", [None, 3, 0], ids=["boxes", "boxes-of-3", "no-boxes"])
 @pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False)), ("linear", {}),
                                         ("linear", dict(assembly="sort")),
-                                        ("linked", dict(sorted_insert=False, splat_sort=True))],
-                         ids=["yang", "linear", "sort", "tile-sort"])
+                                        ("linked", dict(sorted_insert=False, splat_sort=True)),
+                                        ("linked", dict(sorted_insert=False, splat_sort=True, splat_queue=True,
+                                                        aggregate=True, splat_batch=16))],
+                         ids=["yang", "linear", "sort", "tile-sort", "ldm"])
 def test_tiles_of_layers_not_a_multiple_of_the_tile(scene_geo, layout, kw, box_cap, monkeypatch):
-    """Layers of 36 × 27 texels end in partial tiles on both axes; with splat_max = 2.5 most triangles (more
-    than a tile's 64 at a time) take the tiles' pass. The lists are the raster's, also when the boxes pass
+    """Layers of 36 × 27 texels end in partial tiles on both axes (and a layer's half height, the viewport's
+    offset, is not a whole texel); with splat_max = 2.5 most triangles (more than a tile's 64 at a time) take
+    the tiles' pass. The lists are the raster's, also when the boxes pass
     precomputes the boxes of only the first 3 long triangles (the tiles set up the others themselves)."""
     from ldbench.methods.structures import splat
 

@@ -29,8 +29,10 @@
 #include "layered_write.glsl"
 
 layout(local_size_x = SPLAT_GROUP) in;
-// geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
+// geometry.vertices (methods/gbuffer.py): per vertex position (3), face normal (3), material (1); the positions
+// alone, what every layer batch loads again: geometry.triangle_positions, per triangle three vec4
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
+layout(std430, binding = B_SPLAT_POSITIONS) readonly buffer SplatPositions { vec4 sp_pos[]; };
 layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
@@ -66,18 +68,34 @@ bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
     return all(lessThanEqual(p.i0, p.i1));
 }
 
-// whether the pair (triangle, layer k) may reach a texel centre: its window box, clamped to the layer and
-// widened by two sub-pixel steps (the snap moves a vertex by half of one), holds one. SPLAT_QUEUE's first
-// phase: no fixed point for the pairs it rejects (most), sp_project decides the others exactly from the same
-// window coordinates (sp_window; the margin's rest covers a compiler contracting the two differently).
-bool sp_reaches(uint k, vec3 v0, vec3 v1, vec3 v2) {
-    mat4 M = ls_layers[k].clip;
-    vec2 hs = vec2(ls_size) * 0.5;
-    vec2 w0 = sp_window(M, v0, hs).xy, w1 = sp_window(M, v1, hs).xy, w2 = sp_window(M, v2, hs).xy;
+#if SPLAT_QUEUE
+// the window x and y rows of the workgroup's layer batch (sp_window's M and viewport in one vec4 each: x =
+// dot(row.xyz, v) + row.w), set up once per workgroup for sp_reaches
+shared vec4 sp_win[2 * SPLAT_BATCH];
+void sp_win_load(uint k0) {
+    for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_BATCH); i += uint(SPLAT_GROUP)) {
+        mat4 M = ls_layers[min(k0 + (i >> 1), n_layers - 1u)].clip;
+        int a = int(i & 1u);
+        float h = float(ls_size[a]) * 0.5;
+        sp_win[i] = vec4(M[0][a], M[1][a], M[2][a], M[3][a]) * h + vec4(0.0, 0.0, 0.0, h);
+    }
+    barrier();
+}
+
+// whether the pair (triangle, layer k0 + kk) may reach a texel centre: its window box, widened by two
+// sub-pixel steps (the snap moves a vertex by half of one), holds one. SPLAT_QUEUE's first phase: no fixed
+// point and no clamp to the layer for the pairs it rejects (most); sp_project decides the others exactly
+// (the margin's rest covers the rows' rounding, ~1e-5 texels, against sp_window's).
+bool sp_reaches(uint kk, vec3 v0, vec3 v1, vec3 v2) {
+    vec4 rx = sp_win[2u * kk], ry = sp_win[2u * kk + 1u];
+    vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2)) + rx.w;
+    vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2)) + ry.w;
+    vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z)));
+    vec2 hi = vec2(max(x.x, max(x.y, x.z)), max(y.x, max(y.y, y.z)));
     const float SP_MARGIN = 2.0 / float(SP_ONE);
-    vec2 lo = max(min(w0, min(w1, w2)), vec2(0.0)), hi = min(max(w0, max(w1, w2)), vec2(ls_size));
     return all(greaterThanEqual(floor(hi + (SP_MARGIN - 0.5)), ceil(lo - (SP_MARGIN + 0.5))));
 }
+#endif
 
 #if SPLAT_QUEUE
 // the fragments of a workgroup's queued pairs, stored together once they are all found (so that a warp's stores
@@ -111,10 +129,7 @@ void sp_layer(uint t, uint k, vec3 v0, vec3 v1, vec3 v2, vec3 normal, uint mater
     }
 }
 
-vec3 sp_vertex(uint t, uint j) {
-    uint o = 21u * t + 7u * j;
-    return vec3(sp_vtx[o], sp_vtx[o + 1u], sp_vtx[o + 2u]);
-}
+vec3 sp_vertex(uint t, uint j) { return sp_pos[3u * t + j].xyz; }
 vec3 sp_normal(uint t) { return vec3(sp_vtx[21u * t + 3u], sp_vtx[21u * t + 4u], sp_vtx[21u * t + 5u]); }
 uint sp_material(uint t) { return uint(sp_vtx[21u * t + 6u] + 0.5); }
 
@@ -144,6 +159,7 @@ void main() {
     uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
     uint lid = gl_LocalInvocationID.x;
     uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);
+    sp_win_load(k0);
     for (uint base = gl_WorkGroupID.x * uint(SPLAT_GROUP); base < n_triangles; base += stride) {
         if (lid == 0u) { sp_queued = 0u; sp_frags = 0u; }
         barrier();
@@ -152,7 +168,7 @@ void main() {
             vec3 v0 = sp_vertex(t, 0u), v1 = sp_vertex(t, 1u), v2 = sp_vertex(t, 2u);
             if (!sp_long(t, v0, v1, v2)) {
                 for (uint k = k0; k < k1; ++k) {
-                    if (!sp_reaches(k, v0, v1, v2)) continue;
+                    if (!sp_reaches(k - k0, v0, v1, v2)) continue;
                     uint slot = atomicAdd(sp_queued, 1u);
                     if (slot < uint(SP_QUEUE_N)) sp_queue[slot] = lid | ((k - k0) << 16);
                     else sp_layer(t, k, v0, v1, v2, sp_normal(t), sp_material(t));

@@ -5,7 +5,8 @@ every triangle in every layer is the reference source; it is bound by the raster
 by memory (measured in docs/fast_builds.md).
 
 :class:`Splat` (``methods/glsl/splat_raster.glsl``): one invocation per (triangle, batch of
-``splat_batch`` layers) projects the triangle into each layer of its batch, snaps it to the hardware's
+``splat_batch`` layers) loads its positions (``SceneGeometry.triangle_positions``), projects the triangle
+into each layer of its batch, snaps it to the hardware's
 sub-pixel grid and stores every texel centre it covers with the same ``ls_store`` as the raster (every
 layout and pass works unchanged). Coverage follows the hardware's fill rule exactly: integer edge
 functions on ``GL_SUBPIXEL_BITS`` fixed point, samples at texel centres, ties on an edge resolved by the
@@ -35,7 +36,7 @@ from .core import fill_uint
 from .sources import FragmentSource, Raster
 
 B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
-B_BOXES, B_SETUPS = B.SPLAT_BOXES, B.SPLAT_SETUPS
+B_BOXES, B_SETUPS, B_POSITIONS = B.SPLAT_BOXES, B.SPLAT_SETUPS, B.SPLAT_POSITIONS
 TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
 TILE_LAYERS = 4            # layers a workgroup of that pass takes in turn
 BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
@@ -218,6 +219,7 @@ class Splat(FragmentSource):
             if name in cs:
                 cs[name].value = v
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
+        s.geo.triangle_positions().bind_to_storage_buffer(B_POSITIONS)
         self.large.bind_to_storage_buffer(B_LARGE)
         groups = max(1, min(-(-s.geo.triangles // self.group), 65535))
         cs.run(groups, -(-s.layers // self.batch))
