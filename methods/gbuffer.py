@@ -47,6 +47,17 @@ class SceneGeometry:
         self._indexed = None
         self._v, self._f = v, f
         self._corners = None
+        self._longest = None
+
+    @property
+    def longest_edge(self) -> float:
+        """The longest edge of any triangle (world units; a bound for passes whose integer arithmetic depends on
+        the triangles' size)."""
+        if self._longest is None:
+            p = self._v[self._f].astype(np.float64)
+            self._longest = max((float(np.linalg.norm(p[:, a] - p[:, b], axis=1).max()) if len(p) else 0.0)
+                                for a, b in ((0, 1), (1, 2), (2, 0)))
+        return self._longest
 
     def triangle_positions(self):
         """Each triangle's three positions as ``vec4`` (w = 0; 48 bytes a triangle, the interleaved buffer's

@@ -406,6 +406,27 @@ def test_tiles_of_triangles_beyond_the_int32_steps(gpu, layout, kw):
         res.release()
 
 
+def test_tiles_leave_out_the_wide_path_only_where_no_edge_is_wide(gpu, scene_geo):
+    """The tiles compile out the wide triangles' doubles (FR_NARROW) only when the longest edge, in sub-pixel steps
+    of the densest layer and with room for rounding, is within fr_tile's int32 limit (1,024 texels at 8 bits and
+    8 × 8 tiles): the edge cases' 32² layers (so every variant above runs that kernel), not the slivers of 2,240
+    texels (the test above, which fails when they take it)."""
+    from ldbench.methods.structures.splat import tiles_narrow
+
+    assert tiles_narrow(1012.0, 1.0, 8) and not tiles_narrow(1014.0, 1.0, 8)
+    assert not tiles_narrow(10.0, 102.0, 8) and tiles_narrow(60.0, 1.0, 10) and not tiles_narrow(64.0, 1.0, 10)
+    bits = fill_rule(gpu)["subpixel_bits"]
+    s = build(scene_geo, "linked", "narrow", source="splat", sorted_insert=False)
+    assert tiles_narrow(scene_geo[1].longest_edge, s.layer_scale, bits)
+    res = gpu.resources()
+    try:
+        geo = SceneGeometry(gpu, wide_scenes()[0], res)
+        w = build((gpu, geo, res), "linked", "narrow-sliver", source="splat", sorted_insert=False)
+        assert geo.longest_edge * w.layer_scale > 2000 and not tiles_narrow(geo.longest_edge, w.layer_scale, bits)
+    finally:
+        res.release()
+
+
 @pytest.mark.parametrize("capacity", [37, 333])
 def test_tiles_reservation_crossing_a_fixed_pool(gpu, capacity):
     """One long triangle alone (the tiles store every fragment), a fixed pool smaller than its fragments: the

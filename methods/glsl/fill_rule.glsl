@@ -46,7 +46,8 @@ bool fr_covers(FrTri t, ivec2 pixel) {
 // most lim (callers: 2^30 / (SP_ONE * (tile width + tile height))). A longer edge makes the triangle wide: it
 // keeps its vertices (in e) and biases (in c) for the doubles of fr_covers_at. span: the last texel's d. full:
 // it covers every texel centre of the tile; none: no texel centre (each from the edges' extremes over the tile;
-// both false when wide).
+// both false when wide). FR_NARROW: the caller has bounded every edge within lim, and the texel test leaves out
+// the doubles of the wide case (their registers cost a tile's texel loop occupancy).
 struct FrTile { ivec3 c; ivec2 e0, e1, e2; bool wide, full, none; };
 
 int fr_clamp30(double v) { return int(clamp(v, -1073741824.0lf, 1073741824.0lf)); }
@@ -80,7 +81,9 @@ FrTile fr_tile(FrTri t, ivec2 t0, ivec2 span, int lim) {
 
 // whether texel t0 + d / SP_ONE (pixel) of the tile is covered
 bool fr_tile_covers(FrTile r, ivec2 d, ivec2 pixel) {
+#if !defined(FR_NARROW)
     if (r.wide) return fr_covers_at(r.e0, r.e1, r.e2, r.c, pixel);
+#endif
     return r.c.x + r.e0.x * d.y - r.e0.y * d.x >= 0 && r.c.y + r.e1.x * d.y - r.e1.y * d.x >= 0 &&
            r.c.z + r.e2.x * d.y - r.e2.y * d.x >= 0;
 }

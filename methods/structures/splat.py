@@ -152,6 +152,15 @@ def boxes_fit(width: int, height: int) -> bool:
     return max(width, height) <= 1 << 16
 
 
+def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int) -> bool:
+    """Whether no triangle can be wide in the tiles' pass (``fill_rule.glsl`` ``fr_tile``: an edge component
+    beyond its int32 steps' limit, in sub-pixel units): the longest edge in texels of the densest layer (``scale``),
+    snapped, with room for the window coordinates' float rounding, within the limit."""
+    one = 1 << subpixel_bits
+    lim = (1 << 30) // (one * (TILE_X + TILE_Y))
+    return longest_edge * scale * one * 1.01 + 256 <= lim
+
+
 def setups_fit(layers: int, ssbo_limit: int) -> int:
     """The most long triangles whose set-ups (64 bytes per layer) fit one storage buffer of ``ssbo_limit``."""
     return ssbo_limit // (64 * layers)
@@ -235,6 +244,8 @@ class Splat(FragmentSource):
         s = self.s
         tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y,
                  "SP_TILE_LAYERS": TILE_LAYERS}
+        if tiles_narrow(s.geo.longest_edge, s.layer_scale, self.rule["subpixel_bits"]):
+            tiles["FR_NARROW"] = 1
         if self.boxes is not None:
             self.boxes.bind_to_storage_buffer(B_BOXES)
             self.setups.bind_to_storage_buffer(B_SETUPS)
