@@ -49,15 +49,19 @@ class SceneGeometry:
         self._corners = None
         self._longest = None
 
-    @property
-    def longest_edge(self) -> float:
-        """The longest edge of any triangle (world units; a bound for passes whose integer arithmetic depends on
-        the triangles' size)."""
+    def longest_edges(self) -> np.ndarray:
+        """Each triangle's longest edge (world units, float64; NaN where a vertex is not finite): host bounds for
+        passes whose arithmetic or buffers depend on the triangles' size (the splat build's tiles)."""
         if self._longest is None:
             p = self._v[self._f].astype(np.float64)
-            self._longest = max((float(np.linalg.norm(p[:, a] - p[:, b], axis=1).max()) if len(p) else 0.0)
-                                for a, b in ((0, 1), (1, 2), (2, 0)))
+            self._longest = np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).max(1) if len(p) else np.zeros(0)
         return self._longest
+
+    @property
+    def longest_edge(self) -> float:
+        """The longest edge of any triangle (world units; NaN when a vertex is not finite)."""
+        e = self.longest_edges()
+        return float(e.max()) if len(e) else 0.0
 
     def triangle_positions(self):
         """Each triangle's three positions as ``vec4`` (w = 0; 48 bytes a triangle, the interleaved buffer's

@@ -386,8 +386,9 @@ def wide_scenes() -> tuple[Scene, Scene]:
     return Scene("sliver", [_mesh("sliver", sliver)], cam), Scene("far", [_mesh("far", far)], cam)
 
 
-@pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False, splat_sort=True)), ("linear", {})],
-                         ids=["tile-sort", "linear"])
+@pytest.mark.parametrize("layout, kw", [("linked", dict(sorted_insert=False, splat_sort=True)), ("linear", {}),
+                                        ("linked", dict(sorted_insert=False, splat_sort=True, aggregate=True))],
+                         ids=["tile-sort", "linear", "ldm"])
 def test_tiles_of_triangles_beyond_the_int32_steps(gpu, layout, kw):
     """The tiles' coverage of triangles whose edges or edge functions leave int32 is the raster's."""
     res = gpu.resources()
@@ -425,6 +426,22 @@ def test_tiles_leave_out_the_wide_path_only_where_no_edge_is_wide(gpu, scene_geo
         assert geo.longest_edge * w.layer_scale > 2000 and not tiles_narrow(geo.longest_edge, w.layer_scale, bits)
     finally:
         res.release()
+
+
+def test_tiles_load_set_ups_only_where_the_boxes_pass_made_them_all(scene_geo):
+    """With every long triangle set up by the boxes pass (SP_ALL_BOXED), the tiles load a binned triangle's edges and
+    planes from its set-up instead of shuffling them; the bound on the long triangles counts those the splat can
+    leave (longer than splat_max with room for rounding, or not finite). The edge cases' long triangles fit the
+    boxes (every variant above runs that kernel); at splat_max 2.5 more than 64 do not fit the 36 × 27 test's cap of
+    3 (its tiles set them up themselves)."""
+    from ldbench.methods.structures.splat import long_bound
+
+    assert long_bound(np.array([np.nan, 1.0, 100.0, 15.99, 16.0]), 1.0, 16.0) == 3
+    assert long_bound(np.array([15.9995, 1.0]), 1.0, 16.0) == 1 and long_bound(np.array([2.0]), 10.0, 16.0) == 1
+    s = build(scene_geo, "linked", "all-boxed", source="splat", sorted_insert=False)
+    n = long_bound(scene_geo[1].longest_edges(), s.layer_scale, 16.0)
+    assert n == expected_large(16.0) == s.stats()["splat_large_triangles"] > 0 and n <= s.source.box_cap
+    assert long_bound(scene_geo[1].longest_edges(), s.layer_scale, 2.5) == expected_large(2.5) > 64
 
 
 @pytest.mark.parametrize("capacity", [37, 333])

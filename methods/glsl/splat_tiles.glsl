@@ -4,8 +4,9 @@
 // per texel. For each layer the long triangles whose snapped box meets the tile are binned (set up by the boxes
 // pass, or here beyond its cap, with their edge functions at the tile's first texel): with LL_AGGREGATE each
 // subgroup bins them for itself, a subgroup's width at a time, by ballot, and its lanes read each binned set-up
-// from the lane that made it (no shared memory, no barrier: a tile's warps do not wait on each other); without,
-// the workgroup bins SP_TILE_N at a time in shared memory. Every invocation tests its
+// from the lane that made it (no shared memory, no barrier: a tile's warps do not wait on each other; with
+// SP_ALL_BOXED, when the boxes pass set up every long triangle, only the edge values at the tile and the flags by
+// shuffle, the rest loaded from the set-up); without, the workgroup bins SP_TILE_N at a time in shared memory. Every invocation tests its
 // texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
 // (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
 // near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
@@ -32,7 +33,8 @@
 //
 // Defines: as splat_raster.glsl, SPLAT_TILE_X and SPLAT_TILE_Y (texels per tile side) and SP_TILE_N, their
 // product (a literal: GLSL 4.30 sizes a workgroup by one), SP_TILE_LAYERS (layers a workgroup takes in turn:
-// fewer workgroups to launch).
+// fewer workgroups to launch), SP_ALL_BOXED (the host's bound on the long triangles is within sp_box_cap:
+// splat.py long_bound), FR_NARROW (fill_rule.glsl; splat.py tiles_narrow).
 #include "layered_write.glsl"
 
 layout(local_size_x = SP_TILE_N) in;
@@ -175,6 +177,29 @@ SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up (j the same in e
 #endif
     return r;
 }
+#if defined(SP_ALL_BOXED)
+// lane j's set-up of the long triangle e (both the same in every lane) when the boxes pass set up every long
+// triangle: the edge values at the tile and the flags by shuffle, the edges and planes loaded from the boxes pass's
+// set-up (one address in every lane), so that a warp holds 4 words of each binned set-up across its loop, not 18
+SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
+    SpBinned r;
+    r.tri.c = readInvocationARB(b.tri.c, j);
+    uint f = readInvocationARB((b.tri.wide ? 1u : 0u) | (b.tri.full ? 2u : 0u), j);
+    r.tri.wide = (f & 1u) != 0u; r.tri.full = (f & 2u) != 0u; r.tri.none = false;
+    uint i = k * sp_box_cap + e;
+    FrTri t = sp_setup_tri(i);
+    if (r.tri.wide) { r.tri.e0 = t.f0; r.tri.e1 = t.f1; r.tri.e2 = t.f2; }   // fr_tile's wide form
+    else { r.tri.e0 = t.f1 - t.f0; r.tri.e1 = t.f2 - t.f1; r.tri.e2 = t.f0 - t.f2; }
+    r.pl = sp_setup_planes(i);
+#if defined(SP_ATTRIBUTES)
+    r.normal = readInvocationARB(b.normal, j);
+    r.material = readInvocationARB(b.material, j);
+#endif
+    return r;
+}
+#else
+SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) { return sp_bin_read(b, j); }
+#endif
 #else
 #define SP_CHUNK uint(SP_TILE_N)
 #define SP_CHUNK_LANE gl_LocalInvocationIndex
@@ -191,13 +216,16 @@ void sp_bin_setup(uint k, uint e, uint n_large, ivec2 t0, ivec2 t1, ivec2 span, 
             b.tri = fr_tile(sp_setup_tri(i), t0, span, lim);
             if (!b.tri.none) b.pl = sp_setup_planes(i);
         }
-    } else if (e < n_large) {              // beyond the boxes pass's cap: set up here
+    }
+#if !defined(SP_ALL_BOXED)
+    else if (e < n_large) {                // beyond the boxes pass's cap: set up here
         vec3 v0, v1, v2, z;
         vec2 w0, w1, w2;
         FrTri tri = sp_tile_setup(k, sp_large[3u * e], v0, v1, v2, w0, w1, w2, z);
         if (tri.ok && sp_meets(tri.lo, tri.hi, t0, t1)) b.tri = fr_tile(tri, t0, span, lim);
         if (!b.tri.none) b.pl = sp_planes(k, tri.cw, tri.f0, tri.f1, tri.f2, w0, w1, w2, z.x, z.y, z.z, v0, v1, v2);
     }
+#endif
 #if defined(SP_ATTRIBUTES)
     if (!b.tri.none) {
         uint v = sp_large[3u * e];   // the triangle's first vertex (3t)
@@ -253,7 +281,7 @@ void sp_tile(uint k) {
             uvec2 bw = unpackUint2x32(bins);
             uint j = bw.x != 0u ? uint(findLSB(bw.x)) : 32u + uint(findLSB(bw.y));
             bins &= bins - 1ul;
-            SpBinned b = sp_bin_read(bt, j);
+            SpBinned b = sp_bin_get(bt, j, k, c + j);
 #else
             SpBinned b = sp_bin[i];
 #endif

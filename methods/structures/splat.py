@@ -161,6 +161,14 @@ def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int) -> bool:
     return longest_edge * scale * one * 1.01 + 256 <= lim
 
 
+def long_bound(longest_edges: np.ndarray, scale: float, splat_max: float) -> int:
+    """The most triangles the splat can leave to the long triangles' pass (``splat_raster.glsl`` ``sp_long``):
+    those whose longest edge (world units) times ``scale`` exceeds ``splat_max``, with room for the GPU's float
+    rounding, and those not finite."""
+    x = np.asarray(longest_edges, np.float64) * scale
+    return int(np.count_nonzero(~np.isfinite(x) | (x > splat_max * (1.0 - 1e-4))))
+
+
 def setups_fit(layers: int, ssbo_limit: int) -> int:
     """The most long triangles whose set-ups (64 bytes per layer) fit one storage buffer of ``ssbo_limit``."""
     return ssbo_limit // (64 * layers)
@@ -246,6 +254,8 @@ class Splat(FragmentSource):
                  "SP_TILE_LAYERS": TILE_LAYERS}
         if tiles_narrow(s.geo.longest_edge, s.layer_scale, self.rule["subpixel_bits"]):
             tiles["FR_NARROW"] = 1
+        if self.box_cap and long_bound(s.geo.longest_edges(), s.layer_scale, self.splat_max) <= self.box_cap:
+            tiles["SP_ALL_BOXED"] = 1
         if self.boxes is not None:
             self.boxes.bind_to_storage_buffer(B_BOXES)
             self.setups.bind_to_storage_buffer(B_SETUPS)
