@@ -312,6 +312,22 @@ def test_splat_queue_overflow_is_rasterized_at_once(scene_geo):
     assert_same_lists(multisets(ref), multisets(got), "queue overflow")
 
 
+@pytest.mark.parametrize("rows, batch", [(3, 16), (None, 2000)], ids=["rows-of-3", "batch-2000"])
+def test_splat_queue_window_rows_past_shared_memory(scene_geo, monkeypatch, rows, batch):
+    """The queue keeps the window rows of a batch's first WIN_ROWS layers in shared memory and computes the
+    others' where it tests them: with 3 kept in a batch of 16 the lists are the raster's, and a batch of 2000
+    layers (32 KB of rows) still builds."""
+    from ldbench.methods.structures import splat
+
+    if rows is not None:
+        monkeypatch.setattr(splat, "WIN_ROWS", rows)
+    ref = build(scene_geo, "linear", "q16-raster-rows", layers=16)
+    got = build(scene_geo, "linear", f"q16-rows-{rows}-{batch}", layers=16, source="splat", splat_queue=True,
+                splat_batch=batch)
+    assert got.invariants(got.stats()) == []
+    assert_same_lists(multisets(ref), multisets(got), "window rows")
+
+
 def stacks_scene() -> Scene:
     """Lists longer than the tiles' registers (10 nodes), each path of splat_sort: 12 long triangles stacked over
     one region (their fragments beyond 10 pushed at once), 12 small ones stacked over another (the small

@@ -25,7 +25,8 @@
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup), SPLAT_QUEUE,
-// LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT, SPLAT_SNAPPED_PLANE (0 or 1).
+// LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT, SPLAT_SNAPPED_PLANE (0 or 1), SPLAT_WIN_N (layers of a batch whose
+// window rows the queue keeps in shared memory).
 #include "layered_write.glsl"
 
 layout(local_size_x = SPLAT_GROUP) in;
@@ -69,16 +70,18 @@ bool sp_project(uint k, vec3 v0, vec3 v1, vec3 v2, out SpPair p) {
 }
 
 #if SPLAT_QUEUE
-// the window x and y rows of the workgroup's layer batch (sp_window's M and viewport in one vec4 each: x =
-// dot(row.xyz, v) + row.w), set up once per workgroup for sp_reaches
-shared vec4 sp_win[2 * SPLAT_BATCH];
+// layer k's window row a (0: x, 1: y): sp_window's M and viewport in one vec4, x = dot(row.xyz, v) + row.w
+vec4 sp_win_row(uint k, int a) {
+    mat4 M = ls_layers[min(k, n_layers - 1u)].clip;
+    float h = float(ls_size[a]) * 0.5;
+    return vec4(M[0][a], M[1][a], M[2][a], M[3][a]) * h + vec4(0.0, 0.0, 0.0, h);
+}
+// the rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory), set up once
+// per workgroup for sp_reaches
+shared vec4 sp_win[2 * SPLAT_WIN_N];
 void sp_win_load(uint k0) {
-    for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_BATCH); i += uint(SPLAT_GROUP)) {
-        mat4 M = ls_layers[min(k0 + (i >> 1), n_layers - 1u)].clip;
-        int a = int(i & 1u);
-        float h = float(ls_size[a]) * 0.5;
-        sp_win[i] = vec4(M[0][a], M[1][a], M[2][a], M[3][a]) * h + vec4(0.0, 0.0, 0.0, h);
-    }
+    for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_WIN_N); i += uint(SPLAT_GROUP))
+        sp_win[i] = sp_win_row(k0 + (i >> 1), int(i & 1u));
     barrier();
 }
 
@@ -86,8 +89,13 @@ void sp_win_load(uint k0) {
 // sub-pixel steps (the snap moves a vertex by half of one), holds one. SPLAT_QUEUE's first phase: no fixed
 // point and no clamp to the layer for the pairs it rejects (most); sp_project decides the others exactly
 // (the margin's rest covers the rows' rounding, ~1e-5 texels, against sp_window's).
-bool sp_reaches(uint kk, vec3 v0, vec3 v1, vec3 v2) {
-    vec4 rx = sp_win[2u * kk], ry = sp_win[2u * kk + 1u];
+bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
+    vec4 rx, ry;
+#if SPLAT_WIN_N < SPLAT_BATCH
+    if (kk >= uint(SPLAT_WIN_N)) { rx = sp_win_row(k0 + kk, 0); ry = sp_win_row(k0 + kk, 1); }   // every invocation
+    else
+#endif
+    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; }
     vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2)) + rx.w;
     vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2)) + ry.w;
     vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z)));
@@ -168,7 +176,7 @@ void main() {
             vec3 v0 = sp_vertex(t, 0u), v1 = sp_vertex(t, 1u), v2 = sp_vertex(t, 2u);
             if (!sp_long(t, v0, v1, v2)) {
                 for (uint k = k0; k < k1; ++k) {
-                    if (!sp_reaches(k - k0, v0, v1, v2)) continue;
+                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;
                     uint slot = atomicAdd(sp_queued, 1u);
                     if (slot < uint(SP_QUEUE_N)) sp_queue[slot] = lid | ((k - k0) << 16);
                     else sp_layer(t, k, v0, v1, v2, sp_normal(t), sp_material(t));

@@ -39,6 +39,7 @@ B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
 B_BOXES, B_SETUPS, B_POSITIONS = B.SPLAT_BOXES, B.SPLAT_SETUPS, B.SPLAT_POSITIONS
 TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
 TILE_LAYERS = 4            # layers a workgroup of that pass takes in turn
+WIN_ROWS = 256             # layers of a splat batch whose window rows the queue keeps in shared memory (8 KB)
 BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
 _RULES: dict = {}          # id(ctx) -> fill rule
@@ -209,6 +210,7 @@ class Splat(FragmentSource):
 
     def defines(self, extra: dict) -> dict:
         return {**self.s.defines(), **extra, "SPLAT_BATCH": self.batch, "SPLAT_GROUP": self.group,
+                "SPLAT_WIN_N": min(self.batch, WIN_ROWS),
                 "SPLAT_QUEUE": int(self.s.spec.splat_queue),
                 **rule_defines(self.rule)}
 
