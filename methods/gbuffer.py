@@ -58,6 +58,13 @@ class SceneGeometry:
         return self._longest
 
     @property
+    def extent(self) -> np.ndarray:
+        """The largest |coordinate| of any finite vertex, per axis (world units, float64): a bound on the float
+        rounding of passes that project every vertex."""
+        v = np.abs(self._v.astype(np.float64))
+        return np.where(np.isfinite(v), v, 0.0).max(0) if len(v) else np.zeros(3)
+
+    @property
     def longest_edge(self) -> float:
         """The longest edge of any triangle (world units; NaN when a vertex is not finite)."""
         e = self.longest_edges()

@@ -328,6 +328,36 @@ def test_splat_queue_window_rows_past_shared_memory(scene_geo, monkeypatch, rows
     assert_same_lists(multisets(ref), multisets(got), "window rows")
 
 
+def test_splat_queue_far_from_the_origin(gpu):
+    """20,000 triangles under a texel across, 10^4 units from the origin in maps of ~62 texels per unit: the
+    queue's filter on window rows rounds differently from the exact test's window coordinates by some 0.1 texel
+    there (the terms reach 10^6 texels), and its margin grows with them; a margin of two sub-pixel steps alone lost
+    the fragments of hundreds of lists. The lists are the splat's without the queue."""
+    from ldbench.methods.structures import bounding_sphere, ortho_layers
+
+    rng = np.random.default_rng(5)
+    c = np.array([1.0e4, -7.0e3, 5.0e3])
+    p = c + rng.uniform(-0.3, 0.3, (20000, 1, 3)) + rng.uniform(-0.004, 0.004, (20000, 3, 3))
+    scene = Scene("far", [_mesh("far", p.reshape(-1, 3))], Camera(tuple(c + 5.0), tuple(c)))
+    res = gpu.resources()
+    try:
+        geo = SceneGeometry(gpu, scene, res)
+        q, _ = np.linalg.qr(np.random.default_rng(6).normal(size=(3, 3)))
+        clip, rows, _ = ortho_layers(np.vstack([np.eye(3), q.T]), *bounding_sphere(scene))
+        got = {}
+        for queue in (False, True):
+            s = make_structure(StructureSpec(layout="linear", source="splat", splat_queue=queue, splat_batch=6), gpu,
+                               geo, res, layers=6, width=64, height=64, prefix=f"far.{queue}.")
+            s.set_layers(clip, rows)
+            s.build()
+            assert s.invariants(s.stats()) == []
+            got[queue] = multisets(s)
+        assert s.layer_scale > 50 and sum(map(len, got[False])) > 2300
+        assert_same_lists(got[False], got[True], "far from the origin")
+    finally:
+        res.release()
+
+
 def stacks_scene() -> Scene:
     """Lists longer than the tiles' registers (10 nodes), each path of splat_sort: 12 long triangles stacked over
     one region (their fragments beyond 10 pushed at once), 12 small ones stacked over another (the small
@@ -432,6 +462,7 @@ def test_tiles_leave_out_the_wide_path_only_where_no_edge_is_wide(gpu, scene_geo
 
     assert tiles_narrow(1012.0, 1.0, 8) and not tiles_narrow(1014.0, 1.0, 8)
     assert not tiles_narrow(10.0, 102.0, 8) and tiles_narrow(60.0, 1.0, 10) and not tiles_narrow(64.0, 1.0, 10)
+    assert tiles_narrow(1000.0, 1.0, 8, 1e5) and not tiles_narrow(1000.0, 1.0, 8, 1e7)   # far from the origin
     bits = fill_rule(gpu)["subpixel_bits"]
     s = build(scene_geo, "linked", "narrow", source="splat", sorted_insert=False)
     assert tiles_narrow(scene_geo[1].longest_edge, s.layer_scale, bits)
@@ -458,6 +489,18 @@ def test_tiles_load_set_ups_only_where_the_boxes_pass_made_them_all(scene_geo):
     n = long_bound(scene_geo[1].longest_edges(), s.layer_scale, 16.0)
     assert n == expected_large(16.0) == s.stats()["splat_large_triangles"] > 0 and n <= s.source.box_cap
     assert long_bound(scene_geo[1].longest_edges(), s.layer_scale, 2.5) == expected_large(2.5) > 64
+
+
+def test_a_wrong_bound_on_the_long_triangles_is_reported(scene_geo, monkeypatch):
+    """Had the host's bound on the long triangles failed (forced to 0 here, with a cap of 3 and more than 64 long
+    triangles), the tiles would take only the boxes pass's set-ups: the invariants say so instead of lists that
+    quietly lack triangles."""
+    from ldbench.methods.structures import splat
+
+    monkeypatch.setattr(splat, "BOX_CAP", 3)
+    monkeypatch.setattr(splat, "long_bound", lambda *a: 0)
+    s = build(scene_geo, "linked", "bound-0", source="splat", sorted_insert=False, splat_max=2.5)
+    assert any("long_bound exceeded" in x for x in s.invariants(s.stats()))
 
 
 @pytest.mark.parametrize("capacity", [37, 333])

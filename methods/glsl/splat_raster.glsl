@@ -41,6 +41,7 @@ uniform uint n_triangles;
 uniform uint n_layers;
 uniform float splat_scale;   // texels per world unit, the largest of any layer
 uniform float splat_max;     // longest edge (texels) rasterized here
+uniform vec3 sp_extent;      // the largest |coordinate| of the scene's vertices per axis (the queue's margin)
 #include "layered_store.glsl"
 #include "gbuffer_fill_rule.glsl"
 #include "splat_planes.glsl"
@@ -76,32 +77,42 @@ vec4 sp_win_row(uint k, int a) {
     float h = float(ls_size[a]) * 0.5;
     return vec4(M[0][a], M[1][a], M[2][a], M[3][a]) * h + vec4(0.0, 0.0, 0.0, h);
 }
-// the rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory), set up once
-// per workgroup for sp_reaches
+// the margin of a row's test: two sub-pixel steps (the snap moves a vertex by half of one) and a bound on the float
+// rounding between this row's form and sp_window's, which grows with the terms' size (vertices far from the
+// origin): 2^-19 of their largest sum, against some 10 roundings of 2^-24 each
+float sp_win_margin(vec4 row) {
+    return 2.0 / float(SP_ONE) + (dot(abs(row.xyz), sp_extent) + abs(row.w)) * (1.0 / 524288.0);
+}
+// the rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory) and their
+// margins, set up once per workgroup for sp_reaches
 shared vec4 sp_win[2 * SPLAT_WIN_N];
+shared float sp_win_m[2 * SPLAT_WIN_N];
 void sp_win_load(uint k0) {
-    for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_WIN_N); i += uint(SPLAT_GROUP))
+    for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_WIN_N); i += uint(SPLAT_GROUP)) {
         sp_win[i] = sp_win_row(k0 + (i >> 1), int(i & 1u));
+        sp_win_m[i] = sp_win_margin(sp_win[i]);
+    }
     barrier();
 }
 
-// whether the pair (triangle, layer k0 + kk) may reach a texel centre: its window box, widened by two
-// sub-pixel steps (the snap moves a vertex by half of one), holds one. SPLAT_QUEUE's first phase: no fixed
-// point and no clamp to the layer for the pairs it rejects (most); sp_project decides the others exactly
-// (the margin's rest covers the rows' rounding, ~1e-5 texels, against sp_window's).
+// whether the pair (triangle, layer k0 + kk) may reach a texel centre: its window box, widened by the row's
+// margin, holds one. SPLAT_QUEUE's first phase: no fixed point and no clamp to the layer for the pairs it
+// rejects (most); sp_project decides the others exactly.
 bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
     vec4 rx, ry;
+    vec2 m;
 #if SPLAT_WIN_N < SPLAT_BATCH
-    if (kk >= uint(SPLAT_WIN_N)) { rx = sp_win_row(k0 + kk, 0); ry = sp_win_row(k0 + kk, 1); }   // every invocation
-    else
+    if (kk >= uint(SPLAT_WIN_N)) {   // every invocation
+        rx = sp_win_row(k0 + kk, 0); ry = sp_win_row(k0 + kk, 1);
+        m = vec2(sp_win_margin(rx), sp_win_margin(ry));
+    } else
 #endif
-    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; }
+    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; m = vec2(sp_win_m[2u * kk], sp_win_m[2u * kk + 1u]); }
     vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2)) + rx.w;
     vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2)) + ry.w;
     vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z)));
     vec2 hi = vec2(max(x.x, max(x.y, x.z)), max(y.x, max(y.y, y.z)));
-    const float SP_MARGIN = 2.0 / float(SP_ONE);
-    return all(greaterThanEqual(floor(hi + (SP_MARGIN - 0.5)), ceil(lo - (SP_MARGIN + 0.5))));
+    return all(greaterThanEqual(floor(hi + (m - 0.5)), ceil(lo - (m + 0.5))));
 }
 #endif
 

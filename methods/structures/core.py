@@ -82,6 +82,7 @@ class LayeredStructure:
         self.source = None
         self.have_layers = False
         self.layer_scale, self.layers_affine = 0.0, True
+        self.layer_clip = None
 
     def resize_pool(self, need: int) -> None:
         """Before a build (the count and lazy pools): reallocate to ``need`` slots when they would not fit
@@ -129,6 +130,7 @@ class LayeredStructure:
         data[:, 16:] = rows
         self.layers_buf.write(data.tobytes())
         self.have_layers = True
+        self.layer_clip = clip
         self.layer_scale, self.layers_affine = layer_scale(clip, self.width, self.height)
 
     # ---- shared passes ---------------------------------------------------------------------------

@@ -153,13 +153,23 @@ def boxes_fit(width: int, height: int) -> bool:
     return max(width, height) <= 1 << 16
 
 
-def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int) -> bool:
+def window_terms(clip: np.ndarray, width: int, height: int, extent: np.ndarray) -> float:
+    """The largest sum of a window coordinate's terms over a scene within ``extent`` (the largest |coordinate|
+    per axis), in texels: per layer and axis |row.xyz| · extent + |row.w| + the half size, the clip row scaled
+    to the layer. The window coordinates' float rounding grows with it (vertices far from the origin)."""
+    hs = np.array([width, height], np.float64) / 2
+    r = np.abs(np.asarray(clip, np.float64)[:, :2, :]) * hs[None, :, None]
+    return float(((r[:, :, :3] * np.asarray(extent, np.float64)).sum(2) + r[:, :, 3] + hs).max())
+
+
+def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int, terms: float = 0.0) -> bool:
     """Whether no triangle can be wide in the tiles' pass (``fill_rule.glsl`` ``fr_tile``: an edge component
     beyond its int32 steps' limit, in sub-pixel units): the longest edge in texels of the densest layer (``scale``),
-    snapped, with room for the window coordinates' float rounding, within the limit."""
+    snapped, with room for the window coordinates' float rounding (2^-19 of their ``terms``,
+    :func:`window_terms`), within the limit."""
     one = 1 << subpixel_bits
     lim = (1 << 30) // (one * (TILE_X + TILE_Y))
-    return longest_edge * scale * one * 1.01 + 256 <= lim
+    return longest_edge * scale * one * 1.01 + 256 + terms * one * 2.0 ** -19 <= lim
 
 
 def long_bound(longest_edges: np.ndarray, scale: float, splat_max: float) -> int:
@@ -200,6 +210,7 @@ class Splat(FragmentSource):
         self.sort_buf = (structure.res.buffer(structure.prefix + "splat.sort", reserve=4 * (1 + self.sort_cap))
                          if self.tile_sort else None)
         self._sorted_pass = False
+        self._all_boxed = False   # the last tiles' pass took every long triangle from the boxes pass (SP_ALL_BOXED)
         self.box_cap = (min(n, BOX_CAP, setups_fit(structure.layers, structure.ssbo_limit))
                         if self.large_mode == "tiles" and boxes_fit(structure.width, structure.height) else 0)
         self.boxes = self.setups = None
@@ -234,7 +245,8 @@ class Splat(FragmentSource):
         cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", self.defines(extra))
         self.uniforms(cs, capacity)
         for name, v in (("n_triangles", s.geo.triangles), ("n_layers", s.layers),
-                        ("splat_scale", s.layer_scale), ("splat_max", self.splat_max)):
+                        ("splat_scale", s.layer_scale), ("splat_max", self.splat_max),
+                        ("sp_extent", tuple(float(x) for x in s.geo.extent))):
             if name in cs:
                 cs[name].value = v
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
@@ -254,9 +266,12 @@ class Splat(FragmentSource):
         s = self.s
         tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y,
                  "SP_TILE_LAYERS": TILE_LAYERS}
-        if tiles_narrow(s.geo.longest_edge, s.layer_scale, self.rule["subpixel_bits"]):
+        terms = window_terms(s.layer_clip, s.width, s.height, s.geo.extent)
+        if tiles_narrow(s.geo.longest_edge, s.layer_scale, self.rule["subpixel_bits"], terms):
             tiles["FR_NARROW"] = 1
-        if self.box_cap and long_bound(s.geo.longest_edges(), s.layer_scale, self.splat_max) <= self.box_cap:
+        self._all_boxed = bool(self.box_cap) and long_bound(s.geo.longest_edges(), s.layer_scale,
+                                                             self.splat_max) <= self.box_cap
+        if self._all_boxed:
             tiles["SP_ALL_BOXED"] = 1
         if self.boxes is not None:
             self.boxes.bind_to_storage_buffer(B_BOXES)
@@ -305,6 +320,14 @@ class Splat(FragmentSource):
         if self._sorted_pass:  # lists longer than the tiles' registers, left to the sort pass
             out["splat_sort_left"] = int(np.frombuffer(self.s.gpu.read(self.sort_buf, 4), np.uint32)[0])
         return out
+
+    def invariants(self, stats: dict) -> list[str]:
+        """The tiles took every long triangle from the boxes pass (``SP_ALL_BOXED``) only while the host's bound
+        held: more than the boxes pass's cap would have left the rest out."""
+        n = stats.get("splat_large_triangles", 0)
+        if self._all_boxed and n > self.box_cap:
+            return [f"{n} long triangles, more than the {self.box_cap} set up by the boxes pass (long_bound exceeded)"]
+        return []
 
     def large_triangles(self) -> int:
         """Long triangles the last pass left to the tiles or the hardware (a read-back)."""
