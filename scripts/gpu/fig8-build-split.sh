@@ -24,7 +24,9 @@
 # and every tile setting up its long triangles (not reading the boxes pass's set-ups). These copies build the
 # same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
 # PASSES_ARGS: its arguments) as is, and with parts cut out, whose lists are wrong: the small triangles
-# projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain.
+# projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain;
+# and the thirteenth run's: the head stored plainly, not exchanged; the queued fragments not stored; the long
+# triangles binned but their texels not walked; the tiles' nodes and heads not written (their atomics kept).
 #
 # Usage, from the project root with its Python environment set up:
 #     bash scripts/gpu/fig8-build-split.sh [--dry]
@@ -138,15 +140,28 @@ fi
 if [ "$split" = passes ]; then
 R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
 copy; passes passes-as-is
-copy; patch $R 'if (!sp_reaches(k, v0, v1, v2)) continue;' 'if (!sp_reaches(k, v0, v1, v2) || n_layers > 0u) continue;'
+Q='if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
+copy; patch $R "$Q" 'if (!sp_reaches(k0, k - k0, v0, v1, v2) || n_layers > 0u) continue;'
 passes passes-small-projected-none-queued
-copy; patch $R 'if (!sp_reaches(k, v0, v1, v2)) continue;' 'if (n_layers > 0u || !sp_reaches(k, v0, v1, v2)) continue;'
+copy; patch $R "$Q" 'if (n_layers > 0u || !sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
 passes passes-small-nothing-projected
+copy; patch methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
+    '    uint old = LL_EOL; ll_head[list] = n;'
+passes passes-small-plain-head-store
+copy; patch $R '            ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));' \
+    '            if (f.y == 0x7FC00001u) ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));'
+passes passes-small-queued-not-stored
 copy; patch $T '    uint n_large = sp_cmd[0] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[0] / 3u;'
 passes passes-tiles-no-long-triangles
 copy; patch $T '        if (i == LL_EOL || held >= uint(SP_SORT_R)) break;' \
     '        if (i == LL_EOL || held >= uint(SP_SORT_R) || sp_layers > 0u) break;'
 passes passes-tiles-no-chain
+copy; patch $T '        for (uint i = 0u; i < m; ++i) {' \
+    '        if (m == 0x7FFFFFFFu) ll_head[0] = 1u; for (uint i = 0u; i < 0u; ++i) {'
+passes passes-tiles-binned-not-walked
+copy; patch $T '    if (head != head0) ll_head[list] = head;' '    if (head != head0 && sd[0] == 1.2345e-30) ll_head[list] = head;'
+patch $T '        ll_set_node(sn[j], sd[j], i);' '        if (sd[j] == 1.2345e-30) ll_set_node(sn[j], sd[j], i);'
+passes passes-tiles-no-node-writes
 fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
