@@ -109,7 +109,8 @@ if [ "$split" = tiles ]; then
 # the long triangles' tiles (splat_tiles.glsl, fill_rule.glsl fr_tile) with one of their parts undone
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run tiles-as-is
-V=$TS cut tiles-edges-in-doubles methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
+copy; patch methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
+patch methods/structures/splat.py '            tiles["FR_NARROW"] = 1' '            pass'; V=$TS run tiles-edges-in-doubles
 copy; patch methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
 patch methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
 V=$TS cut tiles-no-boxes-pass methods/structures/splat.py 'BOX_CAP = 256 ' 'BOX_CAP = 0 '
@@ -126,15 +127,16 @@ copy; V=$TS run undo-as-is
 V=$TS cut undo-fragments-stored-at-once $R $'    uint slot = atomicAdd(sp_frags, 1u);\n    if (slot < uint(SP_FRAG_N)) {' \
     $'    uint slot = 0u;\n    if (false) {'
 V=$TS cut undo-fragment-buffer-4x $R '#define SP_FRAG_N (SPLAT_GROUP * 2)' '#define SP_FRAG_N (SPLAT_GROUP * 4)'
-V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k, v0, v1, v2)) continue;' \
+V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;' \
     $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
 V=$TS cut undo-nodes-rank-by-rank $T '#if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)' '#if 0'
 V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 4 ' 'TILE_LAYERS = 1 '
 V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, held, depth); ++held; continue; }' \
     '{ sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }'
 copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '    if (false) {'
-patch $T '    } else if (e < n_large) {              // beyond' \
-    '    } else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
+patch $T '    else if (e < n_large) {                // beyond' \
+    '    else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
+patch methods/structures/splat.py '            tiles["SP_ALL_BOXED"] = 1' '            pass'
 V=$TS run undo-tiles-set-up-per-tile
 fi
 if [ "$split" = passes ]; then
