@@ -58,16 +58,22 @@ ivec2 fr_step_range(ivec2 e, ivec2 span) {
     return ivec2(min(a, 0) + min(b, 0), max(a, 0) + max(b, 0));
 }
 
+// a FrTile's e for triangle t: its edges, or (wide) its vertices, for fr_covers_at
+void fr_tile_edges(FrTri t, bool wide, out ivec2 e0, out ivec2 e1, out ivec2 e2) {
+    if (wide) { e0 = t.f0; e1 = t.f1; e2 = t.f2; }
+    else { e0 = t.f1 - t.f0; e1 = t.f2 - t.f1; e2 = t.f0 - t.f2; }
+}
+
 FrTile fr_tile(FrTri t, ivec2 t0, ivec2 span, int lim) {
     FrTile r;
-    r.e0 = t.f1 - t.f0; r.e1 = t.f2 - t.f1; r.e2 = t.f0 - t.f2;
+    fr_tile_edges(t, false, r.e0, r.e1, r.e2);
     ivec2 m = max(max(abs(r.e0), abs(r.e1)), abs(r.e2));
     r.wide = max(m.x, m.y) > lim;
     r.full = false;
     r.none = false;
     if (r.wide) {
         r.c = ivec3(t.b0, t.b1, t.b2);
-        r.e0 = t.f0; r.e1 = t.f1; r.e2 = t.f2;
+        fr_tile_edges(t, true, r.e0, r.e1, r.e2);
         return r;
     }
     ivec2 p = t0 * SP_ONE + SP_HALF;

@@ -158,23 +158,29 @@ bool sp_box_meets(uvec2 b, ivec2 t0, ivec2 t1) {
 #define SP_WARP_BIN 1   // each subgroup bins for itself (the header)
 #define SP_CHUNK gl_SubGroupSizeARB
 #define SP_CHUNK_LANE gl_SubGroupInvocationARB
-SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up (j the same in every lane)
+// lane j's edge values at the tile, flags and attributes (j the same in every lane): what every read of a binned
+// set-up shuffles; its edges and planes are left to the caller
+SpBinned sp_bin_read_lane(SpBinned b, uint j) {
     SpBinned r;
     r.tri.c = readInvocationARB(b.tri.c, j);
+    uint f = readInvocationARB((b.tri.wide ? 1u : 0u) | (b.tri.full ? 2u : 0u), j);
+    r.tri.wide = (f & 1u) != 0u; r.tri.full = (f & 2u) != 0u; r.tri.none = false;
+#if defined(SP_ATTRIBUTES)
+    r.normal = readInvocationARB(b.normal, j);
+    r.material = readInvocationARB(b.material, j);
+#endif
+    return r;
+}
+SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up, all of it by shuffle
+    SpBinned r = sp_bin_read_lane(b, j);
     r.tri.e0 = readInvocationARB(b.tri.e0, j);
     r.tri.e1 = readInvocationARB(b.tri.e1, j);
     r.tri.e2 = readInvocationARB(b.tri.e2, j);
-    uint f = readInvocationARB((b.tri.wide ? 1u : 0u) | (b.tri.full ? 2u : 0u), j);
-    r.tri.wide = (f & 1u) != 0u; r.tri.full = (f & 2u) != 0u; r.tri.none = false;
     r.pl.w0 = readInvocationARB(b.pl.w0, j);
     r.pl.d0 = readInvocationARB(b.pl.d0, j);
     r.pl.z0 = readInvocationARB(b.pl.z0, j);
     r.pl.dd = readInvocationARB(b.pl.dd, j);
     r.pl.dz = readInvocationARB(b.pl.dz, j);
-#if defined(SP_ATTRIBUTES)
-    r.normal = readInvocationARB(b.normal, j);
-    r.material = readInvocationARB(b.material, j);
-#endif
     return r;
 }
 #if defined(SP_ALL_BOXED)
@@ -182,19 +188,10 @@ SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up (j the same in e
 // triangle: the edge values at the tile and the flags by shuffle, the edges and planes loaded from the boxes pass's
 // set-up (one address in every lane), so that a warp holds 4 words of each binned set-up across its loop, not 18
 SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
-    SpBinned r;
-    r.tri.c = readInvocationARB(b.tri.c, j);
-    uint f = readInvocationARB((b.tri.wide ? 1u : 0u) | (b.tri.full ? 2u : 0u), j);
-    r.tri.wide = (f & 1u) != 0u; r.tri.full = (f & 2u) != 0u; r.tri.none = false;
+    SpBinned r = sp_bin_read_lane(b, j);
     uint i = k * sp_box_cap + e;
-    FrTri t = sp_setup_tri(i);
-    if (r.tri.wide) { r.tri.e0 = t.f0; r.tri.e1 = t.f1; r.tri.e2 = t.f2; }   // fr_tile's wide form
-    else { r.tri.e0 = t.f1 - t.f0; r.tri.e1 = t.f2 - t.f1; r.tri.e2 = t.f0 - t.f2; }
+    fr_tile_edges(sp_setup_tri(i), r.tri.wide, r.tri.e0, r.tri.e1, r.tri.e2);
     r.pl = sp_setup_planes(i);
-#if defined(SP_ATTRIBUTES)
-    r.normal = readInvocationARB(b.normal, j);
-    r.material = readInvocationARB(b.material, j);
-#endif
     return r;
 }
 #else
