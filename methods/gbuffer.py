@@ -9,6 +9,8 @@ shadow maps, LDM/LDI builds) shares one vertex buffer and sees the same geometri
 """
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from ldbench.core.bindings import B
@@ -46,39 +48,37 @@ class SceneGeometry:
         # vertex shader once per *vertex* per layer instead of three times per triangle).
         self._indexed = None
         self._v, self._f = v, f
-        self._corners = None
-        self._longest = None
+        self._triangle_positions = None
 
+    # Host bounds for passes whose arithmetic or buffers depend on the geometry's size (the splat build): each
+    # computed at its first use and kept, the geometry does not change.
+    @cached_property
     def longest_edges(self) -> np.ndarray:
-        """Each triangle's longest edge (world units, float64; NaN where a vertex is not finite): host bounds for
-        passes whose arithmetic or buffers depend on the triangles' size (the splat build's tiles)."""
-        if self._longest is None:
-            p = self._v[self._f].astype(np.float64)
-            self._longest = np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).max(1) if len(p) else np.zeros(0)
-        return self._longest
+        """Each triangle's longest edge (world units, float64; NaN where a vertex is not finite)."""
+        p = self._v[self._f].astype(np.float64)
+        return np.linalg.norm(p - np.roll(p, 1, axis=1), axis=2).max(1) if len(p) else np.zeros(0)
 
-    @property
+    @cached_property
+    def longest_edge(self) -> float:
+        """The longest edge of any triangle (world units; NaN when a vertex is not finite)."""
+        return float(self.longest_edges.max()) if len(self.longest_edges) else 0.0
+
+    @cached_property
     def extent(self) -> np.ndarray:
         """The largest |coordinate| of any finite vertex, per axis (world units, float64): a bound on the float
         rounding of passes that project every vertex."""
-        v = np.abs(self._v.astype(np.float64))
-        return np.where(np.isfinite(v), v, 0.0).max(0) if len(v) else np.zeros(3)
-
-    @property
-    def longest_edge(self) -> float:
-        """The longest edge of any triangle (world units; NaN when a vertex is not finite)."""
-        e = self.longest_edges()
-        return float(e.max()) if len(e) else 0.0
+        a = np.abs(self._v.astype(np.float64))
+        return np.where(np.isfinite(a), a, 0.0).max(0) if len(a) else np.zeros(3)
 
     def triangle_positions(self):
         """Each triangle's three positions as ``vec4`` (w = 0; 48 bytes a triangle, the interleaved buffer's
         84 hold normals and materials too): for compute passes that load every triangle many times over (the
         splat build, once per batch of layers)."""
-        if self._corners is None:
+        if self._triangle_positions is None:
             p = np.zeros((self.triangles, 3, 4), np.float32)
             p[:, :, :3] = self._v[self._f]
-            self._corners = self._res.buffer("geometry.triangle_positions", p)
-        return self._corners
+            self._triangle_positions = self._res.buffer("geometry.triangle_positions", p)
+        return self._triangle_positions
 
     def vao_positions(self, program):
         """An indexed vertex array with ``in_position`` only (shared vertices, 12 bytes each)."""

@@ -486,9 +486,9 @@ def test_tiles_load_set_ups_only_where_the_boxes_pass_made_them_all(scene_geo):
     assert long_bound(np.array([np.nan, 1.0, 100.0, 15.99, 16.0]), 1.0, 16.0) == 3
     assert long_bound(np.array([15.9995, 1.0]), 1.0, 16.0) == 1 and long_bound(np.array([2.0]), 10.0, 16.0) == 1
     s = build(scene_geo, "linked", "all-boxed", source="splat", sorted_insert=False)
-    n = long_bound(scene_geo[1].longest_edges(), s.layer_scale, 16.0)
+    n = long_bound(scene_geo[1].longest_edges, s.layer_scale, 16.0)
     assert n == expected_large(16.0) == s.stats()["splat_large_triangles"] > 0 and n <= s.source.box_cap
-    assert long_bound(scene_geo[1].longest_edges(), s.layer_scale, 2.5) == expected_large(2.5) > 64
+    assert long_bound(scene_geo[1].longest_edges, s.layer_scale, 2.5) == expected_large(2.5) > 64
 
 
 def test_a_wrong_bound_on_the_long_triangles_is_reported(scene_geo, monkeypatch):

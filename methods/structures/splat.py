@@ -211,6 +211,7 @@ class Splat(FragmentSource):
                          if self.tile_sort else None)
         self._sorted_pass = False
         self._all_boxed = False   # the last tiles' pass took every long triangle from the boxes pass (SP_ALL_BOXED)
+        self._long_bound = (None, 0)   # (layer scale, long_bound at it): one count over the triangles per scale
         self.box_cap = (min(n, BOX_CAP, setups_fit(structure.layers, structure.ssbo_limit))
                         if self.large_mode == "tiles" and boxes_fit(structure.width, structure.height) else 0)
         self.boxes = self.setups = None
@@ -269,8 +270,9 @@ class Splat(FragmentSource):
         terms = window_terms(s.layer_clip, s.width, s.height, s.geo.extent)
         if tiles_narrow(s.geo.longest_edge, s.layer_scale, self.rule["subpixel_bits"], terms):
             tiles["FR_NARROW"] = 1
-        self._all_boxed = bool(self.box_cap) and long_bound(s.geo.longest_edges(), s.layer_scale,
-                                                             self.splat_max) <= self.box_cap
+        if self._long_bound[0] != s.layer_scale:
+            self._long_bound = (s.layer_scale, long_bound(s.geo.longest_edges, s.layer_scale, self.splat_max))
+        self._all_boxed = bool(self.box_cap) and self._long_bound[1] <= self.box_cap
         if self._all_boxed:
             tiles["SP_ALL_BOXED"] = 1
         if self.boxes is not None:
