@@ -18,8 +18,8 @@
 // pass after it sorts only the lists left here. An invocation keeps its texel's fragments in registers,
 // ascending, up to SP_SORT_R of them, and writes their nodes only at the end (with a payload, each node is
 // allocated and its payload written at once; without, the nodes are allocated at the end in depth order, so
-// that a tile's nodes of one rank lie together; a fragment beyond the registers is pushed onto the head at
-// once). At the end it adds the nodes the small triangles' splat linked at the head, while the registers hold
+// that a tile's nodes of one rank lie together; a fragment beyond the registers is pushed onto the head in memory
+// at once, and the head is loaded only at the end: no register holds it across the loop). At the end it adds the nodes the small triangles' splat linked at the head, while the registers hold
 // them, and links what it holds in depth order, a node's depth and link in one store: the whole list when it
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
 // sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
@@ -42,7 +42,7 @@ layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float
 layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
 // per layer k, sp_box_cap boxes: (lo.x | lo.y << 16, hi.x | hi.y << 16), texels; (~0, 0) when empty
 layout(std430, binding = B_SPLAT_BOXES) buffer SplatBoxes { uvec2 sp_box[]; };
-// and, per box not empty, the triangle set up: (f0, f1), (f2, biases), (w0, d0, z0), (dd, dz) of SpPlanes
+// and, per box not empty, the triangle set up: its edges (e0, e1), (e2, f0), then (w0, d0, z0), (dd, dz) of SpPlanes
 layout(std430, binding = B_SPLAT_SETUPS) buffer SplatSetups { uvec4 sp_setup[]; };
 uniform uint sp_box_cap;
 uniform uint sp_layers;      // layers of the structure
@@ -78,12 +78,10 @@ void sp_insert(inout float d[SP_SORT_R], inout uint m[SP_SORT_R], uint c, float 
         }
     }
 }
-// the same for a depth alone (without a payload every fragment the tiles' loop holds is SP_LATE: sn is left as is)
-void sp_insert_depth(inout float d[SP_SORT_R], uint c, float z) {
-    for (int j = 0; j < SP_SORT_R; ++j) {
-        if (uint(j) == c) { d[j] = z; break; }
-        if (d[j] > z) { float tz = d[j]; d[j] = z; z = tz; }
-    }
+// the same for a depth alone, in the tiles' loop (without a payload every fragment it holds is SP_LATE: sn is left
+// as is): with the registers past c at +infinity, a min and a max a step and no branch; the last max drops one
+void sp_insert_depth(inout float d[SP_SORT_R], float z) {
+    for (int j = 0; j < SP_SORT_R; ++j) { float lo = min(d[j], z); z = max(d[j], z); d[j] = lo; }
 }
 #endif
 
@@ -103,16 +101,16 @@ FrTri sp_tile_setup(uint k, uint v, out vec3 v0, out vec3 v1, out vec3 v2, out v
 
 // the set-up of the long triangle of box b (4 words of sp_setup): written by the boxes pass, read by the tiles
 void sp_setup_store(uint b, FrTri t, SpPlanes pl) {
-    sp_setup[4u * b] = uvec4(ivec4(t.f0, t.f1));
-    sp_setup[4u * b + 1u] = uvec4(ivec4(t.f2, t.b0 | t.b1 << 1 | t.b2 << 2, 0));
+    sp_setup[4u * b] = uvec4(ivec4(t.f1 - t.f0, t.f2 - t.f1));
+    sp_setup[4u * b + 1u] = uvec4(ivec4(t.f0 - t.f2, t.f0));
     sp_setup[4u * b + 2u] = floatBitsToUint(vec4(pl.w0, pl.d0, pl.z0));
     sp_setup[4u * b + 3u] = floatBitsToUint(vec4(pl.dd, pl.dz));
 }
 FrTri sp_setup_tri(uint b) {   // its vertices and biases, what fr_tile reads
     uvec4 s0 = sp_setup[4u * b], s1 = sp_setup[4u * b + 1u];
     FrTri t;
-    t.f0 = ivec2(s0.xy); t.f1 = ivec2(s0.zw); t.f2 = ivec2(s1.xy);
-    t.b0 = int(s1.z & 1u); t.b1 = int(s1.z >> 1 & 1u); t.b2 = int(s1.z >> 2);
+    t.f0 = ivec2(s1.zw); t.f1 = t.f0 + ivec2(s0.xy); t.f2 = t.f1 + ivec2(s0.zw);
+    t.b0 = sp_bias(ivec2(s0.xy)); t.b1 = sp_bias(ivec2(s0.zw)); t.b2 = sp_bias(ivec2(s1.xy));
     return t;
 }
 SpPlanes sp_setup_planes(uint b) {
@@ -190,7 +188,12 @@ SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up, all of it by sh
 SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
     SpBinned r = sp_bin_read_lane(b, j);
     uint i = k * sp_box_cap + e;
+#if defined(FR_NARROW)
+    uvec4 s0 = sp_setup[4u * i];   // the edges as stored: no vertex to rebuild
+    r.tri.e0 = ivec2(s0.xy); r.tri.e1 = ivec2(s0.zw); r.tri.e2 = ivec2(sp_setup[4u * i + 1u].xy);
+#else
     fr_tile_edges(sp_setup_tri(i), r.tri.wide, r.tri.e0, r.tri.e1, r.tri.e2);
+#endif
     r.pl = sp_setup_planes(i);
     return r;
 }
@@ -251,9 +254,9 @@ void sp_tile(uint k) {
     bool loaded = false;
 #endif
 #if defined(SP_SORTING)
-    float sd[SP_SORT_R];   // the texel's fragments held, ascending
+    float sd[SP_SORT_R];   // the texel's fragments held, ascending (+infinity past them)
     uint sn[SP_SORT_R];    // and their nodes (without a payload, SP_LATE until the chain's nodes join)
-    for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = 0.0; sn[j] = LS_PAYLOAD == 0 ? SP_LATE : LL_EOL; }
+    for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = uintBitsToFloat(0x7F800000u); sn[j] = LS_PAYLOAD == 0 ? SP_LATE : LL_EOL; }
     uint held = 0u;
 #endif
     uint n_large = sp_cmd[0] / 3u;
@@ -289,7 +292,7 @@ void sp_tile(uint k) {
             float depth = pl.d0 + dot(pl.dd, q);
 #if defined(SP_OWNED_HEAD)
 #if defined(SP_SORTING) && LS_PAYLOAD == 0
-            if (held < uint(SP_SORT_R)) { sp_insert_depth(sd, held, depth); ++held; continue; }
+            if (held < uint(SP_SORT_R)) { sp_insert_depth(sd, depth); ++held; continue; }
 #endif
             uint n = ll_alloc(ls_capacity);
             if (n == LL_EOL) continue;
@@ -301,9 +304,14 @@ void sp_tile(uint k) {
 #if defined(SP_SORTING) && LS_PAYLOAD > 0
             if (held < uint(SP_SORT_R)) { sp_insert(sd, sn, held, depth, n); ++held; continue; }
 #endif
+#if defined(SP_SORTING)
+            ll_set_node(n, depth, ll_head[list]);   // beyond the registers: pushed in memory (the list is this lane's)
+            ll_head[list] = n;
+#else
             if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }
             ll_set_node(n, depth, head);
             head = n;
+#endif
 #else
             ls_store(list, depth, b.normal, b.material);
 #endif
@@ -314,7 +322,7 @@ void sp_tile(uint k) {
     }
 #if defined(SP_SORTING)
     if (!inside) return;
-    if (!loaded) { head = ll_head[list]; head0 = head; }
+    head = ll_head[list]; head0 = head;
     // the chain at the head (the small triangles' nodes, and this pass's beyond the registers) while it fits
     bool own = held > 0u, in_order = true;
     float prev = -uintBitsToFloat(0x7F800000u);
