@@ -118,16 +118,27 @@ bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
 
 #if SPLAT_QUEUE
 // the fragments of a workgroup's queued pairs, stored together once they are all found (so that a warp's stores
-// are not spread over its lanes' unequal boxes): (list, depth bits, triangle); past SP_FRAG_N, stored at once
+// are not spread over its lanes' unequal boxes): (list, depth bits), and the triangle for a payload; past
+// SP_FRAG_N, stored at once
+#if LS_PAYLOAD > 0
+#define SP_FRAG uvec3
 #define SP_FRAG_N (SPLAT_GROUP * 2)
-shared uvec3 sp_frag[SP_FRAG_N];
+#else
+#define SP_FRAG uvec2
+#define SP_FRAG_N (SPLAT_GROUP * 3)
+#endif
+shared SP_FRAG sp_frag[SP_FRAG_N];
 shared uint sp_frags;
 #endif
 
 void sp_store(uint t, uint list, float depth, vec3 normal, uint material) {
 #if SPLAT_QUEUE
     uint slot = atomicAdd(sp_frags, 1u);
+#if LS_PAYLOAD > 0
     if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = uvec3(list, floatBitsToUint(depth), t); return; }
+#else
+    if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = uvec2(list, floatBitsToUint(depth)); return; }
+#endif
 #endif
     ls_store(list, depth, normal, material);
 }
@@ -204,8 +215,12 @@ void main() {
         barrier();
         uint nf = min(sp_frags, uint(SP_FRAG_N));
         for (uint e = lid; e < nf; e += uint(SPLAT_GROUP)) {   // their fragments, by consecutive invocations
-            uvec3 f = sp_frag[e];
+            SP_FRAG f = sp_frag[e];
+#if LS_PAYLOAD > 0
             ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));
+#else
+            ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);   // ignored without a payload
+#endif
         }
         barrier();
     }

@@ -74,6 +74,7 @@ Parameter                        Default   Paper    Meaning
 ``structure.splat_large``        tiles              splat: triangles longer than 16 texels by a compute pass over
                                                     tiles of the maps | raster (the hardware; the same fragments)
 ``structure.splat_batch``        16                 splat: maps per invocation of the small triangles' pass
+``structure.splat_group``        128                splat: invocations per workgroup of that pass
 ``structure.splat_queue``        True               splat: (triangle, map) pairs reaching a texel centre queued in
                                                     shared memory, rasterized by consecutive invocations (the same
                                                     fragments)
@@ -249,7 +250,7 @@ class LdmIndirect(ParamsBase):
 
 #: the structure fields ``ldm`` lets a suite choose (the LDMs are orthographic: every source applies)
 LDM_STRUCTURE = ("layout", "source", "assembly", "pool", "pool_capacity", "sorted_insert", "max_list",
-                 "instanced", "aggregate", "indexed", "splat_large", "splat_batch", "splat_queue",
+                 "instanced", "aggregate", "indexed", "splat_large", "splat_batch", "splat_group", "splat_queue",
                  "splat_sort")
 
 
@@ -262,7 +263,7 @@ class LdmParams(ParamsBase):
                                      choices={"source": ("raster", "one_pass", "splat")},
                                      paper={"layout": "linked", "source": "raster", "sorted_insert": True},
                                      source="splat", sorted_insert=False, pool="lazy", aggregate=True,
-                                     splat_queue=True, splat_batch=16, splat_sort=True)
+                                     splat_queue=True, splat_batch=16, splat_group=128, splat_sort=True)
     trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
     rays: LdmRays = group(LdmRays, "effect rays")
     indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")

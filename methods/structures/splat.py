@@ -38,7 +38,8 @@ from .sources import FragmentSource, Raster
 B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
 B_BOXES, B_SETUPS, B_POSITIONS = B.SPLAT_BOXES, B.SPLAT_SETUPS, B.SPLAT_POSITIONS
 TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
-TILE_LAYERS = 4            # layers a workgroup of that pass takes in turn
+TILE_LAYERS = 2            # layers a workgroup of that pass takes in turn
+GROUP_CHUNKS = 4           # with the queue: chunks of splat_group triangles a splat workgroup takes in turn
 WIN_ROWS = 256             # layers of a splat batch whose window rows the queue keeps in shared memory (8 KB)
 BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
 CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
@@ -253,7 +254,8 @@ class Splat(FragmentSource):
         s.geo.vbo.bind_to_storage_buffer(B_VERTICES)
         s.geo.triangle_positions().bind_to_storage_buffer(B_POSITIONS)
         self.large.bind_to_storage_buffer(B_LARGE)
-        groups = max(1, min(-(-s.geo.triangles // self.group), 65535))
+        chunks = GROUP_CHUNKS if s.spec.splat_queue else 1   # the queue's window rows: set up once per workgroup
+        groups = max(1, min(-(-s.geo.triangles // (self.group * chunks)), 65535))
         cs.run(groups, -(-s.layers // self.batch))
         ctx.memory_barrier()
         if self.large_mode == "tiles":

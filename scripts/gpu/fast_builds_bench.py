@@ -68,9 +68,10 @@ VARIANTS = {
                           ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
                           ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)),
                           ("-aggregate", dict(aggregate=True)))},
+    # the LDM adapter's default structure (splat_group 128 since the fourteenth run of docs/results/fast-defaults-h200.md)
     "splat/linked-yang-queue-batch16-aggregate-tilesort": dict(layout="linked", pool="lazy", source="splat",
                                                                sorted_insert=False, splat_queue=True, splat_batch=16,
-                                                               aggregate=True, splat_sort=True),
+                                                               splat_group=128, aggregate=True, splat_sort=True),
     "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                                 splat_batch=16, aggregate=True),
     "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
@@ -86,7 +87,7 @@ VARIANTS.update({f"splat/linked-yang-queue-batch16-aggregate-tilesort-{suffix}":
                  for suffix, kw in (("max4", dict(splat_max=4.0)), ("max8", dict(splat_max=8.0)),
                                     ("max12", dict(splat_max=12.0)), ("max32", dict(splat_max=32.0)),
                                     ("batch32", dict(splat_batch=32)), ("batch8", dict(splat_batch=8)),
-                                    ("group128", dict(splat_group=128)), ("group32", dict(splat_group=32)))})
+                                    ("group64", dict(splat_group=64)), ("group32", dict(splat_group=32)))})
 
 RASTER_BOUND = ("raster/linked/grow (today)", "raster/linked", "raster/linear", "raster/linear-sort", "one_pass/linear")
 
