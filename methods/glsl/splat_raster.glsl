@@ -125,7 +125,7 @@ bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
 #define SP_FRAG_N (SPLAT_GROUP * 2)
 #else
 #define SP_FRAG uvec2
-#define SP_FRAG_N (SPLAT_GROUP * 3)
+#define SP_FRAG_N (SPLAT_GROUP * 4)
 #endif
 shared SP_FRAG sp_frag[SP_FRAG_N];
 shared uint sp_frags;
@@ -180,7 +180,7 @@ bool sp_long(uint t, vec3 v0, vec3 v1, vec3 v2) {
 #if SPLAT_QUEUE
 // the pairs of this workgroup's triangles whose box may hold a texel centre: triangle (low 16 bits, within the
 // workgroup) and layer (high 16 bits, within the batch); a pair beyond SP_QUEUE_N is rasterized at once
-#define SP_QUEUE_N (SPLAT_GROUP * 8)
+#define SP_QUEUE_N (SPLAT_GROUP * 6)
 shared uint sp_queue[SP_QUEUE_N];
 shared uint sp_queued;
 
