@@ -124,15 +124,26 @@ if [ "$split" = undo ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
 copy; V=$TS run undo-as-is
-V=$TS cut undo-fragments-stored-at-once $R $'    uint slot = atomicAdd(sp_frags, 1u);\n    if (slot < uint(SP_FRAG_N)) {' \
-    $'    uint slot = 0u;\n    if (false) {'
-V=$TS cut undo-fragment-buffer-4x $R '#define SP_FRAG_N (SPLAT_GROUP * 2)' '#define SP_FRAG_N (SPLAT_GROUP * 4)'
+V=$TS cut undo-fragments-stored-at-once $R '    uint slot = atomicAdd(sp_frags, 1u);' '    uint slot = uint(SP_FRAG_N);'
+V=$TS cut undo-fragment-buffer-2x $R '#define SP_FRAG_N (SPLAT_GROUP * 4)' '#define SP_FRAG_N (SPLAT_GROUP * 2)'
+V=$TS cut undo-queue-8x $R '#define SP_QUEUE_N (SPLAT_GROUP * 6)' '#define SP_QUEUE_N (SPLAT_GROUP * 8)'
+V=$TS cut undo-fragments-with-triangle $R $'#define SP_FRAG uvec2\n' $'#define SP_FRAG uvec3\n'
+V=$TS cut undo-one-chunk-per-workgroup methods/structures/splat.py 'GROUP_CHUNKS = 4 ' 'GROUP_CHUNKS = 1 '
 V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;' \
     $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
 V=$TS cut undo-nodes-rank-by-rank $T '#if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)' '#if 0'
-V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 4 ' 'TILE_LAYERS = 1 '
-V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, held, depth); ++held; continue; }' \
+V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 2 ' 'TILE_LAYERS = 1 '
+V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, depth); ++held; continue; }' \
     '{ sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }'
+copy; patch $T $'void sp_insert_depth(inout float d[SP_SORT_R], float z) {\n    for (int j = 0; j < SP_SORT_R; ++j) { float lo = min(d[j], z); z = max(d[j], z); d[j] = lo; }' \
+    $'void sp_insert_depth(inout float d[SP_SORT_R], uint c, float z) {\n    for (int j = 0; j < SP_SORT_R; ++j) {\n        if (uint(j) == c) { d[j] = z; break; }\n        if (d[j] > z) { float tz = d[j]; d[j] = z; z = tz; }\n    }'
+patch $T '{ sp_insert_depth(sd, depth); ++held; continue; }' '{ sp_insert_depth(sd, held, depth); ++held; continue; }'
+V=$TS run undo-insert-with-branches
+copy; patch $T $'            ll_set_node(n, depth, ll_head[list]);   // beyond the registers: pushed in memory (the list is this lane\'s)\n            ll_head[list] = n;' \
+    $'            if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }\n            ll_set_node(n, depth, head);\n            head = n;'
+patch $T '    head = ll_head[list]; head0 = head;' '    if (!loaded) { head = ll_head[list]; head0 = head; }'
+V=$TS run undo-head-in-a-register
+V=$TS cut undo-edges-from-vertices $T $'#if defined(FR_NARROW)\n    uvec4 s0 = sp_setup[4u * i];' $'#if 0\n    uvec4 s0 = sp_setup[4u * i];'
 copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '    if (false) {'
 patch $T '    else if (e < n_large) {                // beyond' \
     '    else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
@@ -150,8 +161,8 @@ passes passes-small-nothing-projected
 copy; patch methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
     '    uint old = LL_EOL; ll_head[list] = n;'
 passes passes-small-plain-head-store
-copy; patch $R '            ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));' \
-    '            if (f.y == 0x7FC00001u) ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));'
+copy; patch $R '            ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);' \
+    '            if (f.y == 0x7FC00001u) ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);'
 passes passes-small-queued-not-stored
 copy; patch $T '    uint n_large = sp_cmd[0] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[0] / 3u;'
 passes passes-tiles-no-long-triangles
