@@ -17,12 +17,14 @@
 # in doubles, no tile found covered fully or not at all, no pass of the boxes, the normal and material binned
 # though no store reads them, 8 nodes held instead of 10, and the register insert from the back (since the
 # eleventh run only the insert of the small triangles' chain: the loop's is sp_insert_depth). The parts of
-# the eleventh run (split "undo"): the build alone as is and with one undone: the small triangles' fragments
-# stored at once (no buffer in shared memory), that buffer four times the workgroup (not two), the first phase
-# of their queue in fixed point (not the float test), the tiles' held nodes reserved rank by rank (not in one
-# atomic per warp), one layer per tiles' workgroup (not 4), the tiles' loop inserting nodes with the depths,
-# and every tile setting up its long triangles (not reading the boxes pass's set-ups). These copies build the
-# same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
+# the eleventh and fourteenth runs (split "undo"): the build alone as is and with one undone: the small triangles'
+# fragments stored at once (no buffer in shared memory), that buffer two per invocation (not four), the queue
+# eight pairs per invocation (not six), the fragments buffered with their triangle (not without a payload), one
+# chunk of triangles per workgroup (not four), the first phase of their queue in fixed point (not the float test),
+# the tiles' held nodes reserved rank by rank (not in one atomic per warp), one layer per tiles' workgroup (not
+# 2), the tiles' loop inserting nodes with the depths, or with branches (not a min and a max), the head held in a
+# register, the edges rebuilt from the vertices, and every tile setting up its long triangles (not reading the
+# boxes pass's set-ups). These copies build the same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
 # PASSES_ARGS: its arguments) as is, and with parts cut out, whose lists are wrong: the small triangles
 # projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain;
 # and the thirteenth run's: the head stored plainly, not exchanged; the queued fragments not stored; the long
