@@ -23,7 +23,8 @@
 # chunk of triangles per workgroup (not four), the first phase of their queue in fixed point (not the float test),
 # the tiles' held nodes reserved rank by rank (not in one atomic per warp), one layer per tiles' workgroup (not
 # 2), the tiles' loop inserting nodes with the depths, or with branches (not a min and a max), the head held in a
-# register, the edges rebuilt from the vertices, and every tile setting up its long triangles (not reading the
+# register, the edges rebuilt from the vertices (approximately: here the vertices are first rebuilt from the
+# stored edges), and every tile setting up its long triangles (not reading the
 # boxes pass's set-ups). These copies build the same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
 # PASSES_ARGS: its arguments) as is, and with parts cut out, whose lists are wrong: the small triangles
 # projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain;
@@ -129,7 +130,10 @@ copy; V=$TS run undo-as-is
 V=$TS cut undo-fragments-stored-at-once $R '    uint slot = atomicAdd(sp_frags, 1u);' '    uint slot = uint(SP_FRAG_N);'
 V=$TS cut undo-fragment-buffer-2x $R '#define SP_FRAG_N (SPLAT_GROUP * 4)' '#define SP_FRAG_N (SPLAT_GROUP * 2)'
 V=$TS cut undo-queue-8x $R '#define SP_QUEUE_N (SPLAT_GROUP * 6)' '#define SP_QUEUE_N (SPLAT_GROUP * 8)'
-V=$TS cut undo-fragments-with-triangle $R $'#define SP_FRAG uvec2\n' $'#define SP_FRAG uvec3\n'
+copy; patch $R $'#if LS_PAYLOAD > 0\n#define SP_FRAG uvec3' $'#if 1\n#define SP_FRAG uvec3'
+patch $R $'#if LS_PAYLOAD > 0\n    if (slot < uint(SP_FRAG_N))' $'#if 1\n    if (slot < uint(SP_FRAG_N))'
+patch $R $'#if LS_PAYLOAD > 0\n            ls_store(f.x' $'#if 1\n            ls_store(f.x'
+V=$TS run undo-fragments-with-triangle
 V=$TS cut undo-one-chunk-per-workgroup methods/structures/splat.py 'GROUP_CHUNKS = 4 ' 'GROUP_CHUNKS = 1 '
 V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;' \
     $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
