@@ -676,24 +676,6 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
             assert 10 * np.log10(1.0 / max(np.mean(d * d), 1e-30)) >= 45.0, name
 
 
-def test_the_build_benchs_figure8_variant_is_the_ldm_default():
-    """The GPU bench (``scripts/gpu/fast_builds_bench.py``) times the Figure 8 build under the name of the LDM adapter's
-    default structure: every field the adapter exposes must be the default's, or the docs' figures would time
-    another build than the one users get."""
-    import importlib.util
-    from pathlib import Path
-
-    from ldbench.methods.ldm import LDM_STRUCTURE, LdmParams
-
-    path = Path(__file__).resolve().parents[1] / "scripts" / "gpu" / "fast_builds_bench.py"
-    spec = importlib.util.spec_from_file_location("fast_builds_bench_under_test", path)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    timed = StructureSpec(**bench.VARIANTS["splat/linked-yang-queue-batch16-aggregate-tilesort"])
-    default = LdmParams().structure
-    assert {k: getattr(timed, k) for k in LDM_STRUCTURE} == {k: getattr(default, k) for k in LDM_STRUCTURE}
-
-
 def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
     """``ldm`` with ``structure.source = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
     triangle's dominant-axis samples at density 1/cos θ, ~2× the raster's fragments, at the raster's sample

@@ -32,10 +32,12 @@ from ldbench.core.gpu import Gpu
 from ldbench.core.scenes import load_scene
 from ldbench.methods.directions import ldm_axes
 from ldbench.methods.ldi import LdiParams
+from ldbench.methods.ldm import LdmParams
 from ldbench.methods.gbuffer import SceneGeometry
 from ldbench.methods.structures import StructureSpec, bounding_sphere, make_structure, ortho_layers
 
 LDI_STRUCTURE = {f.name: getattr(LdiParams().structure, f.name) for f in dataclasses.fields(StructureSpec)}
+LDM_STRUCTURE = {f.name: getattr(LdmParams().structure, f.name) for f in dataclasses.fields(StructureSpec)}
 #: name -> StructureSpec fields; "today" is the Figure 8 default (hardware raster, sorted CAS insert,
 #: pool grow with its read-back); every other variant uses the lazy pool (no read-back inside a build).
 VARIANTS = {
@@ -68,10 +70,8 @@ VARIANTS = {
                           ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
                           ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)),
                           ("-aggregate", dict(aggregate=True)))},
-    # the LDM adapter's default structure (splat_group 128 since the fourteenth run of docs/results/fast-defaults-h200.md)
-    "splat/linked-yang-queue-batch16-aggregate-tilesort": dict(layout="linked", pool="lazy", source="splat",
-                                                               sorted_insert=False, splat_queue=True, splat_batch=16,
-                                                               splat_group=128, aggregate=True, splat_sort=True),
+    # the LDM adapter's default structure (the Figure 8 build of docs/fast_builds.md)
+    "splat/linked-yang-queue-batch16-aggregate-tilesort": LDM_STRUCTURE,
     "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                                 splat_batch=16, aggregate=True),
     "splat/linear-sort-queue": dict(layout="linear", pool="lazy", source="splat", assembly="sort", splat_queue=True),
