@@ -123,9 +123,13 @@ bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
 #if LS_PAYLOAD > 0
 #define SP_FRAG uvec3
 #define SP_FRAG_N (SPLAT_GROUP * 2)
+#define SP_FRAG_OF(LIST, DEPTH, T) uvec3(LIST, floatBitsToUint(DEPTH), T)
+#define SP_FRAG_STORE(F) ls_store(F.x, uintBitsToFloat(F.y), sp_normal(F.z), sp_material(F.z))
 #else
 #define SP_FRAG uvec2
 #define SP_FRAG_N (SPLAT_GROUP * 4)
+#define SP_FRAG_OF(LIST, DEPTH, T) uvec2(LIST, floatBitsToUint(DEPTH))
+#define SP_FRAG_STORE(F) ls_store(F.x, uintBitsToFloat(F.y), vec3(0.0), 0u)   // ignored without a payload
 #endif
 shared SP_FRAG sp_frag[SP_FRAG_N];
 shared uint sp_frags;
@@ -134,11 +138,7 @@ shared uint sp_frags;
 void sp_store(uint t, uint list, float depth, vec3 normal, uint material) {
 #if SPLAT_QUEUE
     uint slot = atomicAdd(sp_frags, 1u);
-#if LS_PAYLOAD > 0
-    if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = uvec3(list, floatBitsToUint(depth), t); return; }
-#else
-    if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = uvec2(list, floatBitsToUint(depth)); return; }
-#endif
+    if (slot < uint(SP_FRAG_N)) { sp_frag[slot] = SP_FRAG_OF(list, depth, t); return; }
 #endif
     ls_store(list, depth, normal, material);
 }
@@ -216,11 +216,7 @@ void main() {
         uint nf = min(sp_frags, uint(SP_FRAG_N));
         for (uint e = lid; e < nf; e += uint(SPLAT_GROUP)) {   // their fragments, by consecutive invocations
             SP_FRAG f = sp_frag[e];
-#if LS_PAYLOAD > 0
-            ls_store(f.x, uintBitsToFloat(f.y), sp_normal(f.z), sp_material(f.z));
-#else
-            ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);   // ignored without a payload
-#endif
+            SP_FRAG_STORE(f);
         }
         barrier();
     }

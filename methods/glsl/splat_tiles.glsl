@@ -106,11 +106,16 @@ void sp_setup_store(uint b, FrTri t, SpPlanes pl) {
     sp_setup[4u * b + 2u] = floatBitsToUint(vec4(pl.w0, pl.d0, pl.z0));
     sp_setup[4u * b + 3u] = floatBitsToUint(vec4(pl.dd, pl.dz));
 }
+void sp_setup_edges(uint b, out ivec2 e0, out ivec2 e1, out ivec2 e2) {   // its edges, as stored
+    uvec4 s0 = sp_setup[4u * b];
+    e0 = ivec2(s0.xy); e1 = ivec2(s0.zw); e2 = ivec2(sp_setup[4u * b + 1u].xy);
+}
 FrTri sp_setup_tri(uint b) {   // its vertices and biases, what fr_tile reads
-    uvec4 s0 = sp_setup[4u * b], s1 = sp_setup[4u * b + 1u];
+    ivec2 e0, e1, e2;
+    sp_setup_edges(b, e0, e1, e2);
     FrTri t;
-    t.f0 = ivec2(s1.zw); t.f1 = t.f0 + ivec2(s0.xy); t.f2 = t.f1 + ivec2(s0.zw);
-    t.b0 = sp_bias(ivec2(s0.xy)); t.b1 = sp_bias(ivec2(s0.zw)); t.b2 = sp_bias(ivec2(s1.xy));
+    t.f0 = ivec2(sp_setup[4u * b + 1u].zw); t.f1 = t.f0 + e0; t.f2 = t.f1 + e1;
+    t.b0 = sp_bias(e0); t.b1 = sp_bias(e1); t.b2 = sp_bias(e2);
     return t;
 }
 SpPlanes sp_setup_planes(uint b) {
@@ -189,8 +194,7 @@ SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
     SpBinned r = sp_bin_read_lane(b, j);
     uint i = k * sp_box_cap + e;
 #if defined(FR_NARROW)
-    uvec4 s0 = sp_setup[4u * i];   // the edges as stored: no vertex to rebuild
-    r.tri.e0 = ivec2(s0.xy); r.tri.e1 = ivec2(s0.zw); r.tri.e2 = ivec2(sp_setup[4u * i + 1u].xy);
+    sp_setup_edges(i, r.tri.e0, r.tri.e1, r.tri.e2);   // no vertex to rebuild
 #else
     fr_tile_edges(sp_setup_tri(i), r.tri.wide, r.tri.e0, r.tri.e1, r.tri.e2);
 #endif

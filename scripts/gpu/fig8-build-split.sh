@@ -130,10 +130,7 @@ copy; V=$TS run undo-as-is
 V=$TS cut undo-fragments-stored-at-once $R '    uint slot = atomicAdd(sp_frags, 1u);' '    uint slot = uint(SP_FRAG_N);'
 V=$TS cut undo-fragment-buffer-2x $R '#define SP_FRAG_N (SPLAT_GROUP * 4)' '#define SP_FRAG_N (SPLAT_GROUP * 2)'
 V=$TS cut undo-queue-8x $R '#define SP_QUEUE_N (SPLAT_GROUP * 6)' '#define SP_QUEUE_N (SPLAT_GROUP * 8)'
-copy; patch $R $'#if LS_PAYLOAD > 0\n#define SP_FRAG uvec3' $'#if 1\n#define SP_FRAG uvec3'
-patch $R $'#if LS_PAYLOAD > 0\n    if (slot < uint(SP_FRAG_N))' $'#if 1\n    if (slot < uint(SP_FRAG_N))'
-patch $R $'#if LS_PAYLOAD > 0\n            ls_store(f.x' $'#if 1\n            ls_store(f.x'
-V=$TS run undo-fragments-with-triangle
+V=$TS cut undo-fragments-with-triangle $R $'#if LS_PAYLOAD > 0\n#define SP_FRAG uvec3' $'#if 1\n#define SP_FRAG uvec3'
 V=$TS cut undo-one-chunk-per-workgroup methods/structures/splat.py 'GROUP_CHUNKS = 4 ' 'GROUP_CHUNKS = 1 '
 V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;' \
     $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
@@ -149,7 +146,7 @@ copy; patch $T $'            ll_set_node(n, depth, ll_head[list]);   // beyond t
     $'            if (!loaded) { head = ll_head[list]; head0 = head; loaded = true; }\n            ll_set_node(n, depth, head);\n            head = n;'
 patch $T '    head = ll_head[list]; head0 = head;' '    if (!loaded) { head = ll_head[list]; head0 = head; }'
 V=$TS run undo-head-in-a-register
-V=$TS cut undo-edges-from-vertices $T $'#if defined(FR_NARROW)\n    uvec4 s0 = sp_setup[4u * i];' $'#if 0\n    uvec4 s0 = sp_setup[4u * i];'
+V=$TS cut undo-edges-from-vertices $T $'#if defined(FR_NARROW)\n    sp_setup_edges(i,' $'#if 0\n    sp_setup_edges(i,'
 copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '    if (false) {'
 patch $T '    else if (e < n_large) {                // beyond' \
     '    else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
@@ -167,8 +164,7 @@ passes passes-small-nothing-projected
 copy; patch methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
     '    uint old = LL_EOL; ll_head[list] = n;'
 passes passes-small-plain-head-store
-copy; patch $R '            ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);' \
-    '            if (f.y == 0x7FC00001u) ls_store(f.x, uintBitsToFloat(f.y), vec3(0.0), 0u);'
+copy; patch $R '            SP_FRAG_STORE(f);' '            if (f.y == 0x7FC00001u) SP_FRAG_STORE(f);'
 passes passes-small-queued-not-stored
 copy; patch $T '    uint n_large = sp_cmd[0] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[0] / 3u;'
 passes passes-tiles-no-long-triangles
