@@ -1,9 +1,10 @@
 // Sort every list in place by ascending depth (the sort step of the unsorted yang2010 variant), or with
 // LL_SORT_LISTED only the lists the build left unsorted.
-// Lists of up to LL_MAX_LIST nodes: gathered into a local array, insertion sort, the depths that moved (and
-// payload words) written back along the same chain. Longer lists: counted in ll_counters[LL_C_SORT_LONG]
-// and sorted in place in global memory (selection sort over the chain: O(L^2) but exact), so nothing is
-// truncated. Every walk is bounded by the pool capacity.
+// Lists of up to LL_MAX_LIST nodes: their depths insertion-sorted into a local array as the walk reads them, the depths
+// that changed written back along a second walk of the same chain (no array of node indices: the smaller local array is
+// faster, docs/fast_builds.md); with a payload the node indices are kept too and node contents swapped by a selection
+// sort. Longer lists: counted in ll_counters[LL_C_SORT_LONG] and sorted in place in global memory (selection sort
+// over the chain: O(L^2) but exact), so nothing is truncated. Every walk is bounded by the pool capacity.
 #define LL_WRITABLE 1
 #include "linked_list.glsl"
 #ifndef LL_MAX_LIST
@@ -27,25 +28,34 @@ void ll_swap_nodes(uint a, uint b) {  // exchange the contents (depth and payloa
 
 void ll_sort_list(uint list, uint cap) {
     float d[LL_MAX_LIST];
+#if LS_PAYLOAD > 0
     uint idx[LL_MAX_LIST];
+#endif
     uint count = 0u;
     uint i = ll_head[list];
     while (i != LL_EOL && count < uint(LL_MAX_LIST)) {
-        d[count] = ll_depth(i);
-        idx[count++] = i;
-        i = ll_next(i);
+        LLNode nd = ll_node(i);
+#if LS_PAYLOAD > 0
+        idx[count] = i;
+#endif
+        i = nd.next;
+#if LS_PAYLOAD == 0
+        uint b = count;                          // inserted as read: the next node's load overlaps the insert
+        while (b > 0u && d[b - 1u] > nd.depth) { d[b] = d[b - 1u]; --b; }
+        d[b] = nd.depth;
+#else
+        d[count] = nd.depth;
+#endif
+        ++count;
     }
     if (i == LL_EOL) {
 #if LS_PAYLOAD == 0
-        uint moved = count;                     // the first position whose depth changes
-        for (uint a = 1u; a < count; ++a) {     // insertion sort of the depths
-            float z = d[a];
-            uint b = a;
-            while (b > 0u && d[b - 1u] > z) { d[b] = d[b - 1u]; --b; }
-            d[b] = z;
-            if (b < a) moved = min(moved, b);
+        uint j = ll_head[list];                  // the chain again: its a-th node takes the a-th depth
+        for (uint a = 0u; a < count; ++a) {
+            LLNode nd = ll_node(j);
+            if (nd.depth != d[a]) ll_set_depth(j, d[a]);
+            j = nd.next;
         }
-        for (uint a = moved; a < count; ++a) ll_set_depth(idx[a], d[a]);
 #else
         for (uint a = 0u; a + 1u < count; ++a) { // selection sort of the node contents (payload moves too)
             uint m = a;

@@ -20,7 +20,8 @@
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
 // layer), exceeds splat_max texels is left to a second pass (splat_tiles.glsl, or the hardware): the
 // invocation of its first layer batch appends its vertex indices to sp_large, the index list of both
-// (sp_cmd is the hardware's indirect draw command; sp_cmd[0] counts the indices). splat_max <= 64 keeps
+// (sp_cmd holds the hardware's two indirect draw commands, one per pass parity: sp_cmd[5 sp_parity] counts this
+// pass's indices; the first invocation zeroes the other's for the next pass). splat_max <= 64 keeps
 // every edge function within int32 (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
 // Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
@@ -34,7 +35,11 @@ layout(local_size_x = SPLAT_GROUP) in;
 // alone, what every layer batch loads again: geometry.triangle_positions, per triangle three vec4
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
 layout(std430, binding = B_SPLAT_POSITIONS) readonly buffer SplatPositions { vec4 sp_pos[]; };
-layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
+layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[16]; uint sp_large[]; };
+#if defined(SP_ZERO_SORT)
+// the lists the tiles leave to the sort pass (splat_tiles.glsl): emptied here, before the tiles' pass
+layout(std430, binding = B_SPLAT_SORT) writeonly buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
+#endif
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
 uniform uint n_triangles;
@@ -42,6 +47,7 @@ uniform uint n_layers;
 uniform float splat_scale;   // texels per world unit, the largest of any layer
 uniform float splat_max;     // longest edge (texels) rasterized here
 uniform vec3 sp_extent;      // the largest |coordinate| of the scene's vertices per axis (the queue's margin)
+uniform uint sp_parity;      // the pass's draw command (0 or 1)
 #include "layered_store.glsl"
 #include "gbuffer_fill_rule.glsl"
 #include "splat_planes.glsl"
@@ -79,40 +85,49 @@ vec4 sp_win_row(uint k, int a) {
 }
 // the margin of a row's test: two sub-pixel steps (the snap moves a vertex by half of one) and a bound on the float
 // rounding between this row's form and sp_window's, which grows with the terms' size (vertices far from the
-// origin): 2^-19 of their largest sum, against some 10 roundings of 2^-24 each
+// origin): 2^-19 of their largest sum, against a dozen roundings of 2^-24 each (sp_win_fold's offsets included)
 float sp_win_margin(vec4 row) {
     return 2.0 / float(SP_ONE) + (dot(abs(row.xyz), sp_extent) + abs(row.w)) * (1.0 / 524288.0);
 }
-// the rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory) and their
-// margins, set up once per workgroup for sp_reaches
+// a row with its margin folded in for sp_reaches: (row.xyz, the high side's offset row.w + margin - 1/2), and in lo
+// the low side's offset row.w - margin - 1/2 (texel centres at integers + 1/2)
+vec4 sp_win_fold(vec4 row, out float lo) {
+    float m = sp_win_margin(row);
+    lo = row.w - (m + 0.5);
+    return vec4(row.xyz, row.w + (m - 0.5));
+}
+// the folded rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory) and their
+// low offsets (x, y), set up once per workgroup for sp_reaches
 shared vec4 sp_win[2 * SPLAT_WIN_N];
-shared float sp_win_m[2 * SPLAT_WIN_N];
+shared vec2 sp_win_lo[SPLAT_WIN_N];
 void sp_win_load(uint k0) {
     for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_WIN_N); i += uint(SPLAT_GROUP)) {
-        sp_win[i] = sp_win_row(k0 + (i >> 1), int(i & 1u));
-        sp_win_m[i] = sp_win_margin(sp_win[i]);
+        float lo;
+        sp_win[i] = sp_win_fold(sp_win_row(k0 + (i >> 1), int(i & 1u)), lo);
+        sp_win_lo[i >> 1][i & 1u] = lo;
     }
     barrier();
 }
 
 // whether the pair (triangle, layer k0 + kk) may reach a texel centre: its window box, widened by the row's
-// margin, holds one. SPLAT_QUEUE's first phase: no fixed point and no clamp to the layer for the pairs it
-// rejects (most); sp_project decides the others exactly.
+// margin, holds one (an integer n + 1/2 with lo - m <= n + 1/2 <= hi + m: floor(hi + m - 1/2) >= lo - m - 1/2, the
+// offsets folded into the rows). SPLAT_QUEUE's first phase: no fixed point and no clamp to the layer for the pairs
+// it rejects (most); sp_project decides the others exactly.
 bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
     vec4 rx, ry;
-    vec2 m;
+    vec2 lo_off;
 #if SPLAT_WIN_N < SPLAT_BATCH
     if (kk >= uint(SPLAT_WIN_N)) {   // every invocation
-        rx = sp_win_row(k0 + kk, 0); ry = sp_win_row(k0 + kk, 1);
-        m = vec2(sp_win_margin(rx), sp_win_margin(ry));
+        rx = sp_win_fold(sp_win_row(k0 + kk, 0), lo_off.x);
+        ry = sp_win_fold(sp_win_row(k0 + kk, 1), lo_off.y);
     } else
 #endif
-    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; m = vec2(sp_win_m[2u * kk], sp_win_m[2u * kk + 1u]); }
-    vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2)) + rx.w;
-    vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2)) + ry.w;
-    vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z)));
-    vec2 hi = vec2(max(x.x, max(x.y, x.z)), max(y.x, max(y.y, y.z)));
-    return all(greaterThanEqual(floor(hi + (m - 0.5)), ceil(lo - (m + 0.5))));
+    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; lo_off = sp_win_lo[kk]; }
+    vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2));
+    vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2));
+    vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z))) + lo_off;
+    vec2 hi = vec2(max(x.x, max(x.y, x.z)), max(y.x, max(y.y, y.z))) + vec2(rx.w, ry.w);
+    return all(greaterThanEqual(floor(hi), lo));
 }
 #endif
 
@@ -169,12 +184,22 @@ bool sp_long(uint t, vec3 v0, vec3 v1, vec3 v2) {
     float e = max(max(distance(v0, v1), distance(v1, v2)), distance(v2, v0));
     if (e * splat_scale <= splat_max) return false;
     if (gl_WorkGroupID.y == 0u) {
-        uint i = atomicAdd(sp_cmd[0], 3u);
+        uint i = atomicAdd(sp_cmd[5u * sp_parity], 3u);
         sp_large[i] = 3u * t;
         sp_large[i + 1u] = 3u * t + 1u;
         sp_large[i + 2u] = 3u * t + 2u;
     }
     return true;
+}
+
+// the counts the next pass starts from, zeroed by the first invocation: the other parity's long triangles and, with
+// SP_ZERO_SORT, the tiles' list of lists to sort (their readers of the last pass have completed)
+void sp_begin() {
+    if (gl_GlobalInvocationID.x != 0u || gl_GlobalInvocationID.y != 0u) return;
+    sp_cmd[5u * (1u - sp_parity)] = 0u;
+#if defined(SP_ZERO_SORT)
+    sp_sort_n = 0u;
+#endif
 }
 
 #if SPLAT_QUEUE
@@ -185,6 +210,7 @@ shared uint sp_queue[SP_QUEUE_N];
 shared uint sp_queued;
 
 void main() {
+    sp_begin();
     uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
     uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
     uint lid = gl_LocalInvocationID.x;
@@ -223,6 +249,7 @@ void main() {
 }
 #else
 void main() {
+    sp_begin();
     uint k0 = gl_WorkGroupID.y * uint(SPLAT_BATCH);
     uint k1 = min(k0 + uint(SPLAT_BATCH), n_layers);
     uint stride = gl_NumWorkGroups.x * uint(SPLAT_GROUP);

@@ -6,8 +6,8 @@
 // subgroup bins them for itself, a subgroup's width at a time, by ballot, and its lanes read each binned set-up
 // from the lane that made it (no shared memory, no barrier: a tile's warps do not wait on each other; with
 // SP_ALL_BOXED, when the boxes pass set up every long triangle, only the edge values at the tile and the flags by
-// shuffle, the rest loaded from the set-up); without, the workgroup bins SP_TILE_N at a time in shared memory. Every invocation tests its
-// texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
+// shuffle, the rest loaded from the set-up, the planes only once a texel is covered); without, the workgroup bins
+// SP_TILE_N at a time in shared memory. Every invocation tests its texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
 // (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
 // near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
 // "raster" mode.
@@ -39,7 +39,8 @@
 
 layout(local_size_x = SP_TILE_N) in;
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
-layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[8]; uint sp_large[]; };
+layout(std430, binding = B_SPLAT_LARGE) readonly buffer SplatLarge { uint sp_cmd[16]; uint sp_large[]; };
+uniform uint sp_parity;      // the pass's draw command: sp_cmd[5 sp_parity] counts the long triangles' indices
 // per layer k, sp_box_cap boxes: (lo.x | lo.y << 16, hi.x | hi.y << 16), texels; (~0, 0) when empty
 layout(std430, binding = B_SPLAT_BOXES) buffer SplatBoxes { uvec2 sp_box[]; };
 // and, per box not empty, the triangle set up: its edges (e0, e1), (e2, f0), then (w0, d0, z0), (dd, dz) of SpPlanes
@@ -125,7 +126,7 @@ SpPlanes sp_setup_planes(uint b) {
 
 #if defined(SP_BOXES_PASS)
 void main() {
-    uint k = gl_WorkGroupID.x, n = min(sp_cmd[0] / 3u, sp_box_cap);
+    uint k = gl_WorkGroupID.x, n = min(sp_cmd[5u * sp_parity] / 3u, sp_box_cap);
     for (uint i = gl_LocalInvocationIndex; i < n; i += uint(SP_TILE_N)) {
         vec3 v0, v1, v2, z;
         vec2 w0, w1, w2;
@@ -188,8 +189,9 @@ SpBinned sp_bin_read(SpBinned b, uint j) {   // lane j's set-up, all of it by sh
 }
 #if defined(SP_ALL_BOXED)
 // lane j's set-up of the long triangle e (both the same in every lane) when the boxes pass set up every long
-// triangle: the edge values at the tile and the flags by shuffle, the edges and planes loaded from the boxes pass's
-// set-up (one address in every lane), so that a warp holds 4 words of each binned set-up across its loop, not 18
+// triangle: the edge values at the tile and the flags by shuffle, the edges loaded from the boxes pass's set-up (one
+// address in every lane), so that a warp holds 4 words of each binned set-up across its loop, not 18; its planes are
+// loaded by sp_bin_planes only where a texel is covered
 SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
     SpBinned r = sp_bin_read_lane(b, j);
     uint i = k * sp_box_cap + e;
@@ -198,13 +200,17 @@ SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) {
 #else
     fr_tile_edges(sp_setup_tri(i), r.tri.wide, r.tri.e0, r.tri.e1, r.tri.e2);
 #endif
-    r.pl = sp_setup_planes(i);
     return r;
 }
+SpPlanes sp_bin_planes(SpBinned b, uint k, uint e) { return sp_setup_planes(k * sp_box_cap + e); }
 #else
 SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) { return sp_bin_read(b, j); }
 #endif
-#else
+#endif
+#if !defined(SP_WARP_BIN) || !defined(SP_ALL_BOXED)
+SpPlanes sp_bin_planes(SpBinned b, uint k, uint e) { return b.pl; }   // binned with the set-up
+#endif
+#if !defined(SP_WARP_BIN)
 #define SP_CHUNK uint(SP_TILE_N)
 #define SP_CHUNK_LANE gl_LocalInvocationIndex
 shared SpBinned sp_bin[SP_TILE_N];
@@ -263,7 +269,7 @@ void sp_tile(uint k) {
     for (int j = 0; j < SP_SORT_R; ++j) { sd[j] = uintBitsToFloat(0x7F800000u); sn[j] = LS_PAYLOAD == 0 ? SP_LATE : LL_EOL; }
     uint held = 0u;
 #endif
-    uint n_large = sp_cmd[0] / 3u;
+    uint n_large = sp_cmd[5u * sp_parity] / 3u;
     for (uint c = 0u; c < n_large; c += SP_CHUNK) {
 #if !defined(SP_WARP_BIN)
         if (lid == 0u) sp_bin_n = 0u;
@@ -285,12 +291,14 @@ void sp_tile(uint k) {
             uvec2 bw = unpackUint2x32(bins);
             uint j = bw.x != 0u ? uint(findLSB(bw.x)) : 32u + uint(findLSB(bw.y));
             bins &= bins - 1ul;
-            SpBinned b = sp_bin_get(bt, j, k, c + j);
+            uint eb = c + j;
+            SpBinned b = sp_bin_get(bt, j, k, eb);
 #else
+            uint eb = 0u;   // unused: the planes were binned with the set-up
             SpBinned b = sp_bin[i];
 #endif
             if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;
-            SpPlanes pl = b.pl;
+            SpPlanes pl = sp_bin_planes(b, k, eb);
             vec2 q = vec2(px) + 0.5 - pl.w0;
             if (abs(pl.z0 + dot(pl.dz, q)) > 1.0) continue;
             float depth = pl.d0 + dot(pl.dd, q);

@@ -42,7 +42,7 @@ TILE_LAYERS = 2            # layers a workgroup of that pass takes in turn
 GROUP_CHUNKS = 4           # with the queue: chunks of splat_group triangles a splat workgroup takes in turn
 WIN_ROWS = 256             # layers of a splat batch whose window rows the queue keeps in shared memory (8 KB)
 BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
-CMD_WORDS = 8              # DrawElementsIndirectCommand (5 words) padded; the indices follow it
+CMD_WORDS = 16             # two DrawElementsIndirectCommands (5 words each, one per pass parity) padded; the indices follow
 _RULES: dict = {}          # id(ctx) -> fill rule
 
 
@@ -201,8 +201,11 @@ class Splat(FragmentSource):
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
         cmd = np.zeros(CMD_WORDS, np.uint32)
-        cmd[1], cmd[2] = structure.layers, CMD_WORDS  # instances = layers; the indices follow the command
+        cmd[[1, 6]], cmd[[2, 7]] = structure.layers, CMD_WORDS  # instances = layers; the indices follow the commands
         self.large.write(cmd.tobytes())
+        # passes alternate between the two commands: each splat counts its long triangles in its own and zeroes the
+        # other for the next pass (whose readers, the tiles or the draw, have completed), so no pass clears a count
+        self.parity = 1
         self._vaos: dict = {}
         spec = structure.spec
         self.tile_sort = (spec.splat_sort and self.large_mode == "tiles" and structure.layout == "linked"
@@ -241,11 +244,15 @@ class Splat(FragmentSource):
         ctx = gpu.ctx
         if not s.layers_affine:
             raise LdbenchError("build 'splat' needs affine layer transforms (orthographic maps)")
-        fill_uint(gpu, self.large, 1, 0)  # the index count of the draw command
+        self.parity ^= 1
         # the tiles sort the lists of the linked insert's pass (not of a counting pass)
         self._sorted_pass = self.tile_sort and "LS_PASS_COUNT" not in extra and "LL_SORTED" not in extra
-        cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", self.defines(extra))
+        zero_sort = {"SP_ZERO_SORT": 1} if self._sorted_pass else {}   # the splat empties the tiles' list of lists
+        cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", {**self.defines(extra), **zero_sort})
         self.uniforms(cs, capacity)
+        cs["sp_parity"].value = self.parity
+        if zero_sort:
+            self.sort_buf.bind_to_storage_buffer(B_SORT)
         for name, v in (("n_triangles", s.geo.triangles), ("n_layers", s.layers),
                         ("splat_scale", s.layer_scale), ("splat_max", self.splat_max),
                         ("sp_extent", tuple(float(x) for x in s.geo.extent))):
@@ -283,15 +290,16 @@ class Splat(FragmentSource):
             cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, "SP_BOXES_PASS": 1})
             self.uniforms(cs, capacity)
             cs["sp_box_cap"].value = self.box_cap
+            cs["sp_parity"].value = self.parity
             cs.run(s.layers)
             s.gpu.ctx.memory_barrier()
         sort = {"SP_TILE_SORT": 1} if self._sorted_pass else {}
         cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, **sort})
-        if sort:  # before the structure's bindings: the fill binds its buffer where the counters go
-            fill_uint(s.gpu, self.sort_buf, 1, 0)
+        if sort:
             self.bind_sort(cs)
         self.uniforms(cs, capacity)
         cs["sp_box_cap"].value = self.box_cap
+        cs["sp_parity"].value = self.parity
         cs["sp_layers"].value = s.layers
         cs.run(-(-s.width // TILE_X), -(-s.height // TILE_Y), -(-s.layers // TILE_LAYERS))
         s.gpu.ctx.memory_barrier()
@@ -306,7 +314,7 @@ class Splat(FragmentSource):
         s.fbo.use()
         s.fbo.viewport = (0, 0, s.width, s.height)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        self._large_vao(prog).render_indirect(self.large, ctx.TRIANGLES, 1, 0)
+        self._large_vao(prog).render_indirect(self.large, ctx.TRIANGLES, 1, self.parity)   # the pass's command
         ctx.memory_barrier()
 
     def bind_sort(self, prog):
@@ -335,7 +343,7 @@ class Splat(FragmentSource):
 
     def large_triangles(self) -> int:
         """Long triangles the last pass left to the tiles or the hardware (a read-back)."""
-        return int(np.frombuffer(self.s.gpu.read(self.large, 4), np.uint32)[0]) // 3
+        return int(np.frombuffer(self.s.gpu.read(self.large, 40), np.uint32)[5 * self.parity]) // 3
 
     def release(self):
         for v in self._vaos.values():

@@ -25,7 +25,8 @@
 # 2), the tiles' loop inserting nodes with the depths, or with branches (not a min and a max), the head held in a
 # register, the edges rebuilt from the vertices (approximately: here the vertices are first rebuilt from the
 # stored edges), and every tile setting up its long triangles (not reading the
-# boxes pass's set-ups). These copies build the same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
+# boxes pass's set-ups), and (fifteenth run) the planes of a binned long triangle loaded before its coverage test. These
+# copies build the same lists; only the times differ. Split "passes" (the twelfth run): each dispatch's time (build_passes.py;
 # PASSES_ARGS: its arguments) as is, and with parts cut out, whose lists are wrong: the small triangles
 # projected but none queued, nothing projected, the tiles without long triangles, the tiles reading no chain;
 # and the thirteenth run's: the head stored plainly, not exchanged; the queued fragments not stored; the long
@@ -152,6 +153,8 @@ patch $T '    else if (e < n_large) {                // beyond' \
     '    else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
 patch methods/structures/splat.py '            tiles["SP_ALL_BOXED"] = 1' '            pass'
 V=$TS run undo-tiles-set-up-per-tile
+V=$TS cut undo-planes-before-coverage $T $'            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;\n            SpPlanes pl = sp_bin_planes(b, k, eb);' \
+    $'            SpPlanes pl = sp_bin_planes(b, k, eb);\n            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;'
 fi
 if [ "$split" = passes ]; then
 R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
@@ -166,7 +169,7 @@ copy; patch methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head
 passes passes-small-plain-head-store
 copy; patch $R '            SP_FRAG_STORE(f);' '            if (f.y == 0x7FC00001u) SP_FRAG_STORE(f);'
 passes passes-small-queued-not-stored
-copy; patch $T '    uint n_large = sp_cmd[0] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[0] / 3u;'
+copy; patch $T '    uint n_large = sp_cmd[5u * sp_parity] / 3u;' '    uint n_large = sp_layers > 0u ? 0u : sp_cmd[5u * sp_parity] / 3u;'
 passes passes-tiles-no-long-triangles
 copy; patch $T '        if (i == LL_EOL || held >= uint(SP_SORT_R)) break;' \
     '        if (i == LL_EOL || held >= uint(SP_SORT_R) || sp_layers > 0u) break;'
