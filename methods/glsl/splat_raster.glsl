@@ -97,14 +97,14 @@ vec4 sp_win_fold(vec4 row, out float lo) {
     return vec4(row.xyz, row.w + (m - 0.5));
 }
 // the folded rows of the batch's first SPLAT_WIN_N layers (all but in batches too large for shared memory) and their
-// low offsets (x, y), set up once per workgroup for sp_reaches
+// low offsets, set up once per workgroup for sp_reaches
 shared vec4 sp_win[2 * SPLAT_WIN_N];
-shared vec2 sp_win_lo[SPLAT_WIN_N];
+shared float sp_win_lo[2 * SPLAT_WIN_N];
 void sp_win_load(uint k0) {
     for (uint i = gl_LocalInvocationID.x; i < uint(2 * SPLAT_WIN_N); i += uint(SPLAT_GROUP)) {
         float lo;
         sp_win[i] = sp_win_fold(sp_win_row(k0 + (i >> 1), int(i & 1u)), lo);
-        sp_win_lo[i >> 1][i & 1u] = lo;
+        sp_win_lo[i] = lo;
     }
     barrier();
 }
@@ -122,7 +122,7 @@ bool sp_reaches(uint k0, uint kk, vec3 v0, vec3 v1, vec3 v2) {
         ry = sp_win_fold(sp_win_row(k0 + kk, 1), lo_off.y);
     } else
 #endif
-    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; lo_off = sp_win_lo[kk]; }
+    { rx = sp_win[2u * kk]; ry = sp_win[2u * kk + 1u]; lo_off = vec2(sp_win_lo[2u * kk], sp_win_lo[2u * kk + 1u]); }
     vec3 x = vec3(dot(rx.xyz, v0), dot(rx.xyz, v1), dot(rx.xyz, v2));
     vec3 y = vec3(dot(ry.xyz, v0), dot(ry.xyz, v1), dot(ry.xyz, v2));
     vec2 lo = vec2(min(x.x, min(x.y, x.z)), min(y.x, min(y.y, y.z))) + lo_off;

@@ -7,10 +7,10 @@
 // from the lane that made it (no shared memory, no barrier: a tile's warps do not wait on each other; with
 // SP_ALL_BOXED, when the boxes pass set up every long triangle, only the edge values at the tile and the flags by
 // shuffle, the rest loaded from the set-up, the planes only once a texel is covered); without, the workgroup bins
-// SP_TILE_N at a time in shared memory. Every invocation tests its texel centre against the binned ones by integer steps from there. Coverage is the hardware's at any size
-// (fill_rule.glsl fr_tile: exact int32 steps, edges longer than a thousand texels in doubles), depth and the
-// near/far test are splat_raster.glsl's (splat_planes.glsl): the same fragments as the hardware draw of the
-// "raster" mode.
+// SP_TILE_N at a time in shared memory. Every invocation tests its texel centre against the binned ones by integer
+// steps from there. Coverage is the hardware's at any size (fill_rule.glsl fr_tile: exact int32 steps, edges
+// longer than a thousand texels in doubles), depth and the near/far test are splat_raster.glsl's
+// (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.

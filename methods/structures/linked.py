@@ -34,7 +34,8 @@ Insert algorithm (``sorted_insert``):
   CAS that publishes it.
 - ``False``: yang2010's insert (``atomicExchange`` on the head, lists in arrival order), followed by a
   **sort pass**: one compute thread per list insertion-sorts up to ``max_list`` depths into a local array
-  as it walks the list and writes them back along a second walk of the same chain. Lists longer than ``max_list`` are
+  as it walks the list and writes them back along a second walk of the same chain (with a payload: the
+  node indices kept, node contents swapped by a selection sort). Lists longer than ``max_list`` are
   counted (``sort_overflow_lists``) and sorted in place in global memory (selection sort over the
   chain), so results stay exact. We sort once per list after the build rather than on every read,
   because an LDM list is read by many shading pixels (the aalund2015 trace reads one list per pixel

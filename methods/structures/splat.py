@@ -244,13 +244,13 @@ class Splat(FragmentSource):
         ctx = gpu.ctx
         if not s.layers_affine:
             raise LdbenchError("build 'splat' needs affine layer transforms (orthographic maps)")
-        self.parity ^= 1
+        parity = self.parity ^ 1   # kept once the splat is dispatched: a pass that fails before leaves the counts as they were
         # the tiles sort the lists of the linked insert's pass (not of a counting pass)
         self._sorted_pass = self.tile_sort and "LS_PASS_COUNT" not in extra and "LL_SORTED" not in extra
         zero_sort = {"SP_ZERO_SORT": 1} if self._sorted_pass else {}   # the splat empties the tiles' list of lists
         cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", {**self.defines(extra), **zero_sort})
         self.uniforms(cs, capacity)
-        cs["sp_parity"].value = self.parity
+        cs["sp_parity"].value = parity
         if zero_sort:
             self.sort_buf.bind_to_storage_buffer(B_SORT)
         for name, v in (("n_triangles", s.geo.triangles), ("n_layers", s.layers),
@@ -264,6 +264,7 @@ class Splat(FragmentSource):
         chunks = GROUP_CHUNKS if s.spec.splat_queue else 1   # the queue's window rows: set up once per workgroup
         groups = max(1, min(-(-s.geo.triangles // (self.group * chunks)), 65535))
         cs.run(groups, -(-s.layers // self.batch))
+        self.parity = parity
         ctx.memory_barrier()
         if self.large_mode == "tiles":
             self._tiles(extra, capacity)
