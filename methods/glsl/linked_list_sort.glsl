@@ -35,17 +35,15 @@ void ll_sort_list(uint list, uint cap) {
     uint i = ll_head[list];
     while (i != LL_EOL && count < uint(LL_MAX_LIST)) {
         LLNode nd = ll_node(i);
-#if LS_PAYLOAD > 0
-        idx[count] = i;
-#endif
-        i = nd.next;
 #if LS_PAYLOAD == 0
-        uint b = count;                          // inserted as read: the next node's load overlaps the insert
+        uint b = count;                          // inserted as read: one loop over the list, not a gather and a sort
         while (b > 0u && d[b - 1u] > nd.depth) { d[b] = d[b - 1u]; --b; }
         d[b] = nd.depth;
 #else
         d[count] = nd.depth;
+        idx[count] = i;
 #endif
+        i = nd.next;
         ++count;
     }
     if (i == LL_EOL) {

@@ -19,8 +19,8 @@
 // ascending, up to SP_SORT_R of them, and writes their nodes only at the end (with a payload, each node is
 // allocated and its payload written at once; without, the nodes are allocated at the end in depth order, so
 // that a tile's nodes of one rank lie together; a fragment beyond the registers is pushed onto the head in memory
-// at once, and the head is loaded only at the end: no register holds it across the loop). At the end it adds the nodes the small triangles' splat linked at the head, while the registers hold
-// them, and links what it holds in depth order, a node's depth and link in one store: the whole list when it
+// at once, and the head is loaded only at the end: no register holds it across the loop). At the end it adds the
+// nodes the small triangles' splat linked at the head, while the registers hold them, and links what it holds in depth order, a node's depth and link in one store: the whole list when it
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
 // sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
@@ -208,7 +208,8 @@ SpBinned sp_bin_get(SpBinned b, uint j, uint k, uint e) { return sp_bin_read(b, 
 #endif
 #endif
 #if !defined(SP_WARP_BIN) || !defined(SP_ALL_BOXED)
-SpPlanes sp_bin_planes(SpBinned b, uint k, uint e) { return b.pl; }   // binned with the set-up
+#define SP_PLANES_BINNED 1   // the planes travel with each binned set-up (else loaded where a texel is covered)
+SpPlanes sp_bin_planes(SpBinned b, uint k, uint e) { return b.pl; }
 #endif
 #if !defined(SP_WARP_BIN)
 #define SP_CHUNK uint(SP_TILE_N)
@@ -224,7 +225,9 @@ void sp_bin_setup(uint k, uint e, uint n_large, ivec2 t0, ivec2 t1, ivec2 span, 
         uint i = k * sp_box_cap + e;
         if (sp_box_meets(sp_box[i], t0, t1)) {
             b.tri = fr_tile(sp_setup_tri(i), t0, span, lim);
+#if defined(SP_PLANES_BINNED)
             if (!b.tri.none) b.pl = sp_setup_planes(i);
+#endif
         }
     }
 #if !defined(SP_ALL_BOXED)

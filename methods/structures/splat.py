@@ -42,7 +42,8 @@ TILE_LAYERS = 2            # layers a workgroup of that pass takes in turn
 GROUP_CHUNKS = 4           # with the queue: chunks of splat_group triangles a splat workgroup takes in turn
 WIN_ROWS = 256             # layers of a splat batch whose window rows the queue keeps in shared memory (8 KB)
 BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
-CMD_WORDS = 16             # two DrawElementsIndirectCommands (5 words each, one per pass parity) padded; the indices follow
+CMD_STRIDE = 5             # words of a DrawElementsIndirectCommand (the draws' tight stride; splat_raster.glsl's 5u)
+CMD_WORDS = 16             # two of them (one per pass parity), padded; the indices follow
 _RULES: dict = {}          # id(ctx) -> fill rule
 
 
@@ -201,7 +202,8 @@ class Splat(FragmentSource):
         n = structure.geo.triangles
         self.large = structure.res.buffer(structure.prefix + "splat.large", reserve=4 * (CMD_WORDS + 3 * n))
         cmd = np.zeros(CMD_WORDS, np.uint32)
-        cmd[[1, 6]], cmd[[2, 7]] = structure.layers, CMD_WORDS  # instances = layers; the indices follow the commands
+        for p in (0, 1):  # instances = layers; the indices follow the commands
+            cmd[CMD_STRIDE * p + 1], cmd[CMD_STRIDE * p + 2] = structure.layers, CMD_WORDS
         self.large.write(cmd.tobytes())
         # passes alternate between the two commands: each splat counts its long triangles in its own and zeroes the
         # other for the next pass (whose readers, the tiles or the draw, have completed), so no pass clears a count
@@ -344,7 +346,8 @@ class Splat(FragmentSource):
 
     def large_triangles(self) -> int:
         """Long triangles the last pass left to the tiles or the hardware (a read-back)."""
-        return int(np.frombuffer(self.s.gpu.read(self.large, 40), np.uint32)[5 * self.parity]) // 3
+        words = np.frombuffer(self.s.gpu.read(self.large, 4 * 2 * CMD_STRIDE), np.uint32)
+        return int(words[CMD_STRIDE * self.parity]) // 3
 
     def release(self):
         for v in self._vaos.values():
