@@ -107,8 +107,32 @@ def _dist_of_entry_point(ep) -> str | None:
     return f"{d.metadata['Name']} {d.version}" if d is not None else None
 
 
+def discovery_key(group: str) -> tuple:
+    """What plugin discovery of ``group`` depends on: the import path (each folder with its modification time,
+    which an installed or removed distribution changes) and the references registered in the environment.
+    Scanning every installed distribution's entry points takes milliseconds (tens of them in a large
+    environment), and the registries are read per row and per claim: they are kept per key."""
+    def mtime(p):
+        try:
+            return os.stat(p or ".").st_mtime_ns
+        except OSError:
+            return None
+    return group, tuple((p, mtime(p)) for p in sys.path), os.environ.get(ENV[group])
+
+
+_EP_CACHE: dict = {}
+
+
 def entry_point_classes(group: str, base: type) -> list:
     """[(class, source)] of every entry point of ``group``; a broken entry point is one line naming it."""
+    key = (discovery_key(group), base)
+    if key not in _EP_CACHE:
+        _EP_CACHE.clear()  # only the current environment's scan is kept
+        _EP_CACHE[key] = _entry_point_classes(group, base)
+    return list(_EP_CACHE[key])
+
+
+def _entry_point_classes(group: str, base: type) -> list:
     out = []
     for ep in importlib.metadata.entry_points(group=group):
         try:

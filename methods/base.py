@@ -144,10 +144,24 @@ class Method:
         return first
 
 
+_REGISTRY: dict = {}  # {plugins.discovery_key: registry}: the current environment's only
+
+
 def registry() -> dict:
     """{name: Method subclass}: every adapter package under ``methods/`` (discovered), every entry point
     of group ``ldbench.methods``, and the ``package.module:Class`` references registered in this process
     or its driver (:mod:`ldbench.core.plugins`). Two classes with one name are one error naming both."""
+    from ldbench.core import plugins
+
+    key = plugins.discovery_key(plugins.METHOD_GROUP)
+    if key not in _REGISTRY:
+        reg = _discover()
+        _REGISTRY.clear()
+        _REGISTRY[key] = reg
+    return dict(_REGISTRY[key])
+
+
+def _discover() -> dict:
     from ldbench.core import plugins
 
     package = __name__.rpartition(".")[0]  # the methods package, whatever it is installed as
