@@ -199,7 +199,9 @@ class GBuffer:
             return
         self.prog["view_proj"].write(mat_bytes(self.view_proj(view)))
         self.prog["eye"].value = tuple(view.camera.origin)
+        self.prog["size"].value = (view.width, view.height)
         self.geo.albedo.bind_to_storage_buffer(B.ALBEDO)
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
         self.fbo.use()
         self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.disable(ctx.CULL_FACE)
