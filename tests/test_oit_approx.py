@@ -241,21 +241,37 @@ def test_mlab_sync_modes(gpu):
             run(gpu, sc, "mlab", sync="interlock")
 
 
-def check_mlab_frames_repeat(gpu, method_cls=None):
-    """Each frame starts from empty k-buffers: the second and third frames of one instance equal the
-    first (the runner's warm-up and measured frames reuse it)."""
+INTERLOCK = "GL_ARB_fragment_shader_interlock"
+
+
+def mlab_frames(gpu, cls, k: int, sync: str, n: int = 3):
+    """n frames of one instance on the 12-quad stack: [(image, per-pixel stored layers (H·W, k, 4) with
+    row 0 at the bottom, per-pixel counts)]; the runner's warm-up and measured frames reuse one instance."""
     from ldbench.core.effects import Effect
-    from ldbench.methods.mlab import MLAB
     from ldbench.methods.base import View
 
-    cls = method_cls or MLAB
     sc = stack_scene()
-    m = cls(cls.Params(k=3, sync="spinlock"))
+    m = cls(cls.Params(k=k, sync=sync))
     m.setup(gpu, sc)
+    out = []
     try:
-        imgs = [np.asarray(m.frame(View(sc.camera, W, H), Effect("oit")).resolve().image) for _ in range(3)]
+        for _ in range(n):
+            r = m.frame(View(sc.camera, W, H), Effect("oit")).resolve()
+            layers = np.frombuffer(gpu.read(m.layers), np.float32).reshape(H * W, k, 4)
+            counts = np.frombuffer(gpu.read(m.counts), np.uint32)
+            out.append((np.asarray(r.image), layers.copy(), counts.copy(), r.counters))
     finally:
         m.release()
+    return out
+
+
+def check_mlab_frames_repeat(gpu, method_cls=None, k=16, sync="spinlock"):
+    """Each frame starts from empty k-buffers: the second and third frames of one instance equal the first,
+    bit for bit, wherever the merge order cannot matter: k ≥ the depth complexity (12 here) under the spin
+    lock, any k under the ordered interlock."""
+    from ldbench.methods.mlab import MLAB
+
+    imgs = [f[0] for f in mlab_frames(gpu, method_cls or MLAB, k, sync)]
     for i, img in enumerate(imgs[1:], 2):
         assert np.array_equal(img, imgs[0]), f"frame {i} differs from frame 1 by {np.abs(img - imgs[0]).max():.3g}"
 
@@ -264,11 +280,65 @@ def test_mlab_frames_start_empty(gpu):
     check_mlab_frames_repeat(gpu)
 
 
+def test_mlab_interlock_frames_repeat_with_merges(gpu):
+    """Under the ordered interlock fragments merge in primitive order: frames repeat bit for bit at k = 3
+    (9 merges a pixel at most). Needs GL_ARB_fragment_shader_interlock (NVIDIA has it, llvmpipe not)."""
+    if INTERLOCK not in gpu.ctx.extensions:
+        pytest.skip(f"{INTERLOCK} missing on {gpu.info['GL_RENDERER']}")
+    check_mlab_frames_repeat(gpu, k=3, sync="interlock")
+
+
 def test_mlab_broken_clear_fails(gpu, tmp_path):
     from ldbench.methods.mlab import MLAB
 
     with pytest.raises(AssertionError, match="frame 2 differs"):
         check_mlab_frames_repeat(gpu, broken(MLAB, ML_DIR, tmp_path, "count.glsl", "    count[i] = 0u;\n", ""))
+
+
+def check_mlab_lock_keeps_every_fragment(gpu, method_cls=None, sync="spinlock", k=3):
+    """No update of a pixel's k-buffer is lost, whatever the order the lock grants: over three frames, per
+    pixel the stored layers number min(n, k) (n: the pixel's fragments), are in depth order, and the product
+    of their transmittances is ∏(1 − α) over the pixel's fragments, which no merge order changes (float
+    rounding of ≤ 12 products: 1e-6); the merges add up to Σ max(0, n − k). A lost update drops a factor
+    1 − α ≤ 0.85. Under the spin lock the colour itself depends on the order the GPU grants the lock (MLAB's
+    compression is order-dependent), which is why only the interlock repeats frames bit for bit with merges."""
+    from ldbench.methods.mlab import MLAB
+
+    sc = stack_scene()
+    hits = intersections(sc, W, H)
+    alpha = np.array([m.opacity for m in sc.meshes], np.float64)
+    row, col = np.divmod(hits.pixel, W)
+    gl_px = (H - 1 - row) * W + col  # row 0 at the bottom, as gl_FragCoord
+    n = np.bincount(gl_px, minlength=W * H)
+    t_want = np.ones(W * H)
+    np.multiply.at(t_want, gl_px, 1.0 - alpha[hits.mesh])
+    for img, layers, counts, c in mlab_frames(gpu, method_cls or MLAB, k, sync):
+        assert np.array_equal(counts, np.minimum(n, k)), "stored layers != min(fragments, k)"
+        assert c["merges"] == int(np.maximum(n - k, 0).sum()) and c["lost"] == 0
+        live = np.arange(k)[None, :] < counts[:, None]
+        t_got = np.prod(np.where(live, layers[..., 3], 1.0), axis=1)
+        err = np.abs(t_got - t_want).max()
+        assert err < 1e-6, f"transmittance off by {err:.3g}: an update was lost"
+        assert np.all(np.isfinite(img))
+
+
+def test_mlab_spinlock_keeps_every_fragment(gpu):
+    check_mlab_lock_keeps_every_fragment(gpu)
+
+
+def test_mlab_interlock_keeps_every_fragment(gpu):
+    if INTERLOCK not in gpu.ctx.extensions:
+        pytest.skip(f"{INTERLOCK} missing on {gpu.info['GL_RENDERER']}")
+    check_mlab_lock_keeps_every_fragment(gpu, sync="interlock")
+
+
+def test_mlab_broken_merge_transmittance_fails(gpu, tmp_path):
+    """The transmittance check bites: a merge that keeps only the nearer layer's T loses fragments' T."""
+    from ldbench.methods.mlab import MLAB
+
+    Broken = broken(MLAB, ML_DIR, tmp_path, "insert.glsl", "a.a * b.a);", "a.a);")
+    with pytest.raises(AssertionError, match="transmittance"):
+        check_mlab_lock_keeps_every_fragment(gpu, Broken)
 
 
 def test_mlab_lost_fragments_degrade(gpu, tmp_path):
@@ -295,3 +365,17 @@ def test_teapot_all_methods_agree(gpu):
     ref = render_oit(sc, W, H)
     for method, kw in (("wboit", {}), ("mlab", {"k": 2})):
         assert max_err(run(gpu, sc, method, **kw), ref) < EXACT, method
+
+
+def test_mlab_without_the_lock_loses_updates(gpu, tmp_path):
+    """The lock-soundness check bites on a GPU that shades a pixel's fragments concurrently: with the lock
+    taken unconditionally (a plain entry for the compare-and-swap), updates race and transmittance is lost.
+    llvmpipe shades one pixel's fragments one after another, so there the race cannot show."""
+    from ldbench.methods.mlab import MLAB
+
+    if gpu.device == "cpu-software":
+        pytest.skip(f"{gpu.info['GL_RENDERER']} shades a pixel's fragments in order: no race can show")
+    Broken = broken(MLAB, ML_DIR, tmp_path, "insert.glsl", "if (atomicCompSwap(lock_word[px], 0u, 1u) == 0u) {",
+                    "if (true) {")
+    with pytest.raises(AssertionError):
+        check_mlab_lock_keeps_every_fragment(gpu, Broken)
