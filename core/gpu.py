@@ -94,6 +94,7 @@ class Resources:
         self.bytes: dict[str, int] = {}
 
     def _add(self, name, obj, nbytes):
+        _check_allocation(self.ctx, obj, name, nbytes)
         if name in self.objects:
             self.objects[name].release()
         self.objects[name] = obj
@@ -140,6 +141,15 @@ class Resources:
             o.release()
         self.objects.clear()
         self.bytes.clear()
+
+
+def _check_allocation(ctx, obj, name: str, nbytes: int) -> None:
+    """Raise where the driver could not allocate ``obj``: OpenGL reports it only through glGetError, and a
+    buffer or texture whose storage failed reads back undefined contents (garbage counts and images, not
+    an error)."""
+    if ctx.error == "GL_OUT_OF_MEMORY":
+        obj.release()
+        raise LdbenchError(f"the GPU is out of memory: {name} ({nbytes / 2**20:.1f} MiB) could not be allocated")
 
 
 STAGING_KEEP = 16 << 20  # bytes: read-backs up to this size reuse one staging buffer per context
@@ -241,6 +251,13 @@ class Gpu:
             st = self._staging = self.ctx.buffer(reserve=max(1 << 12, 1 << (size - 1).bit_length()), dynamic=True)
         else:
             st = kept
+        if st is not kept:
+            try:
+                _check_allocation(self.ctx, st, "a staging buffer", size)
+            except LdbenchError:
+                if st is self._staging:
+                    self._staging = None
+                raise
         try:
             self.ctx.copy_buffer(st, buffer, size, read_offset=offset)
             return st.read(size=size)

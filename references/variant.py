@@ -167,7 +167,10 @@ if __name__ == "__main__":  # pragma: no cover
 
 @contextmanager
 def variant_active(variant: str):
-    """Mitsuba with ``variant`` set for the block; the caller's variant restored afterwards."""
+    """Mitsuba with ``variant`` set for the block; the caller's variant restored afterwards. On the CUDA
+    variant, Dr.Jit's cache of freed device memory is handed back to the driver after the block: the OpenGL
+    methods rendered next share that GPU, and the cache would otherwise keep the peak of every reference
+    render (an OpenGL allocation that fails leaves a buffer of undefined contents)."""
     import mitsuba as mi
 
     prev = mi.variant()
@@ -175,6 +178,14 @@ def variant_active(variant: str):
     try:
         yield mi
     finally:
+        if variant.startswith("cuda"):
+            try:
+                import drjit as dr
+
+                dr.sync_thread()
+                dr.flush_malloc_cache()
+            except Exception:  # a failing flush must not mask the block's own error
+                pass
         if prev is not None and prev != variant:
             try:
                 mi.set_variant(prev)
