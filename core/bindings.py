@@ -69,8 +69,8 @@ _TABLE = {
     "PAYLOAD": _b("ssbo", 7, "structure", "per-fragment payload (LS_PAYLOAD > 0)", "LLPayload", "LAPayload"),
     "SPLAT_VERTICES": _b("ssbo", 8, "structure", "vertices (position, normal, material) of the splat build",
                          "SplatVertices"),
-    "LS_ALBEDO": _b("ssbo", 9, "structure", "albedo of each material, stored as payload by builds and peels",
-                    "LSAlbedo"),
+    "LS_ALBEDO": _b("ssbo", 9, "structure", "albedo of each material, stored as payload (RGBA8) by builds and "
+                    "peels; read by material id by the LDI gather", "LSAlbedo"),
     "SPLAT_LARGE": _b("ssbo", 10, "structure", "splat build: indirect command and triangles too large to splat",
                       "SplatLarge"),
     "SPLAT_SORT": _b("ssbo", 12, "structure.splat", "splat build, tiles sorting their lists: the lists left to the "

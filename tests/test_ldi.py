@@ -53,7 +53,7 @@ def test_registered_and_params():
     p = LdiParams()
     assert (p.directions, p.resolution, p.structure.source, p.share_opposite) == (150, 128, "splat", True)
     assert p.structure.assembly == "sort" and LdiParams.from_dict({"preset": "paper"}).structure.source == "peel"
-    assert (p.structure.payload, p.structure.canonical, p.structure.indexed) == (("normal", "albedo"), True, False)
+    assert (p.structure.payload, p.structure.canonical, p.structure.indexed) == (("normal", "material"), True, False)
     with pytest.raises(LdbenchError, match="directions=100.*nearest: 96, 150"):
         LdiParams(directions=100)
     with pytest.raises(LdbenchError, match="filter_size"):
@@ -147,21 +147,44 @@ def _arrays(s):
             np.frombuffer(s.payload_buf.read(), np.uint32)[:2 * n].copy(), st)
 
 
-def test_peel_and_single_pass_identical(gpu):
+def _ties(arrays):
+    """(ties between different payloads, those out of payload order): neighbours in a list at equal depth bits."""
+    off, depth, words, _ = arrays
+    n = len(depth)
+    w = words.reshape(n, 2).astype(np.uint64)
+    key = (w[:, 0] << np.uint64(32)) | w[:, 1]  # (normal word, material id)
+    start = np.zeros(n, bool)
+    begins = np.concatenate([[0], off[:-1]]).astype(np.int64)
+    start[begins[begins < n]] = True
+    tie = ~start[1:] & (depth[1:] == depth[:-1])
+    return int((tie & (key[1:] != key[:-1])).sum()), int((tie & (key[1:] < key[:-1])).sum())
+
+
+@pytest.mark.parametrize("case", ["copy", "reversed_copy_first"])
+def test_peel_and_single_pass_identical(gpu, case):
     """Cornell box with both LDI sets (half and all 6k²): offsets, depth bits and payload words identical
-    (the compute splat's depths to float rounding: it evaluates its own depth plane).
-    A second copy of the floor with another albedo lies in the floor's plane: its fragments tie with the
-    floor's at equal depth, and its payload sorts before the floor's although its triangles come later, so
-    both builds must order ties by payload (canon), not by triangle id or by the order of the atomics."""
+    (the compute splat's depths to float rounding: it evaluates its own depth plane), and fragments at equal
+    depth in ascending payload order (normal word, material id).
+    A second copy of the floor of another material lies in the floor's plane: its fragments tie with the
+    floor's at equal depth. ``copy``: appended (the same normal word, a greater material id), 24 directions.
+    ``reversed_copy_first``: first in the scene, vertices 1 and 2 swapped (normal −y: its normal word, y in
+    bits 16-31, is 0x8000 or above, the floor's below), so its payload sorts after the floor's although its
+    triangles come first: both builds must order ties by payload (canon), not by triangle id or by the order
+    of the atomics. There 6 axis directions: the floor's depth is constant in the LDIs that see it, so the
+    two windings tie exactly in every source (in oblique LDIs the raster's depths of the two windings differ
+    in the last bit)."""
     import dataclasses
 
     from ldbench.core.scenes import load_scene
 
     base = load_scene("cornell")
     floor = next(m for m in base.meshes if m.name == "floor")
-    copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2))  # the same triangles; its
-    # albedo word (RGBA8, blue in bits 16-23) is below the floor's
-    scene = dataclasses.replace(base, meshes=list(base.meshes) + [copy])
+    if case == "copy":
+        copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2))  # the same triangles
+        scene, directions, least = dataclasses.replace(base, meshes=list(base.meshes) + [copy]), 24, 10000
+    else:
+        copy = dataclasses.replace(floor, name="floor_copy", albedo=(0.9, 0.4, 0.2), faces=floor.faces[:, [0, 2, 1]])
+        scene, directions, least = dataclasses.replace(base, meshes=[copy] + list(base.meshes)), 6, 2000
     builds = {"peel": dict(preset="paper"), "single_pass": dict(build="single_pass", assembly="direct"),
               "splat": dict(build="single_pass", raster="splat", assembly="direct"), "default": {},
               "splat-sort": dict(build="single_pass", raster="splat", assembly="sort"),
@@ -171,7 +194,7 @@ def test_peel_and_single_pass_identical(gpu):
         for name, kw in builds.items():
             if not share and name not in ("peel", "single_pass"):
                 continue
-            m = _ldi(gpu, scene, directions=24, resolution=32, share_opposite=share, **kw)
+            m = _ldi(gpu, scene, directions=directions, resolution=32, share_opposite=share, **kw)
             try:
                 m.ls.build()
                 out[name] = _arrays(m.ls)
@@ -180,15 +203,18 @@ def test_peel_and_single_pass_identical(gpu):
             finally:
                 m.release()
         a = out["peel"]
+        assert _ties(a)[0] > 100, _ties(a)  # the floor and its copy tie
         for name, b in out.items():
-            assert a[3]["fragments"] == b[3]["fragments"] > 10000, name
+            assert a[3]["fragments"] == b[3]["fragments"] > least, name
             assert np.array_equal(a[0], b[0]) and np.array_equal(a[2], b[2]), name  # offsets, payload words
             if name.startswith("splat") or name == "default":  # its own depth plane: the same depths to float rounding
                 d = np.abs(a[1].view(np.float32) - b[1].view(np.float32))
                 assert d.max() <= (1.5e-6 if gpu.device == "cpu-software" else 5e-4), (name, d.max())  # 1.37e-6
             else:
                 assert np.array_equal(a[1], b[1]), name
-        assert a[3]["lists"] == (12 if share else 24) * 32 * 32 and a[3]["peel_layers"] == a[3]["max_list_length"]
+            assert _ties(b)[1] == 0, (name, _ties(b))
+        lists = (directions // 2 if share else directions) * 32 * 32
+        assert a[3]["lists"] == lists and a[3]["peel_layers"] == a[3]["max_list_length"]
 
 
 def test_fast_build_parameters_need_the_single_pass():

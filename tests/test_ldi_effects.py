@@ -104,6 +104,34 @@ def _render(gpu, scene, effect, size, **params):
         m.release()
 
 
+@pytest.mark.parametrize("effect", ["indirect", "glossy_indirect"])
+def test_hit_albedo_is_the_materials_float_albedo(gpu, effect):
+    """A hit is shaded with its material's float albedo, not an 8-bit copy: the wall of the wall–floor scene
+    (tests/testkit.py) with albedo (0.8, 0.1, 0.08), the only surface the floor's rays can hit, the light and
+    the floor grey. Each floor pixel is then the same sum times a2 per channel, so its green / red and blue /
+    red ratios are 0.1 / 0.8 and 0.08 / 0.8 to float rounding (measured within 3e-7); RGBA8 would give 26/255
+    and 20/255 for 0.1 and 0.08 (+1.96 %, −1.96 %; red 204/255 is exact)."""
+    import dataclasses
+
+    from testkit import wall_floor_scene
+
+    scene = wall_floor_scene()
+    scene = dataclasses.replace(scene, meshes=[dataclasses.replace(m, albedo=(0.8, 0.1, 0.08)) if m.name == "wall"
+                                               else m for m in scene.meshes])
+    m = Ldi(LdiParams.from_dict({"directions": 24, "resolution": 64, "image.rays_per_pixel": 16,
+                                 "indirect.filter_size": 0}))
+    m.setup(gpu, scene)
+    try:
+        img = np.asarray(m.frame(View(scene.camera, 32, 32), Effect(effect)).resolve().image, np.float64)
+        pos = m.gbuf.read()[0]
+    finally:
+        m.release()
+    floor = (pos[..., 3] > 0.5) & (np.abs(pos[..., 1]) < 1e-3) & (img[..., 0] > 1e-4 * img[..., 0].max())
+    assert floor.sum() > 50, floor.sum()
+    ratios = img[floor][:, 1:] / img[floor][:, :1]
+    assert np.allclose(ratios, [0.125, 0.1], rtol=1e-5, atol=0), (ratios.min(0), ratios.max(0))
+
+
 # measured on llvmpipe: e = 8: mean 0.985 of the reference, 34.55 dB; e = 32: 0.994, 39.51 dB
 @pytest.mark.parametrize("exponent,bias,psnr", [(8.0, 0.02, 34.3), (32.0, 0.008, 39.3)])
 def test_glossy_matches_reference(gpu, mitsuba, exponent, bias, psnr):

@@ -22,8 +22,9 @@ farthest vertex), depth = (p − c)·v, as the LDM maps (:func:`ldbench.methods.
 peeling (stages ``peel``, ``scan``, ``scatter``, ``canon``) into the ``linear`` layout, compacted by the GPU
 prefix sum; ``raster`` or ``splat`` (the default), the shared one-pass linearised arrays (``emit``, ``scan``,
 ``fill``, ``sort`` with the default ``assembly = "sort"``) + ``canon``: the same structure (the hardware
-raster's bit for bit; the compute splat's depths to float rounding). Payload per fragment: normal and albedo; the spot
-light's direct light at a hit is computed with the cube shadow map (stage ``shadow``), as in the paper.
+raster's bit for bit; the compute splat's depths to float rounding). Payload per fragment: normal and
+material id (shading reads the material's float albedo, no 8-bit copy); the spot light's direct light at a
+hit is computed with the cube shadow map (stage ``shadow``), as in the paper.
 The LDIs are rebuilt every frame unless ``prebuild`` (built once in ``setup``, untimed, like the paper's
 offline precomputation; frames then only trace).
 
@@ -82,7 +83,7 @@ from ldbench.methods.lights import CubeShadowMap, set_spot_uniforms
 from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
                                         ortho_layers)
 
-PAYLOAD = ("normal", "albedo")
+PAYLOAD = ("normal", "material")  # the albedo is read from the material table at a hit (exact float)
 
 DEFAULT_SPP = {"indirect": 8, "glossy_indirect": 16, "soft_shadows": 16}
 EFFECT_CODES = {"indirect": 1, "glossy_indirect": 2, "soft_shadows": 3}
@@ -152,7 +153,7 @@ class LdiParams(ParamsBase):
     share_opposite: bool = param(True, "one LDI answers v and -v (3k^2 stored); False: all 6k^2 as the paper",
                                  paper=False)
     prebuild: bool = param(False, "build once in setup (untimed, the paper's precomputation); frames only trace")
-    # linear arrays with normal and albedo, ties at equal depth in payload order (so that every source gives
+    # linear arrays with normal and material id, ties at equal depth in payload order (so that every source gives
     # the peel's structure bit for bit)
     structure: StructureSpec = group(
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
@@ -340,6 +341,7 @@ class Ldi(Method):
             sm = self._shadow_map()
             sm.atlas.use(3)
             cs["face_vp"].write(sm.face_vp_bytes())
+            self.geo.albedo.bind_to_storage_buffer(B.LS_ALBEDO)  # a hit's albedo, by its payload's material id
             values.update(shadow_atlas=3, normal_offset=p.shadow.normal_offset * 2.0 / p.shadow.shadow_size,
                           depth_bias=p.shadow.depth_bias * self.scene.diagonal())
             if effect.name == "glossy_indirect":

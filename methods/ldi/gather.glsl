@@ -10,10 +10,10 @@
 // would silently lose samples there.)
 //
 // EFFECT 1 `indirect` (the paper's diffuse pass): w cosine-distributed about n1; at the hit x2 (normal n2
-//   facing x1, albedo a2, both from the fragment's payload) the spot light's direct light
-//   L_d(x2) = a2/pi * I * falloff * cos2 / d^2 * V, V from the cube shadow map (the paper's "local lighting
-//   model including a shadow map"). Writes E = mean L_d (rgb) and 1; the filter pass (blur.glsl) blurs E
-//   and multiplies by a1 (pdf cos/pi and BRDF a1/pi cancel to a1).
+//   facing x1, from the fragment's payload; albedo a2, the float albedo of the payload's material id) the
+//   spot light's direct light L_d(x2) = a2/pi * I * falloff * cos2 / d^2 * V, V from the cube shadow map
+//   (the paper's "local lighting model including a shadow map"). Writes E = mean L_d (rgb) and 1; the
+//   filter pass (blur.glsl) blurs E and multiplies by a1 (pdf cos/pi and BRDF a1/pi cancel to a1).
 // EFFECT 2 `glossy_indirect`: w from the normalized Phong lobe (e+1)/(2pi) cos^e(alpha) about the mirror
 //   direction of the view ray; BRDF a1 (e+2)/(2pi) cos^e(alpha), so a sample weighs a1 (e+2)/(e+1) cos(theta)
 //   (0 below the surface). Writes the final radiance.
@@ -46,6 +46,11 @@ uniform float depth_bias;
 #if EFFECT == 2
 uniform float exponent;
 #endif
+#if EFFECT != 3
+// albedo of each material (SceneGeometry.albedo), indexed by the fragment's material id: the exact float
+// albedo, not an 8-bit copy in the payload
+layout(std430, binding = B_LS_ALBEDO) readonly buffer LSAlbedo { vec4 ls_albedo[]; };
+#endif
 #if EFFECT == 3
 uniform float light_radius;
 uniform float shadow_eps;
@@ -66,7 +71,7 @@ vec3 hit_radiance(vec3 o, vec3 d, LdiHit hit) {
     if (all(equal(irr, vec3(0.0)))) return vec3(0.0);
     float dist = distance(x2, light.position);
     float vis = cube_shadow(shadow_atlas, face_vp, light.position, x2 + n2 * normal_offset * dist, depth_bias);
-    vec3 a2 = unpackUnorm4x8(ls_payload(hit.node, uint(LS_PL_ALBEDO))).rgb;
+    vec3 a2 = ls_albedo[ls_payload(hit.node, uint(LS_PL_MATERIAL))].rgb;
     return a2 / PI * irr * vis;
 }
 #endif

@@ -10,7 +10,7 @@
              fragment (one 4-byte read-back per layer, as the paper's occlusion query) or at ``max_layers``.
 ``scan``     the per-texel layer counts m_i, GPU exclusive prefix sum (:class:`ldbench.methods.scan.Scan`,
              the paper's CPU compaction done on the GPU); the total sizes the arrays.
-``scatter``  scratch entry → slot begin(texel) + m: depth and payload (normal and albedo looked up from the
+``scatter``  scratch entry → slot begin(texel) + m: depth and payload (normal, albedo, material looked up from the
              triangle id, the paper's "triangle ids", packed as the raster packs them;
              ``layered_compact.glsl``).
 

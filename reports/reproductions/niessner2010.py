@@ -138,7 +138,7 @@ NIESSNER2010_TABLE1 = Reproduction(
         "the build rows time depth peeling + GPU compaction in every frame (plus a 64² one-ray-per-pixel trace). "
         "The paper's build times are for Sponza with compaction on the CPU; ours are on Sibenik.",
         "Memory: memory_bytes of the 150 × 128² row (the compacted LDIs: offsets, depths and the normal and "
-        "albedo payload, 12 bytes per fragment; plus the scene's vertex buffer, 6.1 MB, which the LDIs do not "
+        "material payload, 12 bytes per fragment; plus the scene's vertex buffer, 6.1 MB, which the LDIs do not "
         "need). MB read as 2^20 bytes. The paper stored a triangle id per fragment (8 bytes).",
         "Published rays/s are the midpoints of Table 1's ranges; the ratio column compares a GTX 285 with this "
         "machine, so the verdicts compare our rows with each other. On a CPU (llvmpipe) every time claim is "
