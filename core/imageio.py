@@ -28,6 +28,37 @@ def write_png(path: Path, img: np.ndarray) -> Path:
     return atomic_write(path, lambda t: im.save(t, format="PNG", compress_level=PNG_COMPRESS_LEVEL))
 
 
+#: PNG colour types (IHDR) that Pillow, and so matplotlib, reduces to 8 bits at 16-bit depth: grey + alpha,
+#: RGB, RGBA (16-bit grey alone is read exactly)
+_PNG_16BIT_LOSSY = (2, 4, 6)
+
+
+def read_png(path: Path) -> np.ndarray:
+    """A PNG's pixels as float64 in [0, 1]: ``H × W`` (grey) or ``H × W × C`` (C = 2 grey + alpha, 3 RGB,
+    4 RGBA), every code divided by 2^depth - 1, exactly for 8- and 16-bit files. Pillow (under matplotlib)
+    keeps only the high byte of a 16-bit colour PNG, so those are decoded with Mitsuba's libpng reader.
+    Raises ``ValueError`` or ``OSError`` when the file is not a readable PNG."""
+    path = Path(path)
+    with open(path, "rb") as f:
+        head = f.read(26)
+    if len(head) < 26 or head[:8] != b"\x89PNG\r\n\x1a\n" or head[12:16] != b"IHDR":
+        raise ValueError("not a PNG file")
+    depth, colour_type = head[24], head[25]
+    if depth == 16 and colour_type in _PNG_16BIT_LOSSY:
+        import mitsuba as mi
+
+        try:
+            a = np.array(mi.Bitmap(str(path)))
+        except RuntimeError as e:  # libpng's complaint about a broken file
+            raise ValueError(str(e)) from None
+        if a.dtype != np.uint16:
+            raise ValueError(f"16-bit PNG decoded as {a.dtype}")
+        return a.astype(np.float64) / 65535.0
+    import matplotlib.image as mpimg
+
+    return np.asarray(mpimg.imread(path), np.float64)
+
+
 def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = None):
     """EXR (linear float) + PNG preview (sRGB; ``png_scale`` maps that value to white)."""
     from ldbench.core.exr import write_exr

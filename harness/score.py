@@ -120,13 +120,13 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
     elif suffix == ".png":
         if transfer not in TRANSFERS:
             raise LdbenchError(f"{path.name}: a PNG answer needs its transfer curve: --transfer srgb|linear")
-        import matplotlib.image as mpimg
+        from ldbench.core.imageio import read_png
 
         try:
-            raw = np.asarray(mpimg.imread(path), np.float64)  # [0, 1] for 8- and 16-bit PNGs
+            raw = read_png(path)  # [0, 1], exact for 8- and 16-bit PNGs
         except (OSError, ValueError, SyntaxError) as e:
             raise LdbenchError(f"cannot read {path}: {e}") from None
-        raw = raw[..., None] if raw.ndim == 2 else raw[..., :3]  # alpha dropped
+        raw = raw[..., None] if raw.ndim == 2 else raw[..., :1] if raw.shape[-1] == 2 else raw[..., :3]  # no alpha
         img = (srgb_to_linear(raw) if transfer == "srgb" else raw) * float(png_scale)
         img = img.astype(np.float32)
     else:

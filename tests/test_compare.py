@@ -421,3 +421,23 @@ def test_a_nan_baseline_is_said_and_fails_unless_allowed(tmp_path, capsys):
     cols = dict(hit_agreement=math.nan, dist_err_p95=math.nan, self_hit_rate=math.nan)
     comp = C.compare_frames(_df(tmp_path, [_rays_row("b", **cols)]), _df(tmp_path, [_rays_row("r", **cols)]))
     assert comp.exit_code == 1 and {c.verdict for c in comp.regressions} == {"unchecked"}
+
+
+def test_an_int_stored_for_a_float_default_is_still_the_default(tmp_path, capsys):
+    """A parameter recorded as 4 against the adapter's default 4.0 (or 8.0 against 8: JSON, TOML and hand-made
+    rows do not keep the type) is the default: the rows match and no configuration difference is shown."""
+    full = _full_params("hbao")
+    assert isinstance(full["step_px"], float) and full["step_px"] == 4 and isinstance(full["directions"], int)
+    as_int = dict(full, step_px=int(full["step_px"]), angle_bias=int(full["angle_bias"]),
+                  directions=float(full["directions"]))
+    assert C.canonical_params("hbao", as_int) == {}
+    base = _run(tmp_path, "base", {b: {"params": full if b[1] == "hbao" else {}} for b in BENCH})
+    run = _run(tmp_path, "run", {b: {"params": as_int if b[1] == "hbao" else {}} for b in BENCH})
+    got = R.read_results(run).query("method == 'hbao'").iloc[0]["params"]
+    assert type(got["step_px"]) is int and type(got["directions"]) is float  # the types survive the run file
+    rc, out, err = _cli(capsys, base, run)
+    assert rc == 0 and "3 matched, 0 missing, 0 new" in out, out + err
+    assert "Configurations that differ" not in (run / "compare.md").read_text()
+    # matched on fewer keys, the rows still show no parameter difference
+    comp = C.compare_paths(base, run, match=C.parse_match("scene,method,effect"))
+    assert comp.matched == 3 and not any("step_px" in n or "directions" in n for n in comp.notes), comp.notes

@@ -119,6 +119,24 @@ def test_data_range_default_ignores_background():
     assert M.all_metrics(ref, ref, mask=mask)["metric_settings"]["psnr"]["data_range"] == 0.25
 
 
+@pytest.mark.parametrize("c", [1, 3])
+def test_all_black_reference_falls_back_to_data_range_one(c):
+    """default_data_range's documented fallback: a reference whose valid pixels are all 0 (no peak) is
+    measured against 1.0, so PSNR stays finite (not -inf, not NaN), also when only the background is lit."""
+    ref = np.zeros((16, 16, c), np.float32)
+    test = np.full(ref.shape, 0.1)  # MSE = 0.01 -> 10 log10(1 / 0.01) = 20 dB
+    assert M.psnr(test, ref) == pytest.approx(20.0, abs=1e-9)
+    assert M.default_data_range(ref) == 1.0
+    out = M.all_metrics(test, ref)
+    assert out["psnr"] == pytest.approx(20.0, abs=1e-9) and math.isfinite(out["ssim"])
+    assert out["metric_settings"]["psnr"]["data_range"] == 1.0 == out["metric_settings"]["ssim"]["data_range"]
+    mask = np.ones((16, 16), bool)
+    mask[:4] = False
+    ref[:4] = 5.0  # a bright background does not count: the valid pixels are still all black
+    assert M.default_data_range(ref, mask=mask) == 1.0
+    assert M.psnr(test, ref, mask=mask) == pytest.approx(20.0, abs=1e-9)
+
+
 def test_empty_mask_gives_nan():
     ref = _smooth()
     mask = np.zeros(ref.shape[:2], bool)

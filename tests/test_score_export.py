@@ -274,3 +274,106 @@ def test_score_one_answer_from_the_command_line(tmp_path, gpu, hbao_run, capsys)
     assert row["psnr"] == pytest.approx(inside["psnr"], abs=1e-6)
     assert row["stage_ms"] == {"ao": 2.0, "blur": 0.5} and row["memory_bytes"] == 4096
     assert row["device"] == "external" and row["timing_source"] == "user"
+
+
+def _write_png(path, a):
+    """A PNG written here byte by byte (no filter, one IDAT): uint8 or uint16 codes, H x W (grey) or
+    H x W x 3 (RGB), so the reader under test is checked against a writer that is not its own library."""
+    import struct
+    import zlib
+
+    a = np.asarray(a)
+    h, w = a.shape[:2]
+    depth, ctype = (16 if a.dtype == np.uint16 else 8), (0 if a.ndim == 2 else 2)
+    rows = b"".join(b"\x00" + np.ascontiguousarray(a[y]).astype(">u2" if depth == 16 else "u1").tobytes()
+                    for y in range(h))
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, ctype, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+    return path
+
+
+def _srgb_eotf(v):
+    """IEC 61966-2-1: linear = v / 12.92 for v <= 0.04045, else ((v + 0.055) / 1.055) ** 2.4."""
+    v = np.asarray(v, np.float64)
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def test_non_square_export_camera_aspect_and_rays(tmp_path):
+    """A 48x32 question: the projection's aspect is W/H, ``rays.npz`` is ``primary_rays(W, H)``, and every
+    pixel's exported ray projects, through the exported view and projection matrices, onto that pixel's
+    centre in the documented convention (column i from the left, row j from the top)."""
+    from ldbench.core.scenes import load_scene
+    from ldbench.harness.export import export_question
+
+    w, h = 48, 32
+    folder = export_question(Question("cornell", Effect("ao", d_max=0.5), w, h, spp=1), tmp_path / "wide")
+    q, cam = (json.loads((folder / f).read_text()) for f in ("question.json", "camera.json"))
+    assert (q["width"], q["height"], cam["width"], cam["height"]) == (w, h, w, h)
+    P, V = np.array(cam["projection_matrix"]), np.array(cam["view_matrix"])
+    assert P[1, 1] / P[0, 0] == pytest.approx(w / h, rel=1e-12)
+    z = np.load(folder / "rays.npz")
+    o_ref, d_ref = load_scene("cornell").camera.primary_rays(w, h)
+    assert z["direction"].shape == (w * h, 3)
+    np.testing.assert_array_equal(z["direction"], d_ref.astype(np.float32))
+    np.testing.assert_array_equal(z["origin"], o_ref.astype(np.float32))
+    p = np.asarray(z["origin"], np.float64) + 0.5 * (cam["near"] + cam["far"]) * np.asarray(z["direction"], np.float64)
+    clip = np.concatenate([p, np.ones((len(p), 1))], 1) @ (P @ V).T
+    ndc = clip[:, :2] / clip[:, 3:]
+    j, i = np.divmod(np.arange(w * h), w)
+    np.testing.assert_allclose(ndc[:, 0], 2 * (i + 0.5) / w - 1, atol=1e-5)
+    np.testing.assert_allclose(ndc[:, 1], 1 - 2 * (j + 0.5) / h, atol=1e-5)
+
+
+@pytest.mark.parametrize("depth", [8, 16])
+def test_png_answers_decode_the_srgb_eotf_exactly(tmp_path, depth):
+    """8- and 16-bit PNG answers, grey and RGB: ``srgb`` is the piecewise sRGB EOTF (exponent 2.4) to 1e-4,
+    ``linear`` is the code / (2^depth - 1), and ``png_scale`` multiplies either."""
+    from ldbench.harness.score import read_image
+
+    top = 2 ** depth - 1
+    codes = np.unique(np.concatenate([np.linspace(0, top, 256).round(), np.arange(0, 16 * (top // 255) + 1)]))
+    codes = codes[: (len(codes) // 8) * 8].reshape(8, -1).astype(np.uint8 if depth == 8 else np.uint16)
+    v = codes / top
+    rgb = np.stack([codes, codes[::-1], np.roll(codes, 3, 1)], -1)
+    for name, img, channels, want in (("grey", codes, 1, v[..., None]),
+                                      ("rgb", rgb, 3, np.stack([v, v[::-1], np.roll(v, 3, 1)], -1))):
+        path = _write_png(tmp_path / f"{name}{depth}.png", img)
+        got = read_image(path, channels, transfer="srgb")
+        assert got.shape == want.shape, name
+        np.testing.assert_allclose(got, _srgb_eotf(want), rtol=0, atol=1e-4, err_msg=name)
+        np.testing.assert_allclose(read_image(path, channels, transfer="linear"), want, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(read_image(path, channels, transfer="srgb", png_scale=4.0),
+                                   4 * _srgb_eotf(want), rtol=0, atol=4e-4, err_msg=name)
+
+
+def test_score_png_scale_and_grey_answers_from_the_command_line(tmp_path, capsys):
+    """``--png-scale`` is the value of a PNG's white: the 1-spp reference stored (16-bit linear) as ref / 4 and
+    scored with --png-scale 4 is the reference. An AO answer must be grey: a PNG with R = G but B off by one
+    code in one pixel is refused in one line."""
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
+
+    w, h = 16, 8
+    effect = Effect("ao", d_max=0.5)
+    ref = render_reference(load_scene("cornell"), effect, width=w, height=h, spp=1, seed=0, progress=False)
+    mean = np.asarray(ref.mean, np.float64)[..., 0]
+    assert mean.max() > 0.5  # so a scale ignored would show
+    png = _write_png(tmp_path / "answer.png", np.round(np.clip(mean / 4, 0, 1) * 65535).astype(np.uint16))
+    q = ["--scene", "cornell", "--effect", "ao", "--d-max", "0.5", "--size", f"{w}x{h}", "--spp", "1",
+         "--no-report", "--no-progress"]
+    assert main(["score", str(tmp_path / "run"), "--answer", str(png), "--transfer", "linear",
+                 "--png-scale", "4", *q]) == 0, capsys.readouterr().err
+    row = records.read_results(tmp_path / "run").iloc[0]
+    assert row["psnr"] > 80 and row["ssim"] > 0.9999, (row["psnr"], row["ssim"])
+    grey = np.repeat(np.round(np.clip(mean, 0, 1) * 255).astype(np.uint8)[..., None], 3, -1)
+    grey[h // 2, w // 2, 2] ^= 1  # R = G != B in one pixel, by one code
+    _write_png(tmp_path / "answer.png", grey)
+    capsys.readouterr()
+    rc = main(["score", str(tmp_path / "run2"), "--answer", str(png), "--transfer", "srgb", *q])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "grey image (R = G = B)" in err, err
+    assert not (tmp_path / "run2").exists()
