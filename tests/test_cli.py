@@ -243,9 +243,21 @@ def test_scene_without_visible_geometry(tmp_path, how, method, effect):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.xml"]
 
 
-def test_size_beyond_the_gpu_or_memory_fails_before_rendering(tmp_path):
+def test_size_beyond_the_gpu_or_memory_fails_before_rendering(tmp_path, gpu):
+    """Sizes past this device's real limits, asked of the device (a 141 GB GPU holds what a small card
+    cannot): one past GL_MAX_TEXTURE_SIZE (or past the command line's own bound), and a square within it
+    that needs more host or GPU memory than is free; both refused before anything is rendered."""
+    from ldbench.core.gpu import GPU_BYTES_PER_PIXEL, HOST_BYTES_PER_PIXEL, _host_available_bytes
+
+    lim = int(gpu.ctx.info["GL_MAX_TEXTURE_SIZE"])
+    cases = [(f"{lim + 1}x16", f"{lim + 1}x16"), ("1x1", "1x1")]
+    free = [b // per for b, per in ((_host_available_bytes(), HOST_BYTES_PER_PIXEL),
+                                    (gpu.available_gpu_memory(), GPU_BYTES_PER_PIXEL)) if b]
+    side = int(min(free) ** 0.5) + 1
+    if side <= lim:
+        cases.append((f"{side}x{side}", f"{side}x{side}"))
     cache = tmp_path / "cache"
-    for size, needle in (("16384x16384", "16384x16384"), ("1x1", "1x1")):
+    for size, needle in cases:
         rc, _, se = tiny_run(tmp_path / "r", size=size, env={"LDBENCH_CACHE": str(cache)})
         assert_one_line_error(rc, se, needle)
     assert not cache.exists() and not (tmp_path / "r").exists()

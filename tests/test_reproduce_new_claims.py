@@ -10,11 +10,11 @@ import math
 import pytest
 
 from ldbench.harness.cli import main
-from ldbench.reports.reproduce import FAILS, HOLDS, NOT_MEASURABLE, registry
+from ldbench.reports.reproduce import FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, registry
 
 NEW = ("niessner2010-fig7", "niessner2010-rays", "niessner2010-sec7", "yang2010-costs", "archer2019-layouts",
        "aalund2015-trace")
-VERDICTS = {HOLDS, FAILS, NOT_MEASURABLE}
+VERDICTS = {HOLDS, FAILS, NOT_MEASURABLE, INCONCLUSIVE}  # a GPU may find a difference within its noise
 
 
 def test_published_numbers_transcribed():

@@ -153,7 +153,9 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
     """Inside a closed box every ray hits a wall at the slab distance: Mitsuba's oracle to 1e-4 relative.
     The CDI (169 directions of 64²) answers along the nearest deep-image direction (up to 13.7° from the ray
     with 13 × 13 stacks and slices; that alone gives range errors p50 3.3 %, p95 12 %) in the texel of the
-    origin. Measured range errors p50 / p95: one pass 3.5 % / 36.5 %, brute force 3.4 % / 23.5 %; rays
+    origin. Measured range errors p50 / p95: one pass 3.5 % / 36.5 % (llvmpipe) and 38.8 % p95 (NVIDIA H200: the
+one-pass build keeps the fragments in the order the raster delivers them), brute force 3.4 % / 23.5 % (llvmpipe)
+    and 25.8 % p95 (H200); rays
     unanswered (a VPL in a corner whose texel-centre column misses the wall beside it) 1.3 % / 1.1 %;
     distances below 1 cm (self hits, or corner walls met behind the origin: hits at 0) 0 % / 0.19 %.
     Thresholds just above."""
@@ -164,7 +166,7 @@ def test_box_ranges_against_the_closed_form(gpu, box_batch):
     assert np.max(np.abs(ref.t - t_exact) / t_exact) < 1e-4
     r_exact = reduce_ranges(t_exact, b.cap, "mean")
     np.testing.assert_allclose(ref.range, r_exact, rtol=1e-4)
-    limits = {"one_pass": (0.037, 0.38, 0.0140, 0.0005), "brute_force": (0.036, 0.25, 0.0120, 0.0025)}
+    limits = {"one_pass": (0.037, 0.40, 0.0140, 0.0005), "brute_force": (0.036, 0.27, 0.0120, 0.0025)}
     for build, (p50, p95, missing, at_zero) in limits.items():
         m = CdiVpl(CdiVplParams.from_dict({"build": build}))
         m.setup(gpu, sc)
