@@ -40,11 +40,23 @@ GPU_BYTES_PER_PIXEL = 96
 _GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX = 0x9049  # glGetIntegerv, KiB
 
 
-def expand_includes(path: Path, seen: tuple = ()) -> str:
-    """Source of ``path`` with ``#include "x"`` replaced (beside the file first, then methods/glsl/)."""
+LINE_STRIDE = 100_000  # lines a shader file may have: file k of a program is numbered from k · LINE_STRIDE + 1
+
+
+def expand_includes(path: Path, seen: tuple = (), files: list | None = None) -> str:
+    """Source of ``path`` with ``#include "x"`` replaced (beside the file first, then methods/glsl/).
+
+    Every included file is framed by ``#line`` directives: file ``k`` of ``files`` (filled in here, ``path``
+    first) numbers its lines from ``k · LINE_STRIDE + 1``, and the including file's numbering resumes after it.
+    A compiler's line number then names the file and its line (:func:`compile_error`): the source string
+    number of ``#line`` would too, but Mesa reports 0 for some of its errors."""
     path = Path(path)
     if path in seen:
         raise LdbenchError(f"recursive #include of {path.name}")
+    files = [] if files is None else files
+    if path not in files:
+        files.append(path)
+    me = files.index(path)
     try:
         src = path.read_text()
     except OSError as e:
@@ -54,20 +66,48 @@ def expand_includes(path: Path, seen: tuple = ()) -> str:
         name = m.group(1)
         for d in (path.parent, GLSL_DIR):
             if (d / name).exists():
-                return expand_includes(d / name, seen + (path,))
+                body = expand_includes(d / name, seen + (path,), files)
+                line = src.count("\n", 0, m.start()) + 1  # the #include's own line
+                k = files.index(d / name)
+                return f"#line {k * LINE_STRIDE + 1} {k}\n{body}\n#line {me * LINE_STRIDE + line + 1} {me}"
         raise LdbenchError(f"shader {path.name}: #include \"{name}\" not found")
 
     return _INCLUDE.sub(repl, src)
 
 
-def shader_source(path, stage_macro: str, defines: dict | None = None, version: int = 430) -> str:
+def shader_source(path, stage_macro: str, defines: dict | None = None, version: int = 430,
+                  files: list | None = None) -> str:
+    """The whole source of one stage: ``#version``, the stage macro, ``defines``, the binding numbers, then
+    ``path`` with its includes (``files``, if given, receives the files by source string number)."""
     header = [f"#version {version}", f"#define {stage_macro} 1"]
     for k, v in (defines or {}).items():
         if isinstance(v, bool):
             v = int(v)
         header.append(f"#define {k} {v}")
     header.append(bindings.glsl_header())
-    return "\n".join(header) + "\n#line 1\n" + expand_includes(Path(path))
+    return "\n".join(header) + "\n#line 1 0\n" + expand_includes(Path(path), files=[] if files is None else files)
+
+
+#: a compiler message's source string and line: Mesa ``0:46(12): error: ...``, NVIDIA ``0(46) : error C1008: ...``
+_MESSAGE = re.compile(r"^\s*(?:ERROR:\s*)?(\d+)(?::(\d+)\(\d+\)|\((\d+)\))\s*:\s*(.*)$")
+
+
+def shader_name(path: Path) -> str:
+    """A shader file as messages name it: relative to methods/ for the project's own, else the full path."""
+    path = Path(path).resolve()
+    return str(path.relative_to(METHODS_DIR)) if path.is_relative_to(METHODS_DIR) else str(path)
+
+
+def compile_error(e: Exception, files: list) -> str:
+    """The compiler's first error as ``file:line: message`` (the files of :func:`expand_includes`)."""
+    lines = [l.strip() for l in str(e).splitlines() if l.strip() and set(l.strip()) != {"="}]
+    for l in lines:
+        m = _MESSAGE.match(l)
+        if m and "error" in m.group(4).lower():
+            src, line = divmod(int(m.group(2) or m.group(3)), LINE_STRIDE)
+            where = shader_name(files[src]) if src < len(files) else f"source {src}"
+            return f"{where}:{line}: {m.group(4)}"[:300]
+    return _first_error(e)
 
 
 def check_bindings(program, path) -> None:
@@ -204,13 +244,14 @@ class Gpu:
         key = ("p", str(path), tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             text = expand_includes(Path(path))
-            kw = {k: shader_source(path, m, defines) for k, m in STAGES.items()
+            files: list = []
+            kw = {k: shader_source(path, m, defines, files=files) for k, m in STAGES.items()
                   if re.search(rf"\b{m}\b", text)}
             kw.setdefault("fragment_shader", None)
             try:
                 prog = self.ctx.program(varyings=list(varyings), **kw)
             except Exception as e:
-                raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+                raise LdbenchError(f"shader {Path(path).name} failed to compile: {compile_error(e, files)}")
             check_bindings(prog, path)
             self._programs[key] = prog
         return self._programs[key]
@@ -219,10 +260,11 @@ class Gpu:
         """A compute shader from ``path`` (its ``COMPUTE_SHADER`` section, or the whole file)."""
         key = ("c", str(path), tuple(sorted((defines or {}).items())))
         if key not in self._programs:
+            files: list = []
             try:
-                prog = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines))
+                prog = self.ctx.compute_shader(shader_source(path, "COMPUTE_SHADER", defines, files=files))
             except Exception as e:
-                raise LdbenchError(f"shader {Path(path).name} failed to compile: {_first_error(e)}")
+                raise LdbenchError(f"shader {Path(path).name} failed to compile: {compile_error(e, files)}")
             check_bindings(prog, path)
             self._programs[key] = prog
         return self._programs[key]

@@ -35,6 +35,41 @@ def test_include_and_defines(tmp_path, gpu):
         gpu.compute(tmp_path / "err.glsl")
 
 
+def test_compile_errors_name_the_file_and_line(tmp_path, gpu):
+    """A compile error reads ``file:line: message`` with the line of the file it is in, whether that is an
+    include (here two deep) or the including file after its includes; a file outside methods/ (a plugin's) is
+    named by its full path, the project's own relative to methods/. Mesa's and NVIDIA's formats both parse."""
+    (tmp_path / "deep.glsl").write_text("// a comment\nfloat deep(float x) { return x; }\n")
+    (tmp_path / "inc.glsl").write_text('#include "deep.glsl"\nfloat twice(float x) {\n'
+                                       "    return 2.0 * missing_in_inc;\n}\n")
+    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+                                     "void main() { float y = twice(1.0); }\n")
+    with pytest.raises(LdbenchError, match=rf"k.glsl failed to compile: {tmp_path}/inc.glsl:3: .*missing_in_inc"):
+        gpu.compute(tmp_path / "k.glsl")
+    (tmp_path / "inc.glsl").write_text('#include "deep.glsl"\nfloat twice(float x) { return 2.0 * x; }\n')
+    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+                                     "void main() {\n    float y = twice(missing_in_main);\n}\n")
+    with pytest.raises(LdbenchError, match=rf"{tmp_path}/k.glsl:5: .*missing_in_main"):
+        gpu.compute(tmp_path / "k.glsl")
+    (tmp_path / "v.glsl").write_text('#if defined(VERTEX_SHADER)\nvoid main() { gl_Position = vec4(0.0); }\n'
+                                     '#elif defined(FRAGMENT_SHADER)\n#include "deep.glsl"\nout vec4 c;\n'
+                                     "void main() { c = vec4(nope); }\n#endif\n")
+    with pytest.raises(LdbenchError, match=rf"{tmp_path}/v.glsl:6: .*nope"):
+        gpu.program(tmp_path / "v.glsl")
+
+
+@pytest.mark.parametrize("text, where", [
+    ("0:46(12): error: `x' undeclared", "a.glsl:46: error: `x' undeclared"),                  # Mesa
+    ("0(100007) : error C1008: undefined variable \"x\"", "b.glsl:7: error C1008: undefined variable \"x\""),  # NVIDIA
+])
+def test_compile_error_formats(tmp_path, text, where):
+    from ldbench.core.gpu import compile_error
+
+    files = [tmp_path / "a.glsl", tmp_path / "b.glsl"]
+    assert compile_error(Exception(f"GLSL Compiler failed\n\ncompute_shader\n=====\n{text}\n"), files) == \
+        f"{tmp_path}/{where}"
+
+
 def test_resources_count_bytes(gpu):
     res = gpu.resources("x.")
     res.buffer("a", reserve=1000)
