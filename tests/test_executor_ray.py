@@ -123,10 +123,14 @@ def test_ray_workers_log_where_their_time_went(cluster, tmp_path, ldb_log):
     assert sum(ln.startswith("ray: worker ") for ln in lines) == 2, lines
     driver = [ln for ln in lines if ln.startswith("ray: driver split: ")]
     assert len(driver) == 1 and re.fullmatch(r"ray: driver split: put 1× \d+\.\d s, merge 2× \d+\.\d s", driver[0]), lines
-    # this cluster (the fixture's ray.init) runs its workers at Ray's niceness, 15: the run says so
-    assert all(p["nice"] == 15 for p in procs), procs
+    # this cluster (the fixture's ray.init) runs its workers at Ray's niceness, 15 above the driver's (os.nice
+    # adds, up to 19; the suite itself may run under nice): the run says so
+    own = os.getpriority(os.PRIO_PROCESS, 0)
+    worker = min(own + 15, 19)
+    assert all(p["nice"] == worker for p in procs), (own, procs)
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "niceness" in r.getMessage()]
-    assert len(warned) == 1 and "niceness 15, below this process (0)" in warned[0], warned
+    if worker > own:
+        assert len(warned) == 1 and f"niceness {worker}, below this process ({own})" in warned[0], warned
 
 
 def test_serial_run_logs_where_its_time_went(tmp_path, monkeypatch, ldb_log):
