@@ -33,3 +33,29 @@ def atomic_write(path, write, *, suffix: str = "") -> Path:
 def atomic_write_text(path, text: str) -> Path:
     """:func:`atomic_write` of UTF-8 text."""
     return atomic_write(path, lambda t: t.write_text(text, encoding="utf-8"))
+
+
+def check_replaceable(path, ours) -> None:
+    """Refuse to replace ``path`` unless ldbench wrote it: a user's file, or another command's output, is
+    never overwritten. ``ours(head)`` says whether the first 4 KiB of an existing file are this output's own
+    kind (e.g. its format tag); a missing path is fine; anything not a regular file is refused.
+
+    Raises
+    ------
+    LdbenchError
+        naming the path and what to do."""
+    from ldbench.core.errors import LdbenchError
+
+    path = Path(path)
+    if not os.path.lexists(path):
+        return
+    if path.is_symlink() or not path.is_file():
+        raise LdbenchError(f"{path} exists and is not a file ldbench wrote: choose another output path")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError as e:
+        raise LdbenchError(f"cannot read {path}: {e.strerror or e}") from None
+    if not ours(head):
+        raise LdbenchError(f"{path} exists and ldbench did not write it (it is not this command's output): "
+                           "choose another output path, or remove the file")

@@ -944,10 +944,20 @@ def add_arguments(p):
                         "current, verdict and thresholds, and the exit status")
 
 
-def _write_text(path: Path, text: str):
-    """Write ``text`` to ``path`` through a temporary file and a rename (no half-written report)."""
-    from ldbench.core.files import atomic_write_text
+def _ours_md(head: bytes) -> bool:
+    return head.startswith(b"## ldbench compare:")
 
+
+def _ours_json(head: bytes) -> bool:
+    return head.lstrip().startswith(b"{") and f'"format": "{JSON_FORMAT}"'.encode() in head
+
+
+def _write_text(path: Path, text: str, ours):
+    """Write ``text`` to ``path`` through a temporary file and a rename (no half-written report); an existing
+    file is replaced only where ``ours`` recognises an earlier report of the same kind."""
+    from ldbench.core.files import atomic_write_text, check_replaceable
+
+    check_replaceable(path, ours)
     try:
         atomic_write_text(path, text)
     except OSError as e:
@@ -963,9 +973,14 @@ def run_cli(args) -> int:
     comp = compare_paths(args.baseline, args.run, match=match, thresholds=th)
     run_path = Path(args.run)
     out = Path(args.md) if args.md else (run_path if run_path.is_dir() else run_path.parent) / "compare.md"
-    _write_text(out, to_markdown(comp))
+    from ldbench.core.files import check_replaceable
+
+    check_replaceable(out, _ours_md)  # both outputs checked before either is written
     if args.json:
-        _write_text(Path(args.json), json.dumps(to_json(comp), indent=2, allow_nan=False) + "\n")
+        check_replaceable(Path(args.json), _ours_json)
+    _write_text(out, to_markdown(comp), _ours_md)
+    if args.json:
+        _write_text(Path(args.json), json.dumps(to_json(comp), indent=2, allow_nan=False) + "\n", _ours_json)
     import logging
     log = logging.getLogger(__name__)
     for w in comp.warnings:

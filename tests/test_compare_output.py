@@ -66,3 +66,30 @@ def test_unwritable_json_path_is_one_line(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     rc, _, err = _cli(capsys, base, run, "--json", tmp_path / "file" / "v.json")
     assert rc == 2 and err.strip().count("\n") == 0 and "cannot write" in err
+
+
+def test_outputs_never_replace_a_file_ldbench_did_not_write(tmp_path, capsys):
+    """--md and --json replace only an earlier report of their own kind: a run's results.parquet, a user's
+    notes, the other kind's report, a folder or a link are refused with one line, and nothing is written
+    (both outputs are checked before either is)."""
+    base, run = _run(tmp_path, "base"), _run(tmp_path, "run")
+    parquet = run / "results.parquet"
+    before = parquet.read_bytes()
+    notes = tmp_path / "notes.md"
+    notes.write_text("# my notes\n")
+    (tmp_path / "dir.md").mkdir()
+    (tmp_path / "link.md").symlink_to(notes)
+    for args in (("--md", parquet), ("--json", parquet), ("--md", notes), ("--json", notes),
+                 ("--md", tmp_path / "dir.md"), ("--md", tmp_path / "link.md"),
+                 ("--md", tmp_path / "ok.md", "--json", notes)):
+        rc, _, err = _cli(capsys, base, run, *args)
+        assert rc == 2 and err.strip().count("\n") == 0, err
+        assert "ldbench did not write" in err or "not a file ldbench wrote" in err, err
+    assert parquet.read_bytes() == before and notes.read_text() == "# my notes\n"
+    assert not (tmp_path / "ok.md").exists()
+    # its own earlier reports are replaced; one kind is not taken for the other
+    for _ in range(2):
+        rc, _, _ = _cli(capsys, base, run, "--md", tmp_path / "gate.md", "--json", tmp_path / "v.json")
+        assert rc == 0
+    rc, _, err = _cli(capsys, base, run, "--md", tmp_path / "v.json")
+    assert rc == 2 and "ldbench did not write" in err
