@@ -162,18 +162,34 @@ def lights_json(scene) -> list:
 
 def export_question(question, out) -> Path:
     """Write the files of the module docstring for ``question`` (:class:`ldbench.harness.score.Question`) into
-    ``out`` (created; existing files of these names are replaced, nothing else is touched)."""
+    the folder ``out``, as ``run --out`` writes a run (:mod:`ldbench.harness.rundir`): into a temporary folder
+    that then replaces ``out`` at once. ``out`` may be new, empty, or an earlier export holding nothing but
+    what export writes; anything else (a user's folder, an export beside which an answer was saved) is
+    refused before any work."""
+    from ldbench.harness.rundir import QUESTION, RunDir
+
+    rd = RunDir(out, QUESTION)
+    rd.check()
+    scene = _load(question)
+    with rd as tmp:
+        _write_question(question, scene, tmp)
+    return Path(out)
+
+
+def _load(question):
+    from ldbench.core.scenes import load_scene
+
+    scene = load_scene(question.scene, **question.scene_params)
+    question.effect.check_scene(scene)
+    return scene
+
+
+def _write_question(question, scene, out: Path) -> None:
     import trimesh
 
     from ldbench.core.plugins import ldbench_info
-    from ldbench.core.scenes import load_scene
 
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise LdbenchError(f"--out {out} exists and is not a folder")
-    scene = load_scene(question.scene, **question.scene_params)
     effect, w, h = question.effect, question.width, question.height
-    effect.check_scene(scene)
     (out / "meshes").mkdir(parents=True, exist_ok=True)
     for i, m in enumerate(scene.meshes):
         if len(m.faces):
@@ -223,4 +239,3 @@ def export_question(question, out) -> Path:
                     "rays": "answer.npy / .npz (t) / .csv (column t)", "vpl_range": "answer.npz (range, t)",
                     "optional": "mask.png, answer.json (method, params, stage_ms, memory, ...)"}}
     atomic_write_text(out / "question.json", json.dumps(q, indent=1, default=str))
-    return out

@@ -54,9 +54,9 @@ RUN_ENTRIES = frozenset(RUN_FILES + ("results.csv", "summary.md", "index.html", 
                                      "images", "figures"))
 
 
-def foreign_entries(path) -> list[str]:
-    """Top-level entries of the run directory ``path`` that ldbench does not write (sorted)."""
-    return sorted(e.name for e in Path(path).iterdir() if e.name not in RUN_ENTRIES)
+def foreign_entries(path, entries=RUN_ENTRIES) -> list[str]:
+    """Top-level entries of the folder ``path`` that ldbench does not write into it (sorted)."""
+    return sorted(e.name for e in Path(path).iterdir() if e.name not in entries)
 
 
 #: The keys of the ``suite.json`` ldbench writes (:func:`ldbench.harness.executors.run_jobs`).
@@ -89,12 +89,49 @@ def is_run_dir(path) -> bool:
     return True
 
 
-def _replaceable(p: Path) -> bool:
-    """An existing DIR that may be replaced: an ldbench run holding only what ldbench writes, or an empty
-    folder."""
+class Kind:
+    """A kind of output folder that :class:`RunDir` writes: how to recognise one ldbench wrote
+    (``is_ours``), every top-level entry ldbench writes into it (``entries``), and how messages name it."""
+
+    def __init__(self, what: str, is_ours, entries: frozenset, proof: str):
+        self.what, self.is_ours, self.entries, self.proof = what, is_ours, frozenset(entries), proof
+
+
+RUN = Kind("an ldbench run", is_run_dir, RUN_ENTRIES, f"no {' and '.join(RUN_FILES)} written by ldbench")
+
+#: Every top-level entry ``ldbench export`` writes into a question folder (harness/export.py)
+QUESTION_ENTRIES = frozenset(("question.json", "scene.xml", "scene.ply", "meshes", "camera.json", "light.json",
+                              "rays.npz", "batch.npz"))
+QUESTION_KEYS = ("scene", "effect", "width", "height", "spp", "seed", "files", "ldbench_version")
+
+
+def is_question_dir(path) -> bool:
+    """True if ``path`` is a finished ``ldbench export`` folder: a directory (not a link, no :data:`MARKER`)
+    whose ``question.json`` is the JSON object export writes (:data:`QUESTION_KEYS`)."""
+    import json
+
+    p = Path(path)
+    if not p.is_dir() or p.is_symlink() or (p / MARKER).exists():
+        return False
+    q = p / "question.json"
+    if not q.is_file() or q.is_symlink():
+        return False
+    try:
+        d = json.loads(q.read_bytes()[:1 << 20])
+    except (OSError, ValueError):
+        return False
+    return isinstance(d, dict) and all(k in d for k in QUESTION_KEYS)
+
+
+QUESTION = Kind("an ldbench question", is_question_dir, QUESTION_ENTRIES, "no question.json written by ldbench export")
+
+
+def _replaceable(p: Path, kind: Kind = RUN) -> bool:
+    """An existing DIR that may be replaced: a folder of this kind ldbench wrote holding only what ldbench
+    writes, or an empty folder."""
     if p.is_symlink() or not p.is_dir():
         return False
-    return (is_run_dir(p) and not foreign_entries(p)) or not any(p.iterdir())
+    return (kind.is_ours(p) and not foreign_entries(p, kind.entries)) or not any(p.iterdir())
 
 
 def _pid_alive(pid: int) -> bool:
@@ -116,7 +153,8 @@ def _why(e: OSError) -> str:
 class RunDir:
     """One run's output directory ``out`` (see the module docstring)."""
 
-    def __init__(self, out):
+    def __init__(self, out, kind: Kind = RUN):
+        self.kind = kind
         self.out = Path(os.path.abspath(os.fspath(out)))
         self.parent = self.out.parent
         name = self.out.name
@@ -139,17 +177,17 @@ class RunDir:
             raise LdbenchError(f"--out {out} is the current directory or contains it; give a new folder")
         if out.is_symlink():
             raise LdbenchError(f"--out {out} is a symbolic link; give the folder it points to")
+        kind = self.kind
         if out.exists():
             if not out.is_dir():
                 raise LdbenchError(f"--out {out} exists and is not a directory")
-            if is_run_dir(out) and foreign_entries(out):
-                extra = foreign_entries(out)
-                raise LdbenchError(f"--out {out} is an ldbench run that also holds files ldbench did not write "
+            if kind.is_ours(out) and foreign_entries(out, kind.entries):
+                extra = foreign_entries(out, kind.entries)
+                raise LdbenchError(f"--out {out} is {kind.what} that also holds files ldbench did not write "
                                    f"({', '.join(extra[:3])}{', ...' if len(extra) > 3 else ''}); move them or "
                                    f"give another folder: not replacing it")
-            if not _replaceable(out):
-                raise LdbenchError(f"--out {out} exists and is not an ldbench run (no "
-                                   f"{' and '.join(RUN_FILES)} written by ldbench); not replacing it")
+            if not _replaceable(out, kind):
+                raise LdbenchError(f"--out {out} exists and is not {kind.what} ({kind.proof}); not replacing it")
         if self.parent.exists() and not self.parent.is_dir():
             raise LdbenchError(f"--out {out}: {self.parent} is not a directory")
 
@@ -212,9 +250,9 @@ class RunDir:
             if kind == "partial":
                 if (p / MARKER).is_file():
                     shutil.rmtree(p, ignore_errors=True)
-            elif _replaceable(p):  # an old run moved aside by a commit that was killed
+            elif _replaceable(p, self.kind):  # an old run moved aside by a commit that was killed
                 if self.out.exists() or self.out.is_symlink():
-                    _remove_run(p)
+                    _remove_run(p, self.kind)
                 else:
                     os.rename(p, self.out)
 
@@ -249,9 +287,9 @@ class RunDir:
         if not self._opened:
             raise RuntimeError("RunDir.commit before open")
         try:
-            if (self.out.exists() or self.out.is_symlink()) and not _replaceable(self.out):
-                raise LdbenchError(f"--out {self.out} was changed during the run and is no longer an "
-                                   f"ldbench run; not replacing it")
+            if (self.out.exists() or self.out.is_symlink()) and not _replaceable(self.out, self.kind):
+                raise LdbenchError(f"--out {self.out} was changed meanwhile and is no longer {self.kind.what}; "
+                                   f"not replacing it")
             (self.partial / MARKER).unlink()
             moved = False
             if self.out.exists():
@@ -265,7 +303,7 @@ class RunDir:
                 raise
             _fsync_dir(self.parent)
             if moved:
-                _remove_run(self.old)
+                _remove_run(self.old, self.kind)
         except OSError as e:
             raise LdbenchError(f"cannot move the run into {self.out}: {_why(e)}")
         finally:
@@ -293,9 +331,9 @@ class RunDir:
         return False
 
 
-def _remove_run(p: Path) -> None:
-    """Delete a replaced run (rmtree) or an empty folder (rmdir); anything else is left alone."""
-    if is_run_dir(p):
+def _remove_run(p: Path, kind: Kind = RUN) -> None:
+    """Delete a replaced folder of this kind (rmtree) or an empty folder (rmdir); anything else is left alone."""
+    if kind.is_ours(p) and not foreign_entries(p, kind.entries):
         shutil.rmtree(p, ignore_errors=True)
     else:
         try:

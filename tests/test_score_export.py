@@ -377,3 +377,130 @@ def test_score_png_scale_and_grey_answers_from_the_command_line(tmp_path, capsys
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1 and "grey image (R = G = B)" in err, err
     assert not (tmp_path / "run2").exists()
+
+
+def _ref_answer(folder, w=16, h=16):
+    """An exact answer: the question's own 1-spp reference, as answer.exr."""
+    from ldbench.core.exr import write_exr
+    from ldbench.core.scenes import load_scene
+    from ldbench.references import render_reference
+
+    ref = render_reference(load_scene("cornell"), Effect("ao", d_max=0.5), width=w, height=h, spp=1, seed=0,
+                           progress=False)
+    img = np.array(ref.mean[..., 0], np.float32)
+    write_exr(folder / "answer.exr", {"Y": img})
+    return img, np.asarray(ref.mask)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy warning may reach stderr
+def test_score_nan_and_inf_pixels_and_masks_are_failed_pixels_never_ok(tmp_path, capsys):
+    """One NaN and one inf pixel: not ``ok`` but ``degraded: 2 non-finite pixels`` (exit 1), counted in
+    ``nonfinite``, scored as missing pixels (finite PSNR, coverage below 1); a NaN mask is no coverage."""
+    from ldbench.core.exr import write_exr
+
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "nan", size=16, spp=1)
+    img, hit = _ref_answer(folder)
+    ys, xs = np.nonzero(hit & (img < 0.9))  # where a missing pixel (1, ao's background) is an error
+    bad = img.copy()
+    bad[ys[0], xs[0]], bad[ys[-1], xs[-1]] = np.nan, np.inf
+    write_exr(folder / "answer.exr", {"Y": bad})
+    rc = main(["score", str(tmp_path / "run"), "--from", str(folder), "--no-report", "--no-progress"])
+    out, err = capsys.readouterr()
+    assert rc == 1 and err == "", err
+    assert "degraded: 2 non-finite pixels" in out
+    row = records.read_results(tmp_path / "run").iloc[-1]
+    assert row["status"] == "degraded: 2 non-finite pixels" and row["nonfinite"] == 2
+    assert np.isfinite(row["psnr"]) and np.isfinite(row["relmse"]) and row["coverage"] == pytest.approx(
+        1 - 2 / hit.sum())
+    write_exr(folder / "answer.exr", {"Y": img})  # the exact answer, a mask NaN everywhere but one pixel
+    mask = np.full(img.shape, np.nan, np.float32)
+    mask[ys[0], xs[0]] = 1.0
+    np.save(folder / "mask.npy", mask)
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run2", report=False)
+    assert row["coverage"] == pytest.approx(1 / hit.sum()) and row["nonfinite"] == img.size - 1
+    assert row["status"] == f"degraded: {img.size - 1} non-finite pixels"
+    (folder / "mask.npy").unlink()
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run3", report=False)
+    assert row["status"] == "ok" and row["nonfinite"] == 0 and row["coverage"] == 1.0
+
+
+def test_score_hostile_answer_files_are_one_line(tmp_path, capsys):
+    """answer.json fields of the wrong type, memory >= 1e20 (beyond int64), masks that are 0-d, 1-d, object
+    arrays, strings, zero bytes or a garbage PNG, a zero-byte answer .npy: one line, exit 2, nothing written."""
+    from test_cli import assert_one_line_error
+
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "bad", size=16, spp=1)
+    _ref_answer(folder)
+
+    def refused(*needles, args=None):
+        out = tmp_path / "out"
+        rc = main(["score", str(out), *(args or ["--from", str(folder)]), "--no-report", "--no-progress"])
+        assert_one_line_error(rc, capsys.readouterr().err, *needles)
+        assert not out.exists()
+
+    for meta, needle in (({"method": 5}, "method must be a string"), ({"paper": {}}, "paper must be a string"),
+                         ({"method_version": 1.5}, "method_version"), ({"params": [1]}, "params must be a table"),
+                         ({"stage_ms": [1, 2]}, "stage_ms must be a table"), ({"memory": [1]}, "memory must be"),
+                         ({"memory": {"a": 1e20}}, "'a'"), ({"memory": {"a": "x"}}, "'a'"),
+                         ({"memory": {"a": float("inf")}}, "'a'"), ({"memory": {"a": 2 ** 62, "b": 2 ** 62}}, "sum"),
+                         ({"transfer": ["srgb"]}, "transfer"), ({"png_scale": True}, "png_scale"),
+                         ({"stage_ms": {"ao": True}}, "stage time")):
+        (folder / "answer.json").write_text(json.dumps(meta))
+        refused(needle)
+    (folder / "answer.json").unlink()
+    refused("memory 'ao'", args=["--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao",
+                                 "--d-max", "0.5", "--size", "16x16", "--spp", "1", "--memory", f"ao={10 ** 20}"])
+    np.save(folder / "mask.npy", np.array([None, 1], dtype=object), allow_pickle=True)
+    refused("cannot read mask")
+    for bad in (np.float32(1), np.ones(16, np.float32), np.array([["a"] * 16] * 16)):
+        np.save(folder / "mask.npy", bad)
+        refused("mask")
+    (folder / "mask.npy").write_bytes(b"")
+    refused("cannot read mask")
+    (folder / "mask.npy").unlink()
+    for garbage in (b"garbage", b"\x89PNG\r\n\x1a\n" + b"\0" * 40):
+        (folder / "mask.png").write_bytes(garbage)
+        refused("cannot read mask")
+    (folder / "mask.png").unlink()
+    rays = _export(tmp_path, Effect("rays", rays_per_pixel=1), "rays", size=16)
+    (rays / "answer.npy").write_bytes(b"")
+    refused("cannot read", args=["--from", str(rays)])
+    np.save(rays / "answer.npy", np.array(["x"] * 4))
+    refused("must hold numbers", args=["--from", str(rays)])
+
+
+def test_export_replaces_only_an_earlier_export_and_all_at_once(tmp_path, monkeypatch):
+    """export --out follows run --out's rule (harness/rundir.py): a user's folder (even one holding a
+    scene.xml) and an export beside which an answer was saved are refused before any work, untouched; an
+    earlier export is replaced whole (no batch.npz of the previous question left), and an export that fails
+    halfway leaves the previous one as it was, with no temporary folder."""
+    from ldbench.core.errors import LdbenchError
+    from ldbench.harness import export
+
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "scene.xml").write_text("<scene version='3.0.0'/>")
+    with pytest.raises(LdbenchError, match="not an ldbench question"):
+        _export(tmp_path, Effect("ao", d_max=0.5), "mine", size=8, spp=1)
+    assert [p.name for p in mine.iterdir()] == ["scene.xml"]
+    q = _export(tmp_path, Effect("rays", ray_kind="diffuse", rays_per_pixel=1), "q", size=8, spp=1)
+    assert (q / "batch.npz").is_file()
+    first = (q / "question.json").read_text()
+    again = _export(tmp_path, Effect("ao", d_max=0.5), "q", size=8, spp=1)
+    assert again == q and not (q / "batch.npz").exists() and (q / "question.json").read_text() != first
+    second = (q / "question.json").read_text()
+
+    def broken(question, scene, out):
+        (out / "question.json").write_text("{}")
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(export, "_write_question", broken)
+    with pytest.raises(RuntimeError):
+        _export(tmp_path, Effect("direct"), "q", size=8, spp=1)
+    assert (q / "question.json").read_text() == second
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "q"]  # no partial folder, no lock
+    monkeypatch.undo()
+    np.save(q / "answer.npy", np.zeros(3, np.float32))
+    with pytest.raises(LdbenchError, match="did not write.*answer.npy"):
+        _export(tmp_path, Effect("ao", d_max=0.5), "q", size=8, spp=1)
+    assert (q / "answer.npy").is_file() and (q / "question.json").read_text() == second
