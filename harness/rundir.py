@@ -50,8 +50,8 @@ from .records import PARTIAL_MARKER as MARKER  # noqa: F401 (records refuses wha
 RUN_FILES = ("results.parquet", "suite.json")
 #: Every top-level entry that ldbench writes into a run directory (the runner, ``report``, ``compare``,
 #: ``reproduce``, ``score``); a run holding anything else also holds a user's file and is not replaced.
-RUN_ENTRIES = frozenset(RUN_FILES + ("results.csv", "summary.md", "index.html", "reproduce.md", "compare.md",
-                                     "images", "figures"))
+RUN_ENTRIES = frozenset(RUN_FILES + ("results.csv", "summary.md", "index.html", "reproduce.md", "reproduce.json",
+                                     "compare.md", "images", "figures"))
 
 
 def foreign_entries(path, entries=RUN_ENTRIES) -> list[str]:

@@ -215,3 +215,14 @@ def test_concurrent_cli_run_into_same_out_exits_2(tmp_path):
     finally:
         holder.kill()
         holder.wait()
+
+
+def test_every_file_ldbench_writes_into_a_run_keeps_it_replaceable(tmp_path):
+    """A run that reproduce, report, compare or score wrote into stays an ldbench run a second reproduce
+    (a nightly's second night) or run may replace: reproduce.json among them."""
+    for name in ("reproduce.json", "reproduce.md", "compare.md", "summary.md", "index.html", "results.csv"):
+        out = make_run(tmp_path / name.replace(".", "-"), "old")
+        (out / name).write_text("{}")
+        with RunDir(out) as tmp:
+            make_run(tmp, "new")
+        assert tag(out) == "new"
