@@ -164,10 +164,19 @@ def _names(v, name) -> list:
 
 
 def check_budget(width: int, height: int, spp: int) -> None:
-    """Refuse a reference of more than :data:`MAX_REFERENCE_SAMPLES` samples."""
+    """Refuse, before any work, a reference of more than :data:`MAX_REFERENCE_SAMPLES` samples and an image
+    this machine's memory cannot hold (:data:`ldbench.core.gpu.HOST_BYTES_PER_PIXEL`, measured, against
+    ``MemAvailable``). Every command checks the sizes it accepts here, from a flag or from a file; the GPU's
+    own limits are checked when its context exists (:meth:`ldbench.core.gpu.Gpu.check_image_size`)."""
+    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
+
     if width * height * spp > MAX_REFERENCE_SAMPLES:
         raise LdbenchError(f"a {width}x{height} reference at spp {spp} is {width * height * spp:.3g} samples, "
                            f"more than the limit of 2^40 ({MAX_REFERENCE_SAMPLES:.3g}); lower --spp or --size")
+    need, host = width * height * HOST_BYTES_PER_PIXEL, _host_available_bytes()
+    if host is not None and need > host:
+        raise LdbenchError(f"size {width}x{height} needs about {need / 2**30:.1f} GiB of memory, this machine has "
+                           f"{host / 2**30:.1f} GiB available; lower --size")
 
 
 def resolve_sizes(jobs: list, scenes: dict) -> list:

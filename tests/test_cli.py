@@ -263,6 +263,23 @@ def test_size_beyond_the_gpu_or_memory_fails_before_rendering(tmp_path, gpu):
     assert not cache.exists() and not (tmp_path / "r").exists()
 
 
+def test_every_command_checks_the_memory_a_size_needs_before_any_work(tmp_path):
+    """export and reference (no GPU context) refuse a size this machine's memory cannot hold, as run does,
+    in one line and before anything is written (the side from the measured bytes per pixel)."""
+    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
+    from ldbench.harness.suite import MAX_SIDE
+
+    side = int((_host_available_bytes() / HOST_BYTES_PER_PIXEL) ** 0.5) + 1
+    if side > MAX_SIDE:
+        pytest.skip(f"this machine holds a {MAX_SIDE}² image: no size to refuse for memory")
+    size = f"{side}x{side}"
+    for args in (("export", "--scene", "cornell", "--effect", "ao", "--spp", "1", "--out", str(tmp_path / "q")),
+                 ("reference", "cornell", "--effect", "ao", "--spp", "1", "--out", str(tmp_path / "r.exr"))):
+        rc, _, se = run_cli(*args, "--size", size, env={"LDBENCH_CACHE": str(tmp_path / "cache")})
+        assert_one_line_error(rc, se, size, "memory")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 def test_gpu_size_limits(gpu):
     lim = int(gpu.ctx.info["GL_MAX_TEXTURE_SIZE"])
     gpu.check_image_size(64, 48)
