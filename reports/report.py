@@ -6,13 +6,14 @@
   ``report_viewer.js``; no network: every link is a relative path inside the run directory, every
   string from the records is escaped with :func:`html.escape`, the viewer's JSON data escapes ``<``).
   Sections: the machine/commit header (device, GL renderer and version, driver, CPU, GPU name, commit + dirty flag, run id, time; a red warning when ``device = cpu-software``,
-  because then every time is wall clock on a software rasterizer), the results table, the figures,
+  because then every time is wall clock on a software rasterizer), the leaderboards
+  (:mod:`ldbench.reports.leaderboard`: who wins per scene × effect × size), the results table, the figures,
   one image grid per scene × effect × size, and the paper-reproduction tables when the run was made by
   ``ldbench reproduce`` (``reproduce.json``).
 * ``figures/`` — see :mod:`ldbench.reports.figures`: stage-time breakdowns (``stages-*``), time and memory
   against each swept parameter (``time-vs-*``, ``memory-vs-*``), quality vs time with the Pareto front
   (``quality-*``), and the image grids (``grid-*`` plus ``grids/<tag>/`` assets), each as PNG and PDF.
-* ``summary.md`` — the results table in Markdown with links to the figures.
+* ``summary.md`` — the leaderboards and the results table in Markdown with links to the figures.
 
 Tables list only the parameters that differ from the adapter's defaults (:func:`shown_params`); the
 results files keep the full set. docs/reports.md describes the page and the viewer.
@@ -31,6 +32,7 @@ import urllib.parse
 from pathlib import Path
 
 from . import figures as F
+from .leaderboard import leaderboards
 from ldbench.core.device import MACHINE_FIELDS
 from ldbench.core.effects import get_spec
 from ldbench.core.files import atomic_write_text
@@ -155,6 +157,29 @@ def machines(df) -> list[dict]:
 # summary.md
 
 
+def boards(df) -> list:
+    """The leaderboards of the run (:mod:`ldbench.reports.leaderboard`): PSNR, with the non-default
+    parameters of each configuration as the tables show them."""
+    swept = swept_params(df)
+    return leaderboards(df, image_rows(df), lambda r: _row_params(r, swept))
+
+
+BOARD_NOTE = ("Ranked by PSNR against the same reference, best first; ★ = Pareto-optimal on PSNR and time "
+              "(no other configuration of the board is as fast and as accurate, and better in one). Rows that "
+              "failed are not ranked.")
+
+
+def _board_md(b) -> list:
+    lines = [f"### {_md(b.scene)} · {_md(b.effect)} · {b.size.replace('x', '×')}", "",
+             "| rank | method | params (non-default) | PSNR dB | total ms | memory MB | Pareto |",
+             "|---|---|---|---|---|---|---|"]
+    for e in b.entries:
+        rank = str(e.rank) if e.rank is not None else f"– ({_md(e.status)})"
+        lines.append(f"| {rank} | {_md(e.method)} | {_md(e.params)} | {_fmt(e.value)} | {_fmt(e.total_ms)} | "
+                     f"{_fmt(e.memory_mb, 1)} | {'★' if e.pareto else ''} |")
+    return lines + [""]
+
+
 def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     lines = ["# ldbench run", ""]
     for m in machines(df):
@@ -164,6 +189,12 @@ def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     lines.append("")
     if (df["device"] == "cpu-software").any():
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
+    bs = boards(df)
+    if bs:
+        lines += ["## Leaderboard", "", BOARD_NOTE, ""]
+        for b in bs:
+            lines += _board_md(b)
+        lines += ["## All rows", ""]
     img = df[image_rows(df)]
     swept = swept_params(df)
     if len(img):
@@ -340,6 +371,27 @@ def _metric_tables_html(h: _Html, df):
         h.text("p", f"Reference: {spec.reference_backend}. Columns as defined in core/effects/{name}.py "
                     "(rates are fractions of all rays; distance errors are fractions of the scene diagonal; "
                     "M = 10^6 per second).", cls="cap")
+
+
+def _leaderboard_html(h: _Html, df):
+    bs = boards(df)
+    if not bs:
+        return
+    h.raw('<h2 id="leaderboard">Leaderboard</h2>')
+    h.text("p", BOARD_NOTE, cls="cap")
+    for b in bs:
+        h.text("h3", f"{b.scene} · {b.effect} · {b.size.replace('x', '×')}")
+        heads = ["rank", "method", "params (non-default)", "PSNR dB", "total ms", "memory MB", "Pareto"]
+        h.raw('<table class="results leaderboard"><thead><tr>' + "".join(f"<th>{esc(c)}</th>" for c in heads)
+              + "</tr></thead><tbody>")
+        for e in b.entries:
+            rank = str(e.rank) if e.rank is not None else "–"
+            cells = [(rank, True), (e.method, False), (e.params, False), (_fmt(e.value), True),
+                     (_fmt(e.total_ms), True), (_fmt(e.memory_mb, 1), True), ("★" if e.pareto else "", False)]
+            tr = "<tr>" if e.rank is not None else f'<tr class="bad" title="{esc(e.status)}">'
+            h.raw(tr + "".join((f'<td class="num">{esc(v)}</td>' if num else f"<td>{esc(v)}</td>")
+                               for v, num in cells) + "</tr>")
+        h.raw("</tbody></table>")
 
 
 def _results_table(h: _Html, df):
@@ -531,13 +583,15 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
         h.text("div", "Warning: device = cpu-software. These times are wall clock on a software "
                       "rasterizer (Mesa llvmpipe on the CPU), not GPU times; compare them only with runs "
                       "on the same machine, never with the papers' GPU numbers.", cls="warn")
-    nav = ['<a href="#results">results</a>', '<a href="#figures">figures</a>', '<a href="#grids">image grids</a>']
+    nav = ['<a href="#leaderboard">leaderboard</a>', '<a href="#results">results</a>', '<a href="#figures">figures</a>',
+           '<a href="#grids">image grids</a>']
     if (run_dir / "reproduce.json").is_file():
         nav.append('<a href="#reproduce">paper reproduction</a>')
     nav += ['<a href="results.csv">results.csv</a>', '<a href="summary.md">summary.md</a>']
     h.raw("<nav>" + "".join(nav) + "</nav>")
     if problems:
         h.raw('<div class="problems"><b>Report problems</b><br>' + "<br>".join(esc(p) for p in problems) + "</div>")
+    _leaderboard_html(h, df)
     _reproduce_html(h, run_dir)
     h.raw('<h2 id="results">Results</h2>')
     if any(image_rows(df)):

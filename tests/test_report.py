@@ -296,3 +296,36 @@ def test_ray_rows_get_their_table_and_accuracy_figure(tmp_path):
     assert [f.kind for f in out["figures"]].count("rays") == 1
     summary = (tmp_path / "summary.md").read_text()
     assert "## Effect `rays`" in summary and "PSNR dB" not in summary
+
+
+def test_leaderboard_says_who_wins(tmp_path):
+    """One board per scene × effect × size, ranked by PSNR (best first, ties by time), ★ on the Pareto
+    front of PSNR and time, failed rows below the ranking with their status; at the top of both pages."""
+    import pandas as pd
+
+    from ldbench.reports import figures as F
+    from ldbench.reports.report import boards
+
+    rows = synthetic_rows()
+    rows.append(records.make_row(run_id="synthetic", suite="synthetic", scene="atrium", method="gtao", effect="ao",
+                                 effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"}, width=32,
+                                 height=32, device="nvidia", status="ok", psnr=20.0, total_ms=1.0))
+    df = F.prepare(pd.DataFrame(rows))
+    bs = boards(df)
+    assert [(b.effect, b.size) for b in bs] == [(e, "64x64") for e in dict.fromkeys(df["effect_text"][:9])] + \
+        [("ao (step, d_max = 1)", "32x32")]
+    inf = next(b for b in bs if "∞" in b.effect)
+    ranked = inf.ranked
+    assert [e.method for e in ranked] == ["ldm-ao", "hbao"] and ranked[0].value == 35.0 and ranked[1].value == 10.0
+    assert ranked[0].total_ms == 40.0 and ranked[1].total_ms == 205.0
+    assert ranked[0].pareto and not ranked[1].pareto  # ldm is faster and better here
+    small = next(b for b in bs if "d_max = 0.5" in b.effect)  # hbao faster, ldm better: both on the front
+    assert [e.method for e in small.ranked] == ["ldm-ao", "hbao"] and all(e.pareto for e in small.ranked)
+    failed = next(b for b in bs if b.effect.startswith("ao (step") and b.size == "64x64")
+    assert failed.ranked == [] and "overflow" in failed.unranked[0].status
+    records.write_results(rows, tmp_path)
+    build_report(tmp_path)
+    md = (tmp_path / "summary.md").read_text()
+    assert md.index("## Leaderboard") < md.index("## All rows") and "| 1 | ldm-ao |" in md and "★" in md
+    html = (tmp_path / "index.html").read_text()
+    assert html.index('id="leaderboard"') < html.index('id="results"')
