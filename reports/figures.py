@@ -232,6 +232,32 @@ def _palette(keys):
     return {k: cm(i % 10) for i, k in enumerate(keys)}
 
 
+#: Each built-in method's colour in every report (tab20's entries), so that a method is the same colour
+#: from one run's figures to the next; the reference oracle is black.
+METHOD_COLOURS = {"ldm": 0, "ldm-ao": 0, "ldi": 2, "cdi-vpl": 4, "ll-oit": 6, "hbao": 8, "gtao": 10,
+                  "wboit": 12, "mlab": 14, "depth-peeling": 16, "dual-depth-peeling": 18, "alpha-blend": 1,
+                  "direct-raster": 3, "external": 15}
+
+
+def method_colours(methods) -> dict:
+    """{method: colour}: the fixed colour of a built-in method (:data:`METHOD_COLOURS`), and for any other
+    (a plugin, an external renderer) one of tab20's colours picked by a hash of its name, so it too keeps its
+    colour across reports; ``oracle (Mitsuba)`` is black."""
+    import zlib
+
+    import matplotlib
+
+    cm = matplotlib.colormaps["tab20"]
+    out = {}
+    for m in methods:
+        if m == "oracle (Mitsuba)":
+            out[m] = (0.0, 0.0, 0.0, 1.0)
+        else:
+            i = METHOD_COLOURS.get(m)
+            out[m] = cm(i if i is not None else zlib.crc32(str(m).encode()) % 20)
+    return out
+
+
 def _series_label(r, keys) -> str:
     parts = [str(r["method"])]
     for k in keys:
@@ -332,7 +358,11 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
     allx = [as_number(r["sweep"][param]) for v in series.values() for r in v]
     xs_all, inf_x, log = _x_positions(allx)
     fig, ax = plt.subplots(figsize=(7.5, 4.6))
-    pal = _palette(list(series))
+    pal = method_colours(dict.fromkeys(rs[0]["method"] for rs in series.values()))
+    styles = {}  # series of one method: the method's colour, each its own line style and marker
+    for k, rs in series.items():
+        n = sum(1 for v in styles.values() if v[0] == rs[0]["method"])
+        styles[k] = (rs[0]["method"], ("-", "--", ":", "-.")[n % 4], "os^Dv"[n % 5])
     for k, rs in series.items():
         rs = sorted(rs, key=lambda r: as_number(r["sweep"][param]))
         x = [inf_x if math.isinf(as_number(r["sweep"][param])) else as_number(r["sweep"][param]) for r in rs]
@@ -345,9 +375,10 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
                   (r["total_ms_iqr"] / 2 if not math.isnan(r["total_ms_iqr"]) else 0.0) for r in rs]
             hi = [max(r["total_q3"] - r[ycol], 0.0) if not math.isnan(r["total_q3"]) else
                   (r["total_ms_iqr"] / 2 if not math.isnan(r["total_ms_iqr"]) else 0.0) for r in rs]
-            ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, color=pal[k], label=lab)
+            ax.errorbar(x, y, yerr=[lo, hi], marker=styles[k][2], ls=styles[k][1], capsize=3,
+                        color=pal[styles[k][0]], label=lab)
         else:
-            ax.plot(x, y, marker="o", color=pal[k], label=lab)
+            ax.plot(x, y, marker=styles[k][2], ls=styles[k][1], color=pal[styles[k][0]], label=lab)
     if log:
         _log_x(ax)
     ticks = sorted({v for v in xs_all if v is not None and v != inf_x})
@@ -479,7 +510,7 @@ def figure_quality(df, run_dir: Path, key, rows) -> Figure | None:
     if not rows or not panels:
         return None
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    pal = _palette(methods)
+    pal = method_colours(methods)
     fig, axes = plt.subplots(1, len(panels), figsize=(4.4 * len(panels), 4.2), squeeze=False)
     times = [r["total_ms"] for r in rows]
     log = min(times) > 0 and max(times) / min(times) >= 20
@@ -868,7 +899,7 @@ def figure_rays(df, run_dir: Path, key, rows) -> Figure | None:
     if not rows:
         return None
     methods = list(dict.fromkeys(r["method"] for r in rows))
-    pal = _palette(methods + ["oracle (Mitsuba)"])
+    pal = method_colours(methods + ["oracle (Mitsuba)"])
     diff = [k for k in differing_keys(rows) if k not in ("scene", "effect", "size", "method")]
     panels = [("hit_agreement", "hit agreement (fraction of rays)"),
               ("dist_err_p95", "p95 |t − t_ref| / scene diagonal — lower is better")]

@@ -329,3 +329,17 @@ def test_leaderboard_says_who_wins(tmp_path):
     assert md.index("## Leaderboard") < md.index("## All rows") and "| 1 | ldm-ao |" in md and "★" in md
     html = (tmp_path / "index.html").read_text()
     assert html.index('id="leaderboard"') < html.index('id="results"')
+
+
+def test_a_method_keeps_its_colour_from_report_to_report():
+    """A method's colour depends on its name only (not on which other methods a run holds, nor their order):
+    the built-in methods have distinct fixed colours, a plugin's is picked by its name, the oracle is black."""
+    from ldbench.methods.base import registry
+    from ldbench.reports.figures import method_colours
+
+    builtin = [m for m in registry() if registry()[m].__module__.startswith("ldbench.")]
+    one = method_colours(builtin)
+    assert len(set(one.values())) == len(builtin)
+    assert method_colours(["gtao", "hbao"])["hbao"] == method_colours(["hbao"])["hbao"] == one["hbao"]
+    assert method_colours(["my-ao", "hbao"])["my-ao"] == method_colours(["ldm", "my-ao"])["my-ao"]
+    assert method_colours(["oracle (Mitsuba)"])["oracle (Mitsuba)"] == (0.0, 0.0, 0.0, 1.0)
