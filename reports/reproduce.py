@@ -115,6 +115,7 @@ class Claim:
     b_quantity: str = ""
     why: str = ""
     scales: tuple = ()
+    reason: str = ""  # why it fails or is inconclusive on the machine measured (printed beside such a verdict)
 
 
 @dataclass(frozen=True)
@@ -360,19 +361,32 @@ def _timed(q: str) -> bool:
     return q in TIME_QUANTITIES or q.startswith("stage:")
 
 
-def time_verdict(ra, rb, va: float, vb: float, kind: str = "less"):
+def _device(r):
+    """A row's device, None when the row does not name one (missing, empty, NaN from a table)."""
+    d = r.get("device")
+    if d is None or (isinstance(d, float) and math.isnan(d)):
+        return None
+    d = str(d).strip()
+    return d if d and d.lower() not in ("nan", "none") else None
+
+
+def time_verdict(ra, rb, va: float, vb: float, kind: str = "less", qa: str = "time_ms", qb: str = ""):
     """The verdict two rows' times force on a claim, or None when the comparison stands.
 
-    cpu-software (either row): always :data:`NOT_MEASURABLE`. Frames there are wall clock on shared
-    cores: the spread within one job (its frames) misses the spread between jobs, which was up to 2.1×
-    between back-to-back runs (6× with two runs at once; docs/reports.md, "Timing verdicts"), so no
-    within-run test can tell a difference from the load. GPU (timer queries): :data:`INCONCLUSIVE` when
-    ``|va − vb|`` is within the larger interquartile range (order claims; ratio and window claims test
-    their bounds with the IQRs instead, :func:`_interval`).
+    A row with no ``device``: :data:`NOT_MEASURED` (where its times came from is unknown, so neither
+    rule below applies). cpu-software (either row): always :data:`NOT_MEASURABLE`. Frames there are wall
+    clock on shared cores: the spread within one job (its frames) misses the spread between jobs, which was
+    up to 2.1× between back-to-back runs (6× with two runs at once; docs/reports.md, "Timing verdicts"), so
+    no within-run test can tell a difference from the load. GPU (timer queries): :data:`INCONCLUSIVE` when
+    ``|va − vb|`` is within the larger noise of the two sides, each side's noise that of its own quantity
+    (``qa`` for a, ``qb`` for b, default ``qa``; :func:`_noise`: a stage's own IQR for ``stage:NAME``)
+    (order claims; ratio, window and gap claims test their bounds with the noise instead, :func:`_interval`).
     """
-    if CPU_SOFTWARE in (ra.get("device"), rb.get("device")):
+    if _device(ra) is None or _device(rb) is None:
+        return NOT_MEASURED
+    if CPU_SOFTWARE in (_device(ra), _device(rb)):
         return NOT_MEASURABLE
-    if kind in ("less", "greater", "better") and abs(va - vb) <= max(_noise(ra), _noise(rb)):
+    if kind in ("less", "greater", "better") and abs(va - vb) <= max(_noise(ra, qa), _noise(rb, qb or qa)):
         return INCONCLUSIVE
     return None
 
@@ -494,12 +508,14 @@ KIND_RULES = {
              "outside for every such value; inconclusive if the noise straddles a bound",
     "within": "holds if a lies in the window for every value within the row's noise; fails if outside for "
               "every such value; inconclusive if the noise straddles a bound",
-    "gap": "holds if a / b exceeds c / d",
+    "gap": "holds if a / b exceeds c / d for every value within the rows' noise; fails if it does not exceed it "
+           "for any such value; inconclusive if the two ranges overlap",
 }
-TIMING_RULE = ("T: times are not measurable here on cpu-software (wall clock on shared cores, between-job spread up to "
-               "2.1×); on a GPU the noise is each row's IQR of frame times (a stage's own IQR for a stage time, the "
-               "frame's relative IQR for a rate), "
-               "an order claim within the larger IQR is inconclusive")
+TIMING_RULE = ("T: times are not measurable here on cpu-software (wall clock on shared cores, between-job spread up "
+               "to 2.1×, whatever the difference) and not measured on a row with no device; on a GPU the "
+               "noise of each side is its row's IQR of that side's quantity (a stage's own IQR for a stage time, the "
+               "frame's for a frame time, the frame's relative IQR for a rate), "
+               "an order claim within the larger noise is inconclusive")
 
 
 def rule_text(c: Claim) -> str:
@@ -558,7 +574,10 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
                              "ours_config": cfg, "quantity": f"{quantity(q)[3]}" + (f" ({quantity(q)[1]})" if quantity(q)[1] else ""),
                              "published": _fmt(pub, q) if pub is not None else "not published",
                              "ours": _fmt(ov, q), "ratio": _ratio(ov, pub),
-                             "published_value": pub, "ours_value": ov})
+                             "published_value": pub, "ours_value": ov,
+                             "frames": _int_or_dash(ours, "frames"), "ref_spp": _int_or_dash(ours, "ref_spp"),
+                             "iqr": (_fmt(_noise(ours, q), "rays_per_s" if q == "rays_per_s" else "time_ms")
+                                     if ours is not None and _timed(q) else "–")})
     claims_out = []
     pub_rows = {pr["id"]: pr for pr in entry.rows}
     for c in entry.claims:
@@ -570,10 +589,12 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
             va, vb = our_value(ra, q), our_value(rb, qb)
             pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(qb)
             timed = [(ra, rb, va, vb)]
+            gap_sides = None
             if c.kind == "gap":  # compare a/b with c/d: the sides become the two ratios
                 rc, rd = found.get(c.c), found.get(c.d)
                 vc, vd = our_value(rc, q), our_value(rd, q)
                 timed.append((rc, rd, vc, vd))
+                gap_sides = ((ra, rb, va, vb), (rc, rd, vc, vd))
                 va = va / vb if None not in (va, vb) and vb else None
                 vb = vc / vd if None not in (vc, vd) and vd else None
                 pc, pd = pub_rows.get(c.c, {}).get(q), pub_rows.get(c.d, {}).get(q)
@@ -597,18 +618,30 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
                     timing.add(INCONCLUSIVE)
                 if (na or nb) and bv is not None:
                     parts[-1] += f" (within the noise {lo:.3g}–{hi:.3g}" + ("×)" if c.kind == "ratio" else ")")
+            elif c.kind == "gap" and timed_q:  # each ratio within its rows' noise: a/b must exceed c/d throughout
+                (lo1, hi1), (lo2, hi2) = (
+                    _interval("ratio", v1, v2, *(_noise(r, q) if _device(r) not in (None, CPU_SOFTWARE) else 0.0
+                                                 for r in (r1, r2)))
+                    for r1, r2, v1, v2 in gap_sides)
+                bv = True if lo1 > hi2 else (False if hi1 <= lo2 else None)
+                verdicts.append(bv is not False)
+                if bv is None:
+                    timing.add(INCONCLUSIVE)
+                if (lo1, hi1, lo2, hi2) != (va, va, vb, vb):
+                    parts[-1] += f" (within the noise {lo1:.3g}–{hi1:.3g}× vs {lo2:.3g}–{hi2:.3g}×)"
             else:
                 verdicts.append(_compare(c.kind, q, va, vb, c.ratio))
             if timed_q:
-                for r1, r2, v1, v2 in timed:
+                for i, (r1, r2, v1, v2) in enumerate(timed):  # a gap's second pair (c, d) is of quantity q
                     if None not in (r1, r2, v1, v2):
-                        timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind))
+                        timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind,
+                                                q, qb if i == 0 else q))
             if c.kind == "within":
                 if pa is not None:
                     pub_parts.append(_fmt(pa, q))
             elif pa is not None and pb is not None:
                 pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
-        if any(v is None for v in verdicts):
+        if any(v is None for v in verdicts) or NOT_MEASURED in timing:  # a missing row, or times of no device
             verdict = NOT_MEASURED
         elif c.scales and scale_name not in c.scales:
             verdict = NOT_AT_SCALE.format(scale=scale_name)
@@ -619,8 +652,12 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
         published = c.published or "; ".join(pub_parts) or "stated in the paper"
         if c.kind in ("ratio", "within") and c.ratio:
             published += f" (holds if within {_bounds(c)})"
+        reason = ""
+        if verdict in (FAILS, INCONCLUSIVE):
+            reason = c.reason or ("the difference lies within the rows' timing noise (IQR)" if verdict == INCONCLUSIVE
+                                  else "not explained yet")
         claims_out.append({"text": c.text, "where": c.where, "published": published,
-                           "ours": "; ".join(parts), "verdict": verdict, "rule": rule_text(c)})
+                           "ours": "; ".join(parts), "verdict": verdict, "rule": rule_text(c), "reason": reason})
     ok = df[df["status"] == "ok"] if "status" in df else df
     r0 = ok.iloc[0] if len(ok) else (df.iloc[0] if len(df) else None)
     if r0 is not None:
@@ -633,9 +670,29 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     return {"key": entry.key, "paper": entry.paper, "title": entry.title, "source": entry.source,
             "published_setup": f"{entry.hardware}, {entry.resolution.replace('x', '×')}, {entry.paper_scene}",
             "our_setup": our_setup, "scale": scale_name, "device": None if r0 is None else r0.get("device"),
+            "run": _run_line(ok if len(ok) else df),
             "rows": rows_out, "claims": claims_out, "notes": list(entry.notes),
             "errors": [f"{r.get('scene')} {r.get('method')}: {r.get('status')}" for _, r in df.iterrows()
                        if r.get("status") != "ok"]}
+
+
+def _int_or_dash(r, col) -> str:
+    v = _float(r.get(col)) if r is not None else None
+    return "–" if v is None else str(int(v))
+
+
+def _run_line(df) -> str:
+    """Where and when the rows were measured: commit (dirty), driver, date range of the rows."""
+    def vals(col):
+        if col not in df:
+            return []
+        return sorted({str(v) for v in df[col] if v is not None and str(v) not in ("", "nan", "None", "<NA>")})
+    commits = vals("commit")
+    dirty = "dirty" in df and any(str(v) == "True" for v in df["dirty"])
+    times = vals("time")
+    date = "–" if not times else (times[0] if times[0] == times[-1] else f"{times[0]} – {times[-1]}")
+    return (f"commit {', '.join(c[:12] for c in commits) or '–'}{' (dirty)' if dirty else ''}, "
+            f"driver {', '.join(vals('driver')) or '–'}, date {date}")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -652,6 +709,8 @@ def _table(headers, rows) -> list[str]:
 def format_text(res: dict) -> str:
     out = [f"{res['key']}: {res['title']}", f"  source:    {res['paper']}, {res['source']}",
            f"  published: {res['published_setup']}", f"  ours:      {res['our_setup']}"]
+    if res.get("run"):
+        out.append(f"  run:       {res['run']}")
     if res.get("device") == "cpu-software":
         out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer shared with "
                    "other work: every time claim is 'not measurable here'")
@@ -678,18 +737,23 @@ def format_markdown(res: dict) -> str:
     out = [f"# {_md(res['key'])}: {_md(res['title'])}", "",
            f"- source: {_md(res['paper'])}, {_md(res['source'])}",
            f"- published: {_md(res['published_setup'])}", f"- ours: {_md(res['our_setup'])}"]
+    if res.get("run"):
+        out.append(f"- run: {_md(res['run'])}")
     if res.get("device") == "cpu-software":
         out.append("- **device = cpu-software: our times are wall clock on a software rasterizer** shared with "
                    "other work: every time claim is *not measurable here*")
-    out += ["", "| row | paper setup | our configuration | quantity | published | ours | ours / published |",
-            "|---|---|---|---|---|---|---|"]
+    out += ["", "| row | paper setup | our configuration | quantity | published | ours | IQR | frames | reference spp "
+                "| ours / published |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         out.append("| " + " | ".join(_md(x) for x in (r["label"], r["paper_setup"], r["ours_config"], r["quantity"],
-                                                     r["published"], r["ours"], r["ratio"])) + " |")
-    out += ["", "| claim | where | published | ours | verdict | rule and window |", "|---|---|---|---|---|---|"]
+                                                     r["published"], r["ours"], r.get("iqr", "–"),
+                                                     r.get("frames", "–"), r.get("ref_spp", "–"), r["ratio"])) + " |")
+    out += ["", "| claim | where | published | ours | verdict | reason | rule and window |",
+            "|---|---|---|---|---|---|---|"]
     for c in res["claims"]:
         out.append("| " + " | ".join(_md(x) for x in (c["text"], c["where"], c["published"], c["ours"],
-                                                     f"**{c['verdict']}**", c.get("rule", ""))) + " |")
+                                                     f"**{c['verdict']}**", c.get("reason", ""),
+                                                     c.get("rule", ""))) + " |")
     out += ["", _md(TIMING_RULE)]
     if res.get("errors"):
         out += ["", "Failed rows:", ""] + [f"- {_md(e)}" for e in res["errors"]]

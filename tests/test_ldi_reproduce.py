@@ -29,7 +29,7 @@ def test_rows_match_the_suite_at_both_scales(tmp_path):
         rows = [records.make_row(run_id="s", scene=j.scene, method=j.method, effect=j.effect.name,
                                  effect_params=j.effect.key(), params={**dict(j.params), "prebuild":
                                  dict(j.params).get("prebuild", False)}, width=j.width, height=j.height,
-                                 total_ms=1.0, status="ok") for j in jobs]
+                                 device="nvidia", total_ms=1.0, status="ok") for j in jobs]
         records.write_results(rows, tmp_path / scale)
         res = evaluate(ENTRY, records.read_results(tmp_path / scale), scale)
         assert not [r for r in res["rows"] if r["ours_config"] == "no matching row in this run"], scale

@@ -210,7 +210,8 @@ def test_fig8_ci_end_to_end(tmp_path, capsys):
     lines = out.splitlines()
     for c in REGISTRY["aalund2015-fig8"].claims:  # every claim measured, with one of the verdicts
         line = next(ln for ln in lines if re.match(rf"\d+\s+{re.escape(c.text)}", ln))
-        assert line.endswith((HOLDS, FAILS, INCONCLUSIVE, NOT_MEASURABLE)), line
+        assert line.endswith((HOLDS, FAILS, INCONCLUSIVE, NOT_MEASURABLE)
+                             if not c.scales else "not comparable at scale ci"), line
     for f in ("reproduce.md", "reproduce.json", "index.html", "summary.md", "results.csv"):
         assert (out_dir / f).is_file(), f
     html = (out_dir / "index.html").read_text(encoding="utf-8")
@@ -222,18 +223,21 @@ def test_fig8_ci_end_to_end(tmp_path, capsys):
 @needs_shared_scenes
 def test_fig8_on_real_scenes_ci_end_to_end(tmp_path, capsys):
     """aalund2015-fig8-real at the ci scale on Sponza and Sibenik (from the shared mirror): every row
-    measured, quality claims hold (LDMs beat HBAO at large d_max; measured 20.8 vs 7.6 dB on Sponza and
-    18.8 vs 11.3 dB on Sibenik on llvmpipe)."""
+    measured; the quality claims (LDMs beat HBAO at large d_max) get verdicts only at paper scale (16 maps on
+    a 32×32 image are not the paper's 512 at 800×800; they once measured 20.8 vs 7.6 dB on Sponza and 18.8
+    vs 11.3 dB on Sibenik on llvmpipe)."""
     from ldbench.harness.cli import main
 
     rc = main(["reproduce", "aalund2015-fig8-real", "--scale", "ci", "--out", str(tmp_path / "r"),
                "--no-report", "--no-progress"])
     out = capsys.readouterr().out
     assert rc == 0, out
-    assert "not measured" not in out and out.count("resemble the reference better") == 2
+    claim_lines = [ln for ln in out.splitlines() if re.match(r"\d+\s", ln)]
+    assert claim_lines and not [ln for ln in claim_lines if ln.rstrip().endswith(NOT_MEASURED)], claim_lines
+    assert "no matching row" not in out and out.count("resemble the reference better") == 2
     for line in out.splitlines():
         if "resemble the reference better" in line:
-            assert line.rstrip().endswith("holds"), line
+            assert line.rstrip().endswith("not comparable at scale ci"), line
 
 
 def _staged(method, d, t, stages, counters, iqr=0.1):
@@ -272,7 +276,7 @@ def test_stage_and_counter_quantities_and_the_new_claim_kinds(tmp_path):
     assert v["build beats trace"]["verdict"] == HOLDS and v["build beats trace"]["ours"] == "6.00 ms vs 3.00 ms"
     assert v["count+fill under build"]["verdict"] == HOLDS and "3.50 ms vs 6.00 ms" in v["count+fill under build"]["ours"]
     assert v["more fragments at 2"]["verdict"] == HOLDS
-    assert v["the gap grows"]["verdict"] == HOLDS and v["the gap grows"]["ours"] == "5× vs 2×"
+    assert v["the gap grows"]["verdict"] == HOLDS and v["the gap grows"]["ours"].startswith("5× vs 2× (within the noise")
     assert v["the gap shrinks"]["verdict"] == FAILS
     assert v["noise"]["verdict"] == FAILS  # 3 vs 9 ms, well beyond the 0.1 ms IQR
     assert v["missing stage"]["verdict"] == NOT_MEASURED

@@ -259,7 +259,7 @@ NIESSNER2010_FIG7 = Reproduction(
         "hit) on cornell; the paper's Fig. 7 is a reflection in an unnamed scene, its lobe not given. The LDIs are "
         "built once in setup (the paper precomputed them offline), so a frame is the G-buffer, shadow map and trace.",
         "Times are 1000 / fps of the published rates on a GTX 285: only the ratio within our run gets a verdict; "
-        "on a CPU (llvmpipe) it is 'not measurable here' unless the difference exceeds the run-to-run spread.",
+        "on a CPU (llvmpipe) it is 'not measurable here' (whatever the difference: one run cannot measure the spread between runs, docs/reports.md, 'Timing verdicts').",
         "The ratio window: the published 1.79× within a factor 1.5 either way (the sentence gives two frame rates, "
         "not a tolerance).",
         "At --scale ci the LDIs are 64² against 16² with 24 directions (the 150 → 24 and 512 → 64 maps apply to "
@@ -306,7 +306,7 @@ NIESSNER2010_RAYS = Reproduction(
         "The paper's two numbers are lower bounds; the claim tested is their ratio (4×), with a factor 2 of "
         "slack below and none above ('over').",
         "On cornell (the paper's rates are for Sibenik, Table 1); on a CPU the time claim is 'not measurable "
-        "here' unless the difference exceeds the run-to-run spread.",
+        "here' (whatever the difference: one run cannot measure the spread between runs, docs/reports.md, 'Timing verdicts').",
     ),
 )
 
@@ -357,8 +357,8 @@ NIESSNER2010_SEC7 = Reproduction(
         "Memory: memory_bytes of the row (the compacted LDIs and the scene's vertex buffer, which is the same in "
         "every row), MB = 2^20 bytes; the paper's 15–60 MB is shown beside the 150 × 128² row.",
         "The build-ratio window: 23× within a factor 3 either way (a build time depends on the scene's depth "
-        "complexity, Sponza's here unknown). On a CPU the time claim is 'not measurable here' unless the "
-        "difference exceeds the run-to-run spread; the memory claims get verdicts anywhere.",
+        "complexity, Sponza's here unknown). On a CPU the time claim is 'not measurable here' "
+        "(whatever the difference: one run cannot measure the spread between runs, docs/reports.md, 'Timing verdicts'); the memory claims get verdicts anywhere.",
     ),
 )
 
