@@ -1,7 +1,7 @@
-"""The reproduce entries of claims that had none (reports/reproductions: niessner2010-fig7, -rays, -sec7;
-yang2010-costs; archer2019-layouts; aalund2015-trace): each runs at --scale ci on llvmpipe, its table has every row with our
-value, and every claim gets a verdict (time claims on cpu-software: 'not measurable here' unless beyond the
-spread). The published numbers are checked against the papers' words."""
+"""Reproduce entries at --scale ci (reports/reproductions: niessner2010-fig7, -rays, -sec7; yang2010-costs;
+archer2019-layouts; aalund2015-trace): each runs, its table has every row with our value, and every claim gets
+a verdict (time claims on cpu-software: 'not measurable here'; on a GPU, 'inconclusive' where the difference
+is within the timing noise). The published numbers are checked against the papers' words."""
 from __future__ import annotations
 
 import json
