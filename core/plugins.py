@@ -62,6 +62,10 @@ def load_reference(ref: str, base: type, path: str | None = None):
         raise LdbenchError(f"cannot import {ref!r}: {e}") from None
     except AttributeError:
         raise LdbenchError(f"module {mod_name!r} has no {attr!r} (from {ref!r})") from None
+    except (Exception, SystemExit) as e:  # the plugin's own code failed at import: name it, no traceback
+        lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+        raise LdbenchError(f"cannot import {ref!r}: its module raised {type(e).__name__}"
+                           + (f": {lines[0][:300]}" if lines else "")) from None
     if not (isinstance(obj, type) and issubclass(obj, base) and getattr(obj, "name", "")):
         raise LdbenchError(f"{ref!r} is not a named {base.__name__} subclass")
     return obj
@@ -93,9 +97,16 @@ def references(group: str = METHOD_GROUP) -> list:
     if not text:
         return []
     try:
-        return [tuple(x) for x in json.loads(text)]
-    except (ValueError, TypeError):
-        raise LdbenchError(f"{ENV[group]} is not a JSON list of [reference, folder] pairs") from None
+        items = json.loads(text)
+    except ValueError:
+        items = None
+    ok = isinstance(items, list) and all(
+        isinstance(x, list) and len(x) == 2 and isinstance(x[0], str) and (x[1] is None or isinstance(x[1], str))
+        for x in items)
+    if not ok:
+        raise LdbenchError(f"{ENV[group]} is not a JSON list of [reference, folder] pairs (folder a string or "
+                           f"null): {text[:100]!r}")
+    return [tuple(x) for x in items]
 
 
 #: {class: (distribution name, version)} of every class loaded through an entry point
@@ -137,7 +148,7 @@ def _entry_point_classes(group: str, base: type) -> list:
     for ep in importlib.metadata.entry_points(group=group):
         try:
             obj = ep.load()
-        except Exception as e:  # a plugin's own import error: name the plugin, not a traceback
+        except (Exception, SystemExit) as e:  # a plugin's own import error: name the plugin, not a traceback
             raise LdbenchError(f"entry point {ep.name!r} ({ep.value}, group {group}) failed to load: "
                                f"{type(e).__name__}: {e}") from None
         if not (isinstance(obj, type) and issubclass(obj, base) and getattr(obj, "name", "")):

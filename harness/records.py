@@ -57,7 +57,7 @@ RESULTS_CSV = "results.csv"
 #: Version of the results schema, "MAJOR.MINOR" (docs/results-columns.md, "Schema version"): MAJOR
 #: goes up when a column is removed, renamed, retyped or changes meaning or unit, MINOR when a column is
 #: added. Readers accept every file of the same MAJOR.
-SCHEMA_VERSION = "1.0"
+SCHEMA_VERSION = "1.1"
 #: The Parquet key-value metadata key holding :data:`SCHEMA_VERSION`.
 SCHEMA_VERSION_KEY = b"ldbench.schema_version"
 
@@ -77,7 +77,7 @@ COLUMN_TYPES: dict[str, str] = {
     "stage_ms": "json", "stage_iqr": "json", "raw_ms": "json",
     "memory_bytes": "int", "memory": "json", "counters": "json",
     "structure_bytes": "int",
-    "psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "coverage": "float",
+    "psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "coverage": "float", "nonfinite": "int",
     "hit_agreement": "float", "false_hit_rate": "float", "false_miss_rate": "float",
     "dist_err_p50": "float", "dist_err_p95": "float", "dist_err_p99": "float", "self_hit_rate": "float",
     "rays": "int", "rays_per_s": "float", "oracle_rays_per_s": "float", "oracle_timing": "str",
@@ -94,6 +94,8 @@ JSON_COLUMNS = tuple(c for c, t in COLUMN_TYPES.items() if t == "json")
 SCHEMA_COLUMNS = ("scene", "method", "effect", "effect_params", "params", "width", "height", "run_id", "status")
 
 _SUBPROCESS_TIMEOUT_S = 10
+#: The range of an ``int`` column (Parquet int64); :func:`make_row` refuses a value outside it.
+INT_MIN, INT_MAX = -(2 ** 63), 2 ** 63 - 1
 
 
 # --------------------------------------------------------------------------------------------------
@@ -388,17 +390,22 @@ def _coerce(col: str, kind: str, v):
             return float(v)
         if kind == "int":
             if isinstance(v, (int, np.integer)):
-                return int(v)
-            f = float(v)
-            if f != int(f):
-                raise ValueError(f"not an integer: {v!r}")
-            return int(f)
+                i = int(v)
+            else:
+                f = float(v)
+                if f != int(f):
+                    raise ValueError(f"not an integer: {v!r}")
+                i = int(f)
+            if not INT_MIN <= i <= INT_MAX:  # Parquet's int64: beyond it the writer would lose every row
+                raise ValueError(f"out of range: {v!r}")
+            return i
         if kind == "bool":
             if isinstance(v, str):
                 return {"true": True, "false": False}[v.strip().lower()]
             return bool(v)
     except (TypeError, ValueError, KeyError, OverflowError):
-        raise LdbenchError(f"result column {col!r} must be {kind}, got {v!r}") from None
+        what = f"{kind} in [{INT_MIN}, {INT_MAX}]" if kind == "int" else kind
+        raise LdbenchError(f"result column {col!r} must be {what}, got {v!r}") from None
     return str(v)
 
 
@@ -418,6 +425,24 @@ def structure_bytes(memory: dict):
         return None
     return int(sum(int(v) for k, v in memory.items()
                    if any(k.startswith(p) and k[len(p):].startswith(STRUCTURE_PARTS) for p in prefixes)))
+
+
+def checked_memory(memory: dict, what: str = "memory") -> dict:
+    """``{buffer: bytes}`` with every value a whole number of bytes >= 0 and their sum within an ``int``
+    column (:data:`INT_MAX`), else one :class:`LdbenchError` line naming the buffer (a method's row then
+    becomes ``error: ...``; the other rows are kept)."""
+    out = {}
+    for k, v in dict(memory).items():
+        ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+        if ok:
+            f = float(v)
+            ok = math.isfinite(f) and f >= 0 and f == int(f) and int(v) <= INT_MAX
+        if not ok:
+            raise LdbenchError(f"{what} {k!r} must be a whole number of bytes in [0, {INT_MAX}], got {v!r}")
+        out[str(k)] = int(v)
+    if sum(out.values()) > INT_MAX:
+        raise LdbenchError(f"{what}: the buffers sum to {sum(out.values())} bytes, more than {INT_MAX}")
+    return out
 
 
 def make_row(**fields) -> dict:
@@ -441,7 +466,8 @@ def make_row(**fields) -> dict:
     if f.get("schema_version") is None:
         f["schema_version"] = SCHEMA_VERSION
     if f.get("memory_bytes") is None and isinstance(f.get("memory"), dict):
-        f["memory_bytes"] = int(sum(int(b) for b in f["memory"].values()))
+        f["memory"] = checked_memory(f["memory"])  # else the sum: one line, not an OverflowError
+        f["memory_bytes"] = int(sum(f["memory"].values()))
     if f.get("structure_bytes") is None and isinstance(f.get("memory"), dict):
         f["structure_bytes"] = structure_bytes(f["memory"])
     row = {c: _coerce(c, t, f.get(c)) for c, t in COLUMN_TYPES.items()}

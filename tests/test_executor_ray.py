@@ -390,3 +390,17 @@ def test_jobs_wait_for_their_reference(cluster, serial3, tmp_path, monkeypatch):
     df = run_jobs(_suite(d_max=(0.25, 0.5, "inf")), out, progress=False, report=False, executor=ex)
     assert (df["status"] == "ok").all() and differences(serial3[0], out) == []
     assert sum(p["references"] for p in ex.stats["processes"]) == 3 and ex.stats["calls"] == 9, ex.stats
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_non_finite_answers_and_huge_memory_on_ray_as_locally(cluster, tmp_path, monkeypatch):
+    """The Ray executor's tasks score through the same ``runner.run_job``: a plugin's NaN/inf pixels and NaN
+    mask are ``degraded`` rows counted in ``nonfinite``, its ``memory_bytes`` of ±1e30 that row's error, every
+    other row kept (tests/test_plugins.py runs the same check on the local executor)."""
+    from ldbench.core import plugins
+    from ldbench.core.effects import base as effects_base
+    from test_plugins import check_bad_output_rows
+
+    monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
+    monkeypatch.setattr(effects_base, "_REGISTRY", None)
+    check_bad_output_rows(tmp_path, monkeypatch, executor=RayExecutor(group_size=1))

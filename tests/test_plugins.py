@@ -380,3 +380,109 @@ def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
 
     mean = {f: read_exr(tmp_path / "r" / r["images"]["exr"])["Y"].mean() for f, r in (("s", step), ("q", quad))}
     assert mean["q"] > mean["s"] + 0.01, mean
+
+
+def test_plugin_imports_that_raise_are_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
+    """A plugin module that raises anything but ImportError at import (RuntimeError, ZeroDivisionError,
+    SystemExit), named by --method, by a suite or by LDBENCH_PLUGIN_METHODS: one line, exit 2."""
+    from test_cli import assert_one_line_error
+
+    src = tmp_path / "src"
+    for name, body in (("boom_rt", "raise RuntimeError('plugin broke\\nsecond line')\n"),
+                       ("boom_zero", "x = 1 / 0\n"), ("boom_exit", "import sys\nsys.exit(3)\n")):
+        _module(src, name, body)
+    monkeypatch.syspath_prepend(str(src))
+    for mod, why in (("boom_rt", "RuntimeError: plugin broke"), ("boom_zero", "ZeroDivisionError"),
+                     ("boom_exit", "SystemExit: 3")):
+        ref = f"{mod}:Thing"
+        rc = main(["run", "--scene", "cornell", "--method", ref, "--effect", "ao", "--out", str(tmp_path / "r"),
+                   *TINY])
+        assert_one_line_error(rc, capsys.readouterr().err, "cannot import", why)
+        suite = tmp_path / f"{mod}.toml"
+        suite.write_text(f'[suite]\nname = "s"\nsize = "16x16"\nspp = 1\nwarmup = 0\nframes = 1\n\n[[run]]\n'
+                         f'scene = "cornell"\neffect = "ao"\nmethods = ["{ref}"]\n')
+        rc = main(["run", str(suite), "--out", str(tmp_path / "r"), "--no-report", "--no-progress"])
+        assert_one_line_error(rc, capsys.readouterr().err, "cannot import", why)
+        monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], json.dumps([[ref, str(src)]]))
+        assert_one_line_error(main(["methods"]), capsys.readouterr().err, "cannot import", why)
+        monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
+    assert not (tmp_path / "r").exists()
+
+
+def test_malformed_plugin_environment_is_one_line(monkeypatch, capsys, clean_plugins):
+    from test_cli import assert_one_line_error
+
+    for text in ("not json", "5", '{"a": 1}', '["abc"]', '[["a:B"]]', '[["a:B", "x", "y"]]', "[[1, 2]]",
+                 '[["a:B", 5]]', "[null]"):
+        monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], text)
+        assert_one_line_error(main(["methods"]), capsys.readouterr().err, "LDBENCH_PLUGIN_METHODS")
+
+
+BAD_OUTPUT = """
+    import numpy as np
+    from ldbench.methods.hbao import HBAO
+
+    class NanImage(HBAO):
+        name = "nan-image"
+
+        def frame(self, view, effect, inputs=None):
+            r = super().frame(view, effect, inputs).resolve()
+            img = np.array(r.image, np.float64)
+            img[0, 0], img[1, 1], img[2, 2], img[3, 3] = np.nan, np.inf, -np.inf, 1e300  # float32: inf
+            r.image = img
+            return r
+
+    class NanMask(HBAO):
+        name = "nan-mask"
+
+        def frame(self, view, effect, inputs=None):
+            r = super().frame(view, effect, inputs).resolve()
+            r.mask = np.full(np.shape(r.image)[:2], np.nan, np.float32)
+            return r
+
+    class Huge(HBAO):
+        name = "huge-memory"
+        memory = 1e30
+
+        def frame(self, view, effect, inputs=None):
+            r = super().frame(view, effect, inputs)
+            r.memory_bytes = {**r.memory_bytes, "huge": self.memory}
+            return r
+
+    class NegHuge(Huge):
+        name = "neg-huge-memory"
+        memory = -1e30
+"""
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy warning may reach stderr
+def test_non_finite_images_masks_and_memory_of_a_method_never_ok(tmp_path, monkeypatch, clean_plugins):
+    """``run`` (local executor; tests/test_executor_ray.py runs the same on Ray): a method's NaN/inf pixels are
+    failed pixels (``degraded: 4 non-finite pixels``, counted in ``nonfinite``, finite metrics), a NaN mask is no
+    coverage, and ``memory_bytes`` of ±1e30 is that row's error while every other row is written."""
+    check_bad_output_rows(tmp_path, monkeypatch)
+
+
+def check_bad_output_rows(tmp_path, monkeypatch, executor=None):
+    """The rows of :data:`BAD_OUTPUT`'s methods (``module:Class`` plugins) beside hbao's, on ``executor``."""
+    import numpy as np
+
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
+
+    monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "badout", BAD_OUTPUT)))
+    methods = ["hbao", "badout:NanImage", "badout:NanMask", "badout:Huge", "badout:NegHuge"]
+    suite = suite_from_dict({"suite": {"name": "bad", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "methods": methods}]},
+                            name="bad")
+    df = run_jobs(suite, tmp_path / "run", progress=False, report=False, executor=executor).set_index("method")
+    assert list(df.index) == ["hbao", "nan-image", "nan-mask", "huge-memory", "neg-huge-memory"]
+    assert df.loc["hbao", "status"] == "ok" and df.loc["hbao", "nonfinite"] == 0
+    nan = df.loc["nan-image"]
+    assert nan["status"] == "degraded: 4 non-finite pixels" and nan["nonfinite"] == 4
+    assert all(np.isfinite(nan[c]) for c in ("psnr", "ssim", "flip", "relmse"))
+    assert nan["coverage"] <= df.loc["hbao", "coverage"]
+    mask = df.loc["nan-mask"]
+    assert mask["coverage"] == 0.0 and mask["nonfinite"] == 256 and mask["status"].startswith("degraded: ")
+    for m in ("huge-memory", "neg-huge-memory"):
+        assert df.loc[m, "status"].startswith("error: ") and "'huge'" in df.loc[m, "status"], df.loc[m, "status"]

@@ -97,6 +97,22 @@ def test_make_row_types():
     assert R.make_row(extra_col=5)["extra_col"] == 5
 
 
+def test_int_columns_and_memory_beyond_int64_are_one_error_not_a_lost_run(tmp_path):
+    """Parquet's int64 would raise OverflowError in the writer and lose every row of the run: a value outside
+    it (an int column, a ``memory`` entry, their sum; ±1e30, inf, NaN, negative) is refused by make_row, one
+    LdbenchError naming the column or buffer (the runner turns it into that row's error)."""
+    for bad in (2 ** 63, -(2 ** 63) - 1, 1e30):
+        with pytest.raises(LdbenchError, match="'rays'"):
+            R.make_row(rays=bad)
+    assert R.make_row(rays=2 ** 63 - 1)["rays"] == 2 ** 63 - 1
+    for mem in ({"huge": 1e30}, {"huge": -1e30}, {"huge": -1}, {"huge": math.inf}, {"huge": math.nan},
+                {"huge": 1.5}, {"huge": "1"}, {"huge": True}, {"a": 2 ** 62, "b": 2 ** 62}):
+        with pytest.raises(LdbenchError, match="huge|sum"):
+            R.make_row(memory=mem)
+    R.write_results([R.make_row(memory={"a": 2 ** 62, "b": 2 ** 62 - 1})], tmp_path)
+    assert R.read_results(tmp_path)["memory_bytes"][0] == 2 ** 63 - 1
+
+
 @pytest.mark.parametrize("renderer, vendor, device", [
     ("llvmpipe (LLVM 15.0.6, 256 bits)", "Mesa", "cpu-software"),
     ("softpipe", "Mesa/X.org", "cpu-software"),

@@ -256,6 +256,13 @@ def test_vpl_ranges_exported_answered_by_numpy_and_scored(tmp_path):
     np.savez(folder / "answer.npz", range=ranges.max(1).astype(np.float32))  # the wrong reduction
     (bad,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
     assert bad["range_within_5pct"] < 0.9
+    r, t32 = ranges.mean(1).astype(np.float32), t.astype(np.float32)
+    r[:2], t32[0] = (np.inf, -np.inf), -np.inf  # no meaning: no answer, counted, never ok
+    np.savez(folder / "answer.npz", range=r, t=t32)
+    with np.errstate(invalid="raise", over="raise", divide="raise"):
+        (inf,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert inf["status"] == "degraded: 3 non-finite answers" and inf["nonfinite"] == 3
+    assert inf["range_within_5pct"] == pytest.approx(1 - 2 / len(r)) and inf["hit_agreement"] < 1.0
 
 
 def test_score_one_answer_from_the_command_line(tmp_path, gpu, hbao_run, capsys):
@@ -412,6 +419,9 @@ def test_score_nan_and_inf_pixels_and_masks_are_failed_pixels_never_ok(tmp_path,
     assert row["status"] == "degraded: 2 non-finite pixels" and row["nonfinite"] == 2
     assert np.isfinite(row["psnr"]) and np.isfinite(row["relmse"]) and row["coverage"] == pytest.approx(
         1 - 2 / hit.sum())
+    write_exr(folder / "answer.exr", {c: bad for c in "RGB"})  # grey RGB with the same NaN and inf
+    (rgb,) = score_into_run(items_from_folder(folder), tmp_path / "run1", report=False)
+    assert rgb["status"] == "degraded: 2 non-finite pixels" and rgb["psnr"] == row["psnr"]
     write_exr(folder / "answer.exr", {"Y": img})  # the exact answer, a mask NaN everywhere but one pixel
     mask = np.full(img.shape, np.nan, np.float32)
     mask[ys[0], xs[0]] = 1.0
@@ -504,3 +514,21 @@ def test_export_replaces_only_an_earlier_export_and_all_at_once(tmp_path, monkey
     with pytest.raises(LdbenchError, match="did not write.*answer.npy"):
         _export(tmp_path, Effect("ao", d_max=0.5), "q", size=8, spp=1)
     assert (q / "answer.npy").is_file() and (q / "question.json").read_text() == second
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_score_rays_minus_inf_is_a_non_finite_answer(tmp_path):
+    """Per-ray answers: inf is a miss and NaN no answer (counted wrong, still ``ok``); -inf means nothing: it
+    counts as no answer, in ``nonfinite``, and the row is ``degraded: N non-finite answers``."""
+    folder = _export(tmp_path, Effect("rays", rays_per_pixel=1), "rays", size=16)
+    n = len(np.load(folder / "batch.npz")["tmax"])
+    t = np.full(n, np.inf, np.float32)
+    t[:3] = np.nan
+    np.save(folder / "answer.npy", t)
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert row["status"] == "ok" and row["nonfinite"] == 0 and row["coverage"] == pytest.approx(1 - 3 / n)
+    t[3:5] = -np.inf
+    np.save(folder / "answer.npy", t)
+    (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
+    assert row["status"] == "degraded: 2 non-finite answers" and row["nonfinite"] == 2
+    assert row["coverage"] == pytest.approx(1 - 5 / n)

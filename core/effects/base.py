@@ -74,6 +74,15 @@ class EffectSpec:
         """Short file-name form, e.g. ``ao-step-dinf`` or ``rays-diffuse-4``."""
         return self.name
 
+    def text(self, params) -> str:
+        """The effect as tables, figures and ``compare`` write it: ``rays (diffuse, rays_per_pixel = 4)``:
+        the name, then each parameter of :meth:`key` (a text value bare, a number with its name; ∞ for inf)."""
+        rest = [(k, v) for k, v in self.key(params).items() if k != "effect"]
+        if not rest:
+            return self.name
+        return f"{self.name} (" + ", ".join(v if isinstance(v, str) and v != "inf" else f"{k} = {_fmt(v)}"
+                                            for k, v in rest) + ")"
+
     # ---- scene and inputs ---------------------------------------------------------------------------
     def requires_light(self, params) -> bool:
         return self.needs_light
@@ -99,6 +108,13 @@ class EffectSpec:
     def save(self, result, reference, inputs, folder, label: str, ref_label: str) -> dict:
         raise NotImplementedError
 
+    def problems(self, scores: dict) -> list:
+        """Why a scored result is not ``ok`` (one line each; the row becomes ``degraded: ...``): answers
+        that were NaN or ±inf where the format gives them no meaning (the ``nonfinite`` column), which the
+        metrics count as failed, as a missing answer."""
+        n = int(scores.get("nonfinite") or 0)
+        return [f"{n} non-finite {'pixels' if self.output == 'image' else 'answers'}"] if n else []
+
 
 class ImageEffect(EffectSpec):
     """An effect whose output is an image compared against a Mitsuba 3 reference image.
@@ -117,17 +133,41 @@ class ImageEffect(EffectSpec):
     metrics = IMAGE_METRICS
 
     def method_image(self, result, reference):
-        """(image, coverage mask): the method's image with its missing pixels (mask False) set to
-        ``background``, so that a hole counts as error wherever the reference sees a surface."""
-        img = np.asarray(result.image, np.float32)
+        """(image, coverage mask): the method's image with its missing pixels set to ``background``, so
+        that a hole counts as error wherever the reference sees a surface. A pixel is missing where the
+        mask is False, zero or not finite, and where the image is not finite in some channel (NaN, ±inf:
+        a failed pixel, counted by :meth:`nonfinite`)."""
+        img, covered, _ = self._coverage(result, reference)
+        return np.where(covered[..., None], img, np.float32(self.background)), covered
+
+    def nonfinite(self, result, reference) -> int:
+        """Pixels the method claims (mask True, or no mask) whose value is NaN or ±inf, plus pixels whose
+        mask value is NaN or ±inf: failed pixels, the row's ``nonfinite`` column."""
+        return self._coverage(result, reference)[2]
+
+    def _coverage(self, result, reference):
+        with np.errstate(over="ignore", invalid="ignore"):  # float64 beyond float32's range: inf, counted
+            img = np.asarray(result.image, np.float32)
         if img.ndim == 2:
             img = img[..., None]
         if img.shape != reference.mean.shape:
             raise LdbenchError(f"a method returned an image of shape {img.shape}, the reference has "
                                f"{reference.mean.shape}")
-        covered = np.ones(img.shape[:2], bool) if result.mask is None else np.asarray(result.mask, bool)
-        img = np.where(covered[..., None], img, np.float32(self.background))
-        return img, covered
+        finite = np.isfinite(img).all(-1)
+        if result.mask is None:
+            covered, bad_mask = np.ones(img.shape[:2], bool), np.zeros(img.shape[:2], bool)
+        else:
+            m = np.asarray(result.mask)
+            if m.ndim == 3 and m.shape[-1] == 1:
+                m = m[..., 0]
+            if m.shape != img.shape[:2]:
+                raise LdbenchError(f"a method returned a mask of shape {m.shape}, the image is {img.shape[:2]}")
+            if m.dtype.kind not in "biuf":
+                raise LdbenchError(f"a method returned a mask of dtype {m.dtype}; masks are bool or numbers")
+            bad_mask = ~np.isfinite(m) if m.dtype.kind == "f" else np.zeros(m.shape, bool)
+            covered = (m != 0) & ~bad_mask
+        nonfinite = int(np.count_nonzero((covered & ~finite) | bad_mask))
+        return img, covered & finite, nonfinite
 
     def score(self, result, reference, *, scene, inputs, stage_ms):
         from ldbench.core import metrics
@@ -138,8 +178,9 @@ class ImageEffect(EffectSpec):
             raise LdbenchError(f"scene {scene.name!r}: the camera sees no geometry, nothing to compare")
         m = metrics.all_metrics(img, reference.mean, mask=mask, data_range=self.data_range)
         m["coverage"] = float(covered[mask].mean())
-        m["metric_settings"]["coverage"] = "fraction of reference-hit pixels the method gave a value; " \
-                                           f"missing pixels count as error with value {self.background:g}"
+        m["nonfinite"] = self.nonfinite(result, reference)
+        m["metric_settings"]["coverage"] = "fraction of reference-hit pixels the method gave a finite value; " \
+                                           f"missing and non-finite pixels count as error with value {self.background:g}"
         return m
 
     def preview_scale(self, reference):
@@ -263,6 +304,9 @@ class Effect:
     def label(self) -> str:
         return self.spec.label(self.params)
 
+    def text(self) -> str:
+        return self.spec.text(self.params)
+
     def check_scene(self, scene) -> None:
         self.spec.check_scene(scene, self.params)
 
@@ -295,6 +339,12 @@ def effects_from_user(name: str, combos: list) -> list:
             raise LdbenchError(f"effect {name!r}{' with ' + with_ if with_ else ''} does not use parameter {k!r} "
                                f"(it uses: {', '.join(uses) or 'none'}; {known})")
     return effects
+
+
+def _fmt(v) -> str:
+    if v == "inf" or (isinstance(v, float) and math.isinf(v)):
+        return "∞"
+    return f"{v:g}" if isinstance(v, float) else str(v)
 
 
 def effect_from_key(key: dict) -> Effect:

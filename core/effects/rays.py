@@ -35,7 +35,8 @@ row-major pixel index, row 0 at the top). On the GPU (:meth:`RayBatch.upload`) t
 ``vec4(origin, tmax), vec4(direction, 0), vec4(normal, 0)`` per ray (``methods/glsl/rays.glsl``).
 
 **A method returns** ``arrays["t"]``: the hit distance per ray (``inf`` = miss; NaN = no answer, which
-counts as a wrong answer), optionally ``arrays["normal"]``.
+counts as a wrong answer; ``-inf`` means nothing: it counts as no answer and in ``nonfinite``, and makes
+the row ``degraded``), optionally ``arrays["normal"]``.
 
 **Oracle** (:mod:`ldbench.references.rays`): Mitsuba on the same triangles, one wavefront:
 ``ray_intersect_preliminary`` for closest hits, ``ray_test`` for shadow rays (blocked → t = 0).
@@ -288,16 +289,22 @@ class Rays(EffectSpec):
     def inputs(self, scene, width, height, params, seed, exact=None):
         return make_batch(scene, width, height, params, seed, exact)
 
-    def _t(self, result, batch):
-        t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)
+    def _t(self, result, batch, count=False):
+        """The answers, a -inf (no meaning: inf is a miss, NaN no answer) made NaN, i.e. unanswered;
+        with ``count``, (answers, how many were -inf)."""
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: inf
+            t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)
         if t.shape != (len(batch),):
             raise LdbenchError(f"a method returned {t.shape[0]} ray answers for a batch of {len(batch)} rays")
-        return t
+        bad = np.isneginf(t)
+        t = np.where(bad, np.float32(np.nan), t)
+        return (t, int(np.count_nonzero(bad))) if count else t
 
     def score(self, result, reference, *, scene, inputs, stage_ms):
         batch = inputs
-        t = self._t(result, batch)
+        t, nonfinite = self._t(result, batch, count=True)
         m = ray_metrics(t, reference.t, tmax=batch.tmax, occlusion=batch.occlusion, diagonal=scene.diagonal())
+        m["nonfinite"] = nonfinite
         trace_ms = (stage_ms or {}).get("trace")
         m["rays_per_s"] = len(batch) / (trace_ms * 1e-3) if trace_ms else math.nan
         m["oracle_rays_per_s"] = reference.rays_per_s

@@ -23,7 +23,8 @@ identically to the method and to the oracle):
    the range of a ray that hits nothing.
 
 **A method returns** ``arrays["range"]`` (N,) and ``arrays["t"]`` (6N,) (inf = miss; NaN = no answer,
-counted wrong).
+counted wrong; a range of ±inf or a distance of -inf counts as no answer and in ``nonfinite``, and makes
+the row ``degraded``).
 
 **Oracle** (:mod:`ldbench.references.vpl_range`): ``trace_oracle`` of the ``rays`` effect on the same 6N rays
 (Mitsuba ``ray_intersect_preliminary``), reduced the same way, timed the same way.
@@ -272,21 +273,27 @@ class VplRange(EffectSpec):
     def inputs(self, scene, width, height, params, seed, exact=None):
         return make_vpls(scene, params, seed, exact)
 
-    def _arrays(self, result, batch):
-        r = np.asarray(result.arrays.get("range"), np.float32).reshape(-1)
-        t = result.arrays.get("t")
-        t = np.full(len(batch.rays), np.nan, np.float32) if t is None else np.asarray(t, np.float32).reshape(-1)
+    def _arrays(self, result, batch, count=False):
+        """(ranges, distances), the values with no meaning (a range of ±inf, a distance of -inf) made NaN,
+        i.e. unanswered; with ``count``, also how many there were."""
+        with np.errstate(over="ignore", invalid="ignore"):  # beyond float32: inf
+            r = np.asarray(result.arrays.get("range"), np.float32).reshape(-1)
+            t = result.arrays.get("t")
+            t = np.full(len(batch.rays), np.nan, np.float32) if t is None else np.asarray(t, np.float32).reshape(-1)
         if r.shape != (len(batch),) or t.shape != (len(batch.rays),):
             raise LdbenchError(f"a method returned {r.shape[0]} ranges / {t.shape[0]} distances for "
                                f"{len(batch)} VPLs with {len(batch.rays)} rays")
-        return r, t
+        bad_r, bad_t = np.isinf(r), np.isneginf(t)
+        r, t = np.where(bad_r, np.float32(np.nan), r), np.where(bad_t, np.float32(np.nan), t)
+        return (r, t, int(np.count_nonzero(bad_r) + np.count_nonzero(bad_t))) if count else (r, t)
 
     def score(self, result, reference, *, scene, inputs, stage_ms):
         from .rays import ray_metrics
 
         batch = inputs
-        r, t = self._arrays(result, batch)
+        r, t, nonfinite = self._arrays(result, batch, count=True)
         m = range_metrics(r, reference.range)
+        m["nonfinite"] = nonfinite
         has_t = not np.all(np.isnan(t))
         if has_t:
             m.update(ray_metrics(t, reference.t, tmax=batch.rays.tmax, occlusion=False, diagonal=scene.diagonal()))
