@@ -66,7 +66,6 @@ from pathlib import Path
 
 from ldbench.core.device import timing_fields
 from ldbench.core.errors import LdbenchError
-from .records import effect_d_max, effect_param
 
 #: Default match keys: one benchmark = one scene (with builder parameters), method, effect (with its
 #: parameters), method parameters and image size.
@@ -299,12 +298,9 @@ def _fmt_value(v):
 
 
 def _effect_label(row) -> str:
-    eff = row_value(row, "effect") or "?"
-    if eff == "ao":
-        d = effect_d_max(row)
-        return f"ao({effect_param(row, 'falloff', 'step')}, d_max={'inf' if d is None or math.isinf(d) else f'{d:g}'})"
-    ep = {k: v for k, v in (row_value(row, "effect_params") or {}).items() if k != "effect"}
-    return f"{eff}({', '.join(f'{k}={_fmt_value(v)}' for k, v in ep.items())})" if ep else str(eff)
+    from ldbench.reports.labels import effect_text
+
+    return effect_text(row_value(row, "effect") or "?", row_value(row, "effect_params") or {})
 
 
 def benchmark_labels(rows_by_key: dict) -> dict:

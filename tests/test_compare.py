@@ -64,7 +64,7 @@ def test_identical_configuration_passes_and_writes_markdown(tmp_path, capsys):
     assert rc == 0, out + err
     md = (run / "compare.md").read_text()
     assert "| benchmark | metric | baseline | current | change | verdict |" in md
-    assert "no regression" in md and "cornell · ldm-ao · ao(step, d_max=inf) · 64x64" in md
+    assert "no regression" in md and "cornell · ldm-ao · ao (step, d_max = ∞) · 64x64" in md
     assert "no regression" in out and "wrote" in out
     # results files are accepted too, and --out chooses the report file
     rc, _, _ = _cli(capsys, base / "results.parquet", run / "results.csv", "--out", tmp_path / "x" / "c.md")
@@ -283,7 +283,7 @@ def test_benchmark_label_reads_effect_params(tmp_path):
                           "effect_params": {"effect": "ao", "d_max": 10.32, "falloff": "quadratic"}})]
     R.write_results(rows, tmp_path)
     labels = {r["method"]: C._effect_label(r) for _, r in R.read_results(tmp_path).iterrows()}
-    assert labels == {"hbao": "ao(step, d_max=inf)", "ldm-ao": "ao(quadratic, d_max=10.32)"}
+    assert labels == {"hbao": "ao (step, d_max = ∞)", "ldm-ao": "ao (quadratic, d_max = 10.32)"}
 
 
 def _df(tmp_path, rows):
@@ -320,7 +320,7 @@ def test_ray_metrics_gated_with_their_own_tolerances(tmp_path):
     base = _df(tmp_path, [_rays_row("b")])
     same = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.9755)]))
     assert same.exit_code == 0 and {c.metric for c in same.checks} >= {"hit_agreement", "dist_err_p95"}
-    assert "rays(ray_kind=diffuse, rays_per_pixel=4)" in same.checks[0].benchmark
+    assert "rays (diffuse, rays_per_pixel = 4)" in same.checks[0].benchmark
     worse = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.970)]))
     assert [c.metric for c in worse.regressions] == ["hit_agreement"]
     far = C.compare_frames(base, _df(tmp_path, [_rays_row("r", dist_err_p95=0.0610)]))  # +12 %: beyond 10 %

@@ -343,3 +343,31 @@ def test_a_method_keeps_its_colour_from_report_to_report():
     assert method_colours(["gtao", "hbao"])["hbao"] == method_colours(["hbao"])["hbao"] == one["hbao"]
     assert method_colours(["my-ao", "hbao"])["my-ao"] == method_colours(["ldm", "my-ao"])["my-ao"]
     assert method_colours(["oracle (Mitsuba)"])["oracle (Mitsuba)"] == (0.0, 0.0, 0.0, 1.0)
+
+
+def test_a_sweep_of_a_choice_parameter_is_named_and_labelled(tmp_path):
+    """hbao's sampling left at its default in one row and set to pixel_step in another: a swept parameter
+    (the defaults filled in), labelled with its value in both rows, never 'None'; and a parameter of one
+    method only is no label part of another's rows."""
+    import pandas as pd
+
+    from ldbench.reports import figures as F
+    from ldbench.reports.labels import differing_keys, label_parts
+    from ldbench.reports.report import swept_params
+
+    base = dict(run_id="s", suite="s", scene="cornell", effect="ao", effect_params={"effect": "ao", "d_max": 0.5,
+                "falloff": "step"}, width=16, height=16, device="nvidia", status="ok", psnr=20.0, total_ms=1.0)
+    rows = [records.make_row(method="hbao", params={}, **base),
+            records.make_row(method="hbao", params={"sampling": "pixel_step"}, **base),
+            records.make_row(method="gtao", params={}, **base)]
+    df = F.prepare(pd.DataFrame(rows))
+    assert swept_params(df) == {"hbao": {"sampling"}, "gtao": set()}
+    diff = differing_keys([r for _, r in df.iterrows()])
+    assert diff == ["sampling"]
+    assert [label_parts(r, diff) for _, r in df.iterrows()] == \
+        [["hbao", "sampling=fixed"], ["hbao", "sampling=pixel_step"], ["gtao"]]
+    records.write_results(rows, tmp_path)
+    build_report(tmp_path)
+    html = (tmp_path / "index.html").read_text()
+    assert "Swept without a numeric axis: sampling" in html and "No parameter is swept" not in html
+    assert "sampling=None" not in html

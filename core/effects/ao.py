@@ -64,3 +64,6 @@ class AO(ImageEffect):
     def label(self, params):
         d = "inf" if math.isinf(params.d_max) else f"{params.d_max:g}"
         return f"ao-{params.falloff}-d{d}"
+
+    def text(self, params):
+        return f"ao ({params.falloff}, d_max = {'∞' if math.isinf(params.d_max) else f'{params.d_max:g}'})"
