@@ -379,7 +379,7 @@ class Gpu:
         (:data:`GPU_BYTES_PER_PIXEL`)."""
         self.check_gl_size(width, height)
         px = width * height
-        host = _host_available_bytes()
+        host = host_available_bytes()
         if host is not None and px * HOST_BYTES_PER_PIXEL > host:
             raise LdbenchError(f"size {width}x{height} needs about {px * HOST_BYTES_PER_PIXEL / 2**30:.1f} GiB of "
                                f"memory, this machine has {host / 2**30:.1f} GiB available")
@@ -423,7 +423,7 @@ class Gpu:
             _LIVE[-1].ctx.__enter__()
 
 
-def _host_available_bytes() -> int | None:
+def host_available_bytes() -> int | None:
     """``MemAvailable`` of /proc/meminfo (Linux), else free physical pages, else None."""
     try:
         with open("/proc/meminfo") as f:
