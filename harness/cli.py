@@ -467,6 +467,17 @@ def _score_args(p):
     p.add_argument("--stage-ms", action="append", metavar="STAGE=MS[,MS...]",
                    help="a stage's time per frame as measured by the user (recorded as timing_source=user)")
     p.add_argument("--memory", action="append", metavar="BUFFER=BYTES", help="memory the method used, per buffer")
+    p.add_argument("--test", choices=("unbiased",), default=None,
+                   help="also test the answer for bias against the reference within both variances "
+                        "(docs/cli.md, 'score --test unbiased'); exit status 1 when it fails")
+    p.add_argument("--variance", metavar="FILE.exr", default=None,
+                   help="the answer's per-pixel variance of the mean (sample variance / samples)")
+    p.add_argument("--second-moment", metavar="FILE.exr", default=None,
+                   help="the answer's per-pixel mean of squared samples (with --samples)")
+    p.add_argument("--samples", type=int, default=None, help="the answer's samples per pixel")
+    p.add_argument("--alpha", type=float, default=None, help="family-wise level of --test (default 0.01)")
+    p.add_argument("--correction", choices=("sidak", "holm"), default=None,
+                   help="multiple-test correction over the pixels (default sidak)")
     p.add_argument("--no-report", action="store_true", help="add the rows only; do not rebuild the run's report")
     p.add_argument("--no-progress", action="store_true", help="no progress bar while a reference renders")
 
@@ -479,6 +490,7 @@ def _score(args):
     if args.folder:
         if args.scene or args.effect:
             raise LdbenchError("--from reads each question from its question.json; --scene/--effect go with --answer")
+        _test_opts(args)  # refuses the --answer-only test flags
         items = items_from_folder(args.folder)
     else:
         if not (args.scene and args.effect):
@@ -489,15 +501,41 @@ def _score(args):
         items = [(_question_from(args), make_answer(
             args.answer, method=args.method, params=params, paper=args.paper, mask=args.mask,
             transfer=args.transfer, png_scale=args.png_scale, stage_ms=stages, memory=memory,
-            method_version=args.method_version, method_commit=args.method_commit))]
+            method_version=args.method_version, method_commit=args.method_commit, **_test_opts(args)))]
+    if args.folder and args.test:  # --test over a folder: every answer (answer.json may set it per answer)
+        import dataclasses
+
+        from .unbiased_score import check_test_args
+
+        items = [(q, dataclasses.replace(a, **check_test_args(
+            args.test, a.variance, a.second_moment, a.samples, a.alpha if args.alpha is None else args.alpha,
+            args.correction or a.correction))) for q, a in items]
     rows = score_into_run(items, args.run_dir, report=not args.no_report, progress=not args.no_progress)
     for r in rows:
-        metrics = [c for c in ("psnr", "ssim", "flip", "hit_agreement", "range_within_5pct") if
+        metrics = [c for c in ("psnr", "ssim", "flip", "hit_agreement", "range_within_5pct", "unbiased_p",
+                               "rejected_fraction") if
                    isinstance(r.get(c), float) and r[c] == r[c]]
         print(f"{r['scene']} {r['method']} {r['effect']} {r['width']}x{r['height']}: "
-              + ", ".join(f"{c}={r[c]:.6g}" for c in metrics))
+              + ", ".join(f"{c}={r[c]:.6g}" for c in metrics)
+              + ("" if r["status"] == "ok" else f" [{r['status']}]")
+              + (f" unbiased: {r['unbiased_verdict']}" if r.get("unbiased_verdict") else ""))
     print(f"wrote {args.run_dir} ({len(rows)} rows added)")
-    return 0
+    failed = any(r.get("unbiased_verdict") == "fail" for r in rows)
+    return 1 if failed or any(r["status"] != "ok" for r in rows) else 0  # as `run`: written, but not every row ok
+
+
+def _test_opts(args) -> dict:
+    """make_answer's test fields from the score command line (--from: see _score)."""
+    if args.folder:
+        if args.variance or args.second_moment or args.samples is not None:
+            raise LdbenchError("--variance/--second-moment/--samples go with --answer; with --from put "
+                               "variance.exr or second_moment.exr beside each answer, samples in answer.json")
+        return {}
+    if (args.variance or args.second_moment) and not args.test:
+        raise LdbenchError("--variance/--second-moment are read by --test unbiased; add it")
+    return {"test": args.test, "variance": args.variance, "second_moment": args.second_moment,
+            "samples": args.samples, "alpha": 0.01 if args.alpha is None else args.alpha,
+            "correction": args.correction or "sidak"}
 
 
 def _export_args(p):

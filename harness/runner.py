@@ -209,7 +209,7 @@ def error_text(e: BaseException) -> str:
 
 def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
     from ldbench.methods.base import View, get_method
-    from ldbench.references import trace
+    from ldbench.references import EXACT, trace
 
     from . import records
 
@@ -217,6 +217,7 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
     method.oracle = trace  # the exact baselines some adapters offer (never timed)
+    method.exact = EXACT   # the exact primary hits and epsilons, as effects get them (mc-ao builds rays)
     method.run_seed = int(job.seed)  # before setup: a method may draw its random tables there
     scene, spec, ref = prep.scene, job.effect.spec, prep.reference
     view = View(scene.camera, job.width, job.height, seed=int(job.seed))
@@ -250,11 +251,13 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
                       status)
     if status != "ok":
         return records.make_row(**row)
-    if result.invariants:
-        row["status"] = "degraded: " + "; ".join(result.invariants)
     timing = records.timing_fields({**samples, "total": totals, "wall": walls})
+    mem = records.checked_memory(result.memory_bytes, "the method's memory_bytes")
     with ph("score"):
         scores = spec.score(result, ref, scene=scene, inputs=prep.inputs, stage_ms=timing["stage_ms"])
+    problems = list(result.invariants) + spec.problems(scores)  # e.g. non-finite pixels: never ok
+    if problems:
+        row["status"] = "degraded: " + "; ".join(problems)
     folder = ctx.out / "images" / scene_dir(scene)
     with ph("save"):
         images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
@@ -269,10 +272,16 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
                 name = f"{job_label(job, scene)}-arrays.npz"
                 save_arrays(folder / name, arrays)
                 images["arrays"] = rel + name
-    mem = {k: int(v) for k, v in result.memory_bytes.items()}
     row.update(**timing, memory_bytes=int(sum(mem.values())), memory=mem,
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},
                ref_noise=spec.noise(ref), images=images, **scores)
+    if getattr(job, "test", None):  # a suite's test = "unbiased" (harness/unbiased_score.py)
+        from .unbiased_score import method_test
+
+        with ph("score"):
+            cols, maps = method_test(job.test, result, ref, spec, folder, job_label(job, scene))
+        row.update(cols)
+        images.update({k: rel + v for k, v in maps.items()})
     return records.make_row(**row)
 
 

@@ -8,7 +8,8 @@ parameters), effect with its parameters, size, reference spp and seed. An **answ
 image effects   one image, H×W, row 0 at the top: EXR (linear, channels ``Y`` or ``R,G,B``) or PNG with a
                 stated transfer curve (``srgb`` or ``linear``; 8 or 16 bit; ``png_scale`` is the value of
                 white); an optional mask (PNG/EXR/.npy, nonzero = the pixel has a value: a missing pixel
-                counts as an error, as for a method's mask)
+                counts as an error, as for a method's mask). A NaN or ±inf pixel (image or mask) is a
+                failed pixel: scored as missing, counted in ``nonfinite``, the row ``degraded``
 ``rays``        the hit distance per ray of the exported batch, in its order (``inf`` = miss, NaN = no
                 answer): ``.npy`` (N,), ``.npz`` with ``t``, or ``.csv`` with a column ``t``
 ``vpl_range``   ``.npz`` with ``range`` (N VPLs) and optionally ``t`` (6N rays), or ``.csv`` with those
@@ -40,6 +41,7 @@ import shutil
 import sys
 import time
 import uuid
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -92,6 +94,12 @@ class Answer:
     memory: dict = field(default_factory=dict)    # {buffer: bytes}
     method_version: str | None = None
     method_commit: str | None = None
+    test: str | None = None                # "unbiased": harness/unbiased_score.py
+    variance: Path | None = None           # EXR of the answer's variance of the mean
+    second_moment: Path | None = None      # EXR of the mean of the squared samples (with ``samples``)
+    samples: int | None = None             # the answer's samples per pixel
+    alpha: float = 0.01
+    correction: str = "sidak"
 
 
 # ---- reading answers ---------------------------------------------------------------------------------
@@ -132,7 +140,9 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
     else:
         raise LdbenchError(f"{path.name}: answer images are .exr or .png")
     if channels == 1 and img.shape[-1] == 3:
-        if not (np.allclose(img[..., 0], img[..., 1]) and np.allclose(img[..., 0], img[..., 2])):
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf pixels: failed pixels, scored as such
+            grey = all(np.allclose(img[..., 0], img[..., c], equal_nan=True) for c in (1, 2))
+        if not grey:
             raise LdbenchError(f"{path.name}: a one-channel effect needs a grey image (R = G = B) or a Y channel")
         img = img[..., :1]
     elif channels == 3 and img.shape[-1] == 1:
@@ -141,29 +151,44 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
 
 
 def read_mask(path: Path, shape: tuple) -> np.ndarray:
-    """H×W bool (nonzero = the pixel has a value) from PNG, EXR or .npy."""
+    """H×W mask from PNG, EXR or .npy: bool (nonzero = the pixel has a value) for integer and bool files;
+    for float files float32 1 (value > 0.5), 0, or NaN where the mask is NaN or ±inf (a failed pixel,
+    counted in the row's ``nonfinite``). Anything else (0-d, 1-d, object arrays, empty or broken files)
+    is one line."""
     path = Path(path)
     if not path.is_file():
         raise LdbenchError(f"mask not found: {path}")
     s = path.suffix.lower()
-    if s == ".npy":
-        m = np.load(path, allow_pickle=False)
-    elif s == ".png":
-        import matplotlib.image as mpimg
+    try:
+        if s == ".npy":
+            m = np.load(path, allow_pickle=False)
+        elif s == ".png":
+            from ldbench.core.imageio import read_png
 
-        m = np.asarray(mpimg.imread(path))
-    elif s == ".exr":
-        from ldbench.core.exr import read_exr
+            m = read_png(path)
+        elif s == ".exr":
+            from ldbench.core.exr import read_exr
 
-        ch = read_exr(path)
-        m = np.asarray(ch.get("Y", next(iter(ch.values()))))
-    else:
-        raise LdbenchError(f"{path.name}: masks are .png, .exr or .npy")
+            ch = read_exr(path)
+            m = np.asarray(ch.get("Y", next(iter(ch.values()))))
+        else:
+            raise LdbenchError(f"{path.name}: masks are .png, .exr or .npy")
+    except (OSError, ValueError, EOFError, SyntaxError) as e:  # zero bytes, not a PNG, an object array, ...
+        raise LdbenchError(f"cannot read mask {path}: {(str(e).strip().splitlines() or [type(e).__name__])[0]}") \
+            from None
+    m = np.asarray(m)
+    if m.dtype.kind not in "biuf":
+        raise LdbenchError(f"{path.name}: a mask holds numbers or booleans, not {m.dtype}")
     if m.ndim == 3:
         m = m[..., 0]
     if m.shape != tuple(shape):
-        raise LdbenchError(f"{path.name}: mask is {m.shape[1]}x{m.shape[0]}, the question is {shape[1]}x{shape[0]}")
-    return np.asarray(m) > 0.5 if m.dtype.kind == "f" else np.asarray(m) != 0
+        got = f"{m.shape[1]}x{m.shape[0]}" if m.ndim == 2 else f"of shape {m.shape}"
+        raise LdbenchError(f"{path.name}: mask is {got}, the question is {shape[1]}x{shape[0]}")
+    if m.dtype.kind != "f":
+        return m != 0
+    # 1 = has a value, 0 = missing, NaN where the mask itself is not finite (a failed pixel, counted)
+    finite = np.isfinite(m)
+    return np.where(finite, np.where(finite & (np.nan_to_num(m) > 0.5), 1.0, 0.0), np.nan).astype(np.float32)
 
 
 def read_arrays(path: Path) -> dict:
@@ -174,10 +199,10 @@ def read_arrays(path: Path) -> dict:
     s = path.suffix.lower()
     try:
         if s == ".npy":
-            return {"t": np.load(path, allow_pickle=False)}
+            return _numeric(path, {"t": np.load(path, allow_pickle=False)})
         if s == ".npz":
             with np.load(path, allow_pickle=False) as z:
-                return {k: z[k] for k in z.files if k in ("t", "range")}
+                return _numeric(path, {k: z[k] for k in z.files if k in ("t", "range")})
         if s == ".csv":
             import pandas as pd
 
@@ -186,9 +211,18 @@ def read_arrays(path: Path) -> dict:
             if not out:
                 raise LdbenchError(f"{path.name}: no column t or range (has {', '.join(df.columns)})")
             return out
-    except (OSError, ValueError) as e:
-        raise LdbenchError(f"cannot read {path}: {e}") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:  # zero bytes, pickled, broken
+        raise LdbenchError(f"cannot read {path}: {(str(e).strip().splitlines() or [type(e).__name__])[0]}") \
+            from None
     raise LdbenchError(f"{path.name}: per-ray answers are .npy, .npz or .csv")
+
+
+def _numeric(path: Path, arrays: dict) -> dict:
+    """``arrays`` if every one holds numbers, else one line."""
+    for k, a in arrays.items():
+        if a.dtype.kind not in "biuf":
+            raise LdbenchError(f"{path.name}: {k!r} must hold numbers, not {a.dtype}")
+    return arrays
 
 
 # ---- scoring -----------------------------------------------------------------------------------------
@@ -251,6 +285,13 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
             images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
                       for k, v in images.items()}
             images["answer_source"] = str(Path(a.path).resolve())  # the user's file, where it was scored from
+            if a.test:  # --test unbiased: columns and maps of harness/unbiased_score.py
+                from .unbiased_score import run_test, save_maps
+
+                ures, ucols = run_test(a.test, q, a, result, prep.reference, spec, alpha=a.alpha,
+                                       correction=a.correction)
+                scores = {**scores, **ucols}
+                images.update({k: rel + v for k, v in save_maps(ures, folder, job_label(job, scene)).items()})
             meta = getattr(prep.reference, "meta", {}) or {}
             mem = {str(k): int(v) for k, v in a.memory.items()}
             row = dict(run_id=run_id, suite=suite_name, **git, ldbench_version=info["version"], scene=scene.name,
@@ -266,6 +307,9 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
                        images=images, counters={}, **(timing if samples else {}), **scores)
             if mem:
                 row.update(memory=mem, memory_bytes=sum(mem.values()))
+            problems = spec.problems(scores)  # e.g. non-finite pixels: never ok
+            if problems:
+                row["status"] = "degraded: " + "; ".join(problems)
             rows.append(records.make_row(**row))
     finally:
         release_inputs(prepared)
@@ -326,7 +370,7 @@ def _answer_meta(folder: Path) -> dict:
     if not isinstance(d, dict):
         raise LdbenchError(f"{p}: must be a JSON object")
     known = {"method", "params", "paper", "method_version", "method_commit", "transfer", "png_scale", "stage_ms",
-             "memory"}
+             "memory", "test", "samples", "alpha", "correction"}
     unknown = set(d) - known
     if unknown:
         raise LdbenchError(f"{p}: unknown key {sorted(unknown)[0]!r} (known: {', '.join(sorted(known))})")
@@ -354,7 +398,10 @@ def items_from_folder(root) -> list:
             raise LdbenchError(f"{folder}: more than one answer ({', '.join(p.name for p in found)})")
         meta = _answer_meta(folder)
         masks = [folder / n for n in MASK_NAMES if (folder / n).is_file()]
-        out.append((q, make_answer(found[0], mask=masks[0] if masks else None, **meta)))
+        from .unbiased_score import VARIANCE_NAMES
+
+        extra = {k: folder / f for k, f in VARIANCE_NAMES.items() if (folder / f).is_file()}
+        out.append((q, make_answer(found[0], mask=masks[0] if masks else None, **extra, **meta)))
     if not out:
         raise LdbenchError(f"no answered question under {root} (a folder with question.json and "
                            f"{' | '.join(ANSWER_NAMES)})")
@@ -362,10 +409,20 @@ def items_from_folder(root) -> list:
 
 
 def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, transfer=None, png_scale=1.0,
-                stage_ms=None, memory=None, method_version=None, method_commit=None) -> Answer:
-    """An :class:`Answer` with its values checked (one line for each bad one)."""
-    if transfer is not None and transfer not in TRANSFERS:
+                stage_ms=None, memory=None, method_version=None, method_commit=None, test=None, variance=None,
+                second_moment=None, samples=None, alpha=0.01, correction="sidak") -> Answer:
+    """An :class:`Answer` with its values checked (one line for each bad one: a wrong type too)."""
+    for name, v in (("method", method), ("paper", paper), ("method_version", method_version),
+                    ("method_commit", method_commit)):
+        if v is not None and not isinstance(v, str):
+            raise LdbenchError(f"{name} must be a string, got {v!r}")
+    for name, v in (("params", params), ("stage_ms", stage_ms), ("memory", memory)):
+        if v is not None and not isinstance(v, dict):
+            raise LdbenchError(f"{name} must be a table of NAME = VALUE, got {v!r}")
+    if transfer is not None and not (isinstance(transfer, str) and transfer in TRANSFERS):
         raise LdbenchError(f"transfer must be one of {', '.join(TRANSFERS)}, got {transfer!r}")
+    if isinstance(png_scale, bool):
+        raise LdbenchError(f"png_scale must be a number, got {png_scale!r}")
     try:
         scale = float(png_scale)
     except (TypeError, ValueError):
@@ -376,6 +433,8 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
     for k, v in (stage_ms or {}).items():
         vals = v if isinstance(v, (list, tuple)) else [v]
         try:
+            if any(isinstance(x, bool) for x in vals):
+                raise TypeError
             vals = [float(x) for x in vals]
         except (TypeError, ValueError):
             raise LdbenchError(f"stage time {k!r} must be milliseconds (a number or a list), got {v!r}") from None
@@ -385,14 +444,17 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
     if len({len(v) for v in stages.values()}) > 1:
         raise LdbenchError("stage times: give every stage the same number of frames "
                            f"({', '.join(f'{k}: {len(v)}' for k, v in stages.items())})")
-    mem = {}
-    for k, v in (memory or {}).items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or v < 0 or v != int(v):
-            raise LdbenchError(f"memory {k!r} must be a whole number of bytes >= 0, got {v!r}")
-        mem[str(k)] = int(v)
-    if not isinstance(params or {}, dict):
-        raise LdbenchError("params must be a table of PARAM = VALUE")
+    from .records import checked_memory
+
+    mem = checked_memory(memory or {})  # whole bytes, >= 0, within the int64 of the memory columns
     return Answer(Path(path), method=str(method or EXTERNAL), params=dict(params or {}), paper=str(paper or ""),
                   mask=None if mask is None else Path(mask), transfer=transfer, png_scale=scale, stage_ms=stages,
                   memory=mem, method_version=None if method_version is None else str(method_version),
-                  method_commit=None if method_commit is None else str(method_commit))
+                  method_commit=None if method_commit is None else str(method_commit),
+                  **_test_fields(test, variance, second_moment, samples, alpha, correction))
+
+
+def _test_fields(test, variance, second_moment, samples, alpha, correction) -> dict:
+    from .unbiased_score import check_test_args
+
+    return check_test_args(test, variance, second_moment, samples, alpha, correction)

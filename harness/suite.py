@@ -18,6 +18,8 @@ A suite file::
     effect_params = { }             # any effect's parameters, e.g. { ray_kind = "glossy", exponent = [8, 64] }
     seed = 0                        # seed of the effect's inputs and of the reference
     methods = "all"                 # "all" = every registered method supporting the effect, or a list
+    test = "unbiased"               # optional: test each method's image for bias (only methods that declare
+                                    # themselves unbiased, e.g. mc-ao; docs/cli.md, "score --test unbiased")
     size = "64x64"                  # optional overrides of [suite] values
     [run.params.ldm-ao]             # method parameters; a list is a sweep (grid over all lists)
     directions = [32, 64, 128]
@@ -40,7 +42,7 @@ from ldbench.core.errors import LdbenchError
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description"}
 RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
             "size", "spp",
-            "warmup", "frames"}
+            "warmup", "frames", "test"}
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,7 @@ class Job:
     warmup: int
     frames: int
     seed: int = 0  # seed of the effect's inputs and of the reference
+    test: str | None = None  # "unbiased": the [[run]]'s test of methods that declare themselves unbiased
 
     @property
     def scene_key(self):
@@ -168,12 +171,12 @@ def check_budget(width: int, height: int, spp: int) -> None:
     this machine's memory cannot hold (:data:`ldbench.core.gpu.HOST_BYTES_PER_PIXEL`, measured, against
     ``MemAvailable``). Every command checks the sizes it accepts here, from a flag or from a file; the GPU's
     own limits are checked when its context exists (:meth:`ldbench.core.gpu.Gpu.check_image_size`)."""
-    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, _host_available_bytes
+    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, host_available_bytes
 
     if width * height * spp > MAX_REFERENCE_SAMPLES:
         raise LdbenchError(f"a {width}x{height} reference at spp {spp} is {width * height * spp:.3g} samples, "
                            f"more than the limit of 2^40 ({MAX_REFERENCE_SAMPLES:.3g}); lower --spp or --size")
-    need, host = width * height * HOST_BYTES_PER_PIXEL, _host_available_bytes()
+    need, host = width * height * HOST_BYTES_PER_PIXEL, host_available_bytes()
     if host is not None and need > host:
         raise LdbenchError(f"size {width}x{height} needs about {need / 2**30:.1f} GiB of memory, this machine has "
                            f"{host / 2**30:.1f} GiB available; lower --size")
@@ -289,6 +292,9 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
         effects += effects_from_user(name, [{k: float_or_inf(v) for k, v in combo.items()}
                                             for combo in (_grid(opts) if opts else [{}])])
     seed = checked_int(run.get("seed", 0), "seed", 0, MAX_SEED)
+    test = run.get("test")
+    if test is not None and test != "unbiased":
+        raise LdbenchError(f"test must be \"unbiased\", got {test!r}")
 
     methods = run.get("methods", "all")
     if methods != "all":
@@ -309,7 +315,7 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     jobs = []
     for eff in effects:
         if methods == "all":
-            names = [n for n, cls in reg.items() if eff.name in cls.effects]
+            names = [n for n, cls in reg.items() if eff.name in cls.effects and getattr(cls, "in_all", True)]
             if not names:
                 raise LdbenchError(f"no registered method supports effect {eff.name!r}")
         else:
@@ -322,10 +328,13 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
             if eff.name not in cls.effects:
                 raise LdbenchError(f"method {m!r} does not support effect {eff.name!r} "
                                    f"(it supports: {', '.join(sorted(cls.effects))})")
+            if test is not None and not getattr(cls, "unbiased", False):
+                raise LdbenchError(f"test = {test!r}: method {m!r} does not declare itself unbiased (no variance "
+                                   "of its image); list only unbiased methods in this [[run]]")
             for p in _grid(_dotted(params.get(m, {}))):
                 method_params(cls, p, m)  # validate now, before any rendering
                 jobs.append(Job(scene, _frozen(scene_params), m, tuple(sorted(p.items())),
-                                eff, w, h, spp, warmup, frames, seed))
+                                eff, w, h, spp, warmup, frames, seed, test))
     for m in params:
         if m not in used:  # as on the command line (--set): parameters nothing uses are a mistake
             raise LdbenchError(f"params for method {m!r}, which this [[run]] does not run "

@@ -36,6 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from ldbench.harness.naming import slug
+from . import labels
+from .labels import as_number, fmt_value
 from ldbench.harness.records import effect_d_max, effect_param
 
 MB = float(2**20)
@@ -81,34 +83,10 @@ def as_dict(v) -> dict:
     return {}
 
 
-def as_number(v):
-    """float of a value, None when missing or not a number."""
-    if v is None:
-        return None
-    try:
-        f = float(v)
-    except (TypeError, ValueError):
-        return None
-    return None if math.isnan(f) else f
-
-
-def fmt_value(v) -> str:
-    """Compact text for a parameter value (``inf`` → ∞, floats with %g)."""
-    if isinstance(v, float):
-        return "∞" if math.isinf(v) else f"{v:g}"
-    return str(v)
-
-
 def effect_text(r) -> str:
-    """``ao (quadratic, d_max = 10.3)``, ``rays (diffuse, rays_per_pixel = 4)`` or the effect name."""
-    ep = r["effect_params"]
-    if r["effect"] == "ao":
-        return f"ao ({ep.get('falloff', 'step')}, d_max = {fmt_value(r['d_max'])})"
-    rest = [(k, v) for k, v in ep.items() if k != "effect"]
-    if not rest:
-        return str(r["effect"])
-    return f"{r['effect']} (" + ", ".join(f"{v}" if isinstance(v, str) else f"{k} = {fmt_value(v)}"
-                                          for k, v in rest) + ")"
+    """``ao (quadratic, d_max = 10.3)``, ``rays (diffuse, rays_per_pixel = 4)``: the effect's own text
+    (:func:`ldbench.reports.labels.effect_text`)."""
+    return labels.effect_text(r["effect"], r["effect_params"])
 
 
 def effect_slug(r) -> str:
@@ -236,7 +214,7 @@ def _palette(keys):
 #: from one run's figures to the next; the reference oracle is black.
 METHOD_COLOURS = {"ldm": 0, "ldm-ao": 0, "ldi": 2, "cdi-vpl": 4, "ll-oit": 6, "hbao": 8, "gtao": 10,
                   "wboit": 12, "mlab": 14, "depth-peeling": 16, "dual-depth-peeling": 18, "alpha-blend": 1,
-                  "direct-raster": 3, "external": 15}
+                  "direct-raster": 3, "external": 15, "mc-ao": 5}
 
 
 def method_colours(methods) -> dict:
@@ -265,7 +243,7 @@ def _series_label(r, keys) -> str:
             parts.append(str(r["scene"]))
         elif k == "effect":
             parts.append(str(r["effect_text"]))
-        else:
+        elif k in r["sweep"]:  # a swept quantity the row has (scene and image parameters, method parameters)
             parts.append(f"{k}={fmt_value(r['sweep'].get(k))}")
     return ", ".join(parts)
 
@@ -405,36 +383,12 @@ def figure_vs_param(df, run_dir: Path, param: str, what: str) -> Figure | None:
 
 
 def config_label(r, differing: list[str]) -> str:
-    parts = [str(r["method"])]
-    for k in differing:
-        if k == "scene":
-            parts.append(str(r["scene"]))
-        elif k == "effect":
-            parts.append(r["effect_text"].replace("ao (", "ao(").replace(" = ", "="))
-        elif k == "size":
-            parts.append(r["size"])
-        else:
-            parts.append(f"{k}={fmt_value(r['params'].get(k))}")
+    """The method on one line, what sets the row apart (:func:`ldbench.reports.labels.label_parts`) below."""
+    parts = labels.label_parts(r, differing)
     return "\n".join([parts[0], ", ".join(parts[1:])]) if len(parts) > 1 else parts[0]
 
 
-def differing_keys(rows) -> list[str]:
-    """Row attributes (scene, effect, size, method params) that differ among ``rows``."""
-    out = []
-    if len({r["scene"] for r in rows}) > 1:
-        out.append("scene")
-    if len({r["effect_text"] for r in rows}) > 1:
-        out.append("effect")
-    if len({r["size"] for r in rows}) > 1:
-        out.append("size")
-    keys = sorted({k for r in rows for k in r["params"]})
-    for k in keys:
-        by_method: dict = {}
-        for r in rows:
-            by_method.setdefault(r["method"], set()).add(json.dumps(r["params"].get(k), default=str))
-        if any(len(v) > 1 for v in by_method.values()):
-            out.append(k)
-    return out
+differing_keys = labels.differing_keys
 
 
 def figure_stages(df, run_dir: Path, scene: str, max_bars: int = 30) -> list[Figure]:
@@ -556,6 +510,7 @@ class GridCell:
     flip: str | None = None  # FLIP map PNG (magma, 0 … 1); image effects only
     values: str | None = None  # float values of the image for the viewer (imageio.save_values_js)
     flip_values: str | None = None  # float values of the FLIP map
+    unbiased: str | None = None  # score --test unbiased: the rejection map PNG (harness/unbiased_score.py)
 
 
 @dataclass
@@ -578,6 +533,7 @@ class Grid:
     signed_vmax: float = 0.0  # the signed-error maps span -signed_vmax … +signed_vmax
     signed_colorbar: str | None = None
     flip_colorbar: str | None = None
+    unbiased_legend: str | None = None  # the rejection maps' legend (when a row has one)
     maps_json: str | None = None  # ranges, colour maps and definitions of the maps (grids/<tag>/maps.json)
 
 
@@ -601,9 +557,8 @@ def grid_groups(df) -> dict:
 
 
 def _cell_label(r, diff):
-    lab = str(r["method"])
-    extra = ", ".join(f"{k}={fmt_value(r['params'].get(k))}" for k in diff if k in r["params"])
-    return lab + (f" ({extra})" if extra else "")
+    lab, *extra = labels.label_parts(r, diff)
+    return lab + (f" ({', '.join(extra)})" if extra else "")
 
 
 def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_budget: dict | None = None) -> Grid:
@@ -658,6 +613,12 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
                    f"FLIP {_f(r['flip'], 3)} · relMSE {_f(r['relmse'], 4)}",
                    f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
         cells.append(GridCell(_cell_label(r, diff), img, epath, cap))
+        ub = r["images"].get("unbiased_reject")
+        if ub and (run_dir / ub).is_file():
+            cells[-1].unbiased = ub
+            verdict = r.get("unbiased_verdict")
+            if isinstance(verdict, str):
+                cap.append(f"unbiased: {verdict} (p {_f(r.get('unbiased_p'), 3)})")
     ref = rows[0]["images"].get("reference")
     if ref and not (run_dir / ref).is_file():
         problems.append(f"missing {ref}")
@@ -674,6 +635,9 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
     g = Grid(title=f"{scene} — {eff} — {size.replace('x', '×')}", anchor=f"grid-{tag}", reference=ref,
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)
+    if any(c.unbiased for c in cells):
+        _unbiased_legend(gdir / "legend-unbiased.png")
+        g.unbiased_legend = (gdir / "legend-unbiased.png").relative_to(run_dir).as_posix()
     try:
         _viewer_maps(run_dir, g, rows, gdir, values_budget)
     except Exception as ex:  # noqa: BLE001 - the viewer's extras must not lose the grid
@@ -697,6 +661,21 @@ def _colorbar(path: Path, cmap: str, lo: float, hi: float, label: str) -> None:
     ticks = np.linspace(lo, hi, 5)
     cb.set_ticks(ticks)
     cb.ax.set_xticklabels(["0" if abs(t) < 1e-12 * max(abs(lo), abs(hi), 1e-30) else f"{t:.2g}" for t in ticks])
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _unbiased_legend(path: Path) -> None:
+    """The legend of the rejection maps of ``score --test unbiased`` (ldbench.core.unbiased.REJECT_COLOURS)."""
+    from matplotlib.patches import Patch
+
+    from ldbench.core.unbiased import REJECT_COLOURS
+
+    plt = _plt()
+    names = ["not tested", "accepted", "p < α", "rejected (corrected)", "NaN / missing"]
+    fig = plt.figure(figsize=(5.6, 0.45))
+    fig.legend(handles=[Patch(color=np.asarray(c) / 255.0, label=n) for c, n in zip(REJECT_COLOURS, names)],
+               loc="center", ncol=5, fontsize=7, frameon=False, handlelength=1.2, columnspacing=1.0)
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

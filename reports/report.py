@@ -23,7 +23,6 @@ run is never lost to a plotting problem.
 """
 from __future__ import annotations
 
-import functools
 import html
 import json
 import math
@@ -32,6 +31,7 @@ import urllib.parse
 from pathlib import Path
 
 from . import figures as F
+from . import labels
 from .leaderboard import leaderboards
 from ldbench.core.device import MACHINE_FIELDS
 from ldbench.core.effects import get_spec
@@ -52,29 +52,6 @@ def _fmt(v, nd=2):
     return f"{v2:.{nd}f}"
 
 
-@functools.lru_cache(maxsize=None)
-def _defaults(method: str) -> tuple:
-    """(defaults dict, renamed dict) of an adapter's ``Params``; ({}, {}) for a method this version
-    does not know (then every parameter counts as non-default)."""
-    try:
-        from ldbench.methods.base import get_method
-
-        cls = get_method(str(method)).Params
-        return cls().to_dict(), dict(getattr(cls, "renamed", None) or {})
-    except Exception:  # noqa: BLE001 - an old table may name a method that no longer exists
-        return {}, {}
-
-
-def _same(a, b) -> bool:
-    """Parameter values equal after a records round trip (128 == 128.0, "inf" == inf, tuple == list)."""
-    fa, fb = F.as_number(a), F.as_number(b)
-    if fa is not None and fb is not None and not isinstance(a, bool) and not isinstance(b, bool):
-        return fa == fb
-    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    return a == b or str(a) == str(b)
-
-
 def shown_params(method, p, keep=()) -> list:
     """The parameters of one row that differ from the adapter's defaults (plus those named in ``keep``,
     e.g. swept ones), grouped as the adapter groups them: ``[(group, [(name, value), ...]), ...]`` with
@@ -82,11 +59,11 @@ def shown_params(method, p, keep=()) -> list:
     before its first dot; old flat names are read through ``Params.renamed``. The results files keep
     the full set."""
     p = p if isinstance(p, dict) else F.as_dict(p)
-    defaults, renamed = _defaults(str(method))
+    defaults, renamed = labels.defaults(str(method))
     groups: dict = {}
     for k, v in p.items():
         name = renamed.get(k, k)
-        if name in defaults and _same(v, defaults[name]) and k not in keep and name not in keep:
+        if name in defaults and labels.same(v, defaults[name]) and k not in keep and name not in keep:
             continue
         group, _, short = name.partition(".") if "." in name else ("", "", name)
         groups.setdefault(group, []).append((short, v))
@@ -96,11 +73,14 @@ def shown_params(method, p, keep=()) -> list:
 def swept_params(df) -> dict:
     """{method: names of the parameters that take more than one value among its rows}: a table shows
     them in every row of the method, even where a row has the default value."""
-    seen: dict = {}
-    for m, p in zip(df["method"], df["params"]):
-        for k, v in (p if isinstance(p, dict) else F.as_dict(p)).items():
-            seen.setdefault(m, {}).setdefault(k, set()).add(json.dumps(v, sort_keys=True, default=str))
-    return {m: {k for k, vals in ks.items() if len(vals) > 1} for m, ks in seen.items()}
+    rows = [{"method": m, "params": p if isinstance(p, dict) else F.as_dict(p), "scene": "", "effect_text": "",
+             "size": ""} for m, p in zip(df["method"], df["params"])]
+    out: dict = {}
+    for r in rows:
+        out.setdefault(r["method"], set())
+    for m in out:
+        out[m] = set(labels.differing_keys([r for r in rows if r["method"] == m]))
+    return out
 
 
 def _params_str(p, method=None, sep=" · ", keep=()) -> str:
@@ -436,13 +416,16 @@ def _viewer_data(run_dir: Path, g) -> dict | None:
             continue
         items.append({"label": c.label, "png": _qurl(c.image), "exr": _qurl(c.exr), "values": _qurl(c.values),
                       "abs": _qurl(c.error), "signed": _qurl(c.signed), "flip": _qurl(c.flip),
-                      "flip_values": _qurl(c.flip_values)})
+                      "flip_values": _qurl(c.flip_values), "unbiased": _qurl(getattr(c, "unbiased", None))})
     bars = {"abs": {"png": _qurl(g.colorbar), "lo": 0.0, "hi": g.vmax, "label": "|error|"}}
     if g.signed_colorbar:
         bars["signed"] = {"png": _qurl(g.signed_colorbar), "lo": -g.signed_vmax, "hi": g.signed_vmax,
                           "label": "signed error"}
     if g.flip_colorbar:
         bars["flip"] = {"png": _qurl(g.flip_colorbar), "lo": 0.0, "hi": 1.0, "label": "FLIP"}
+    if getattr(g, "unbiased_legend", None):  # score --test unbiased: categories, no range
+        bars["unbiased"] = {"png": _qurl(g.unbiased_legend), "lo": None, "hi": None,
+                            "label": "unbiased test: rejection map"}
     return {"anchor": g.anchor, "title": g.title, "w": int(g.width), "h": int(g.height), "items": items,
             "bars": bars}
 
@@ -611,8 +594,13 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
             h.raw(f"<figure>{_img(run_dir, f.png, f.title)}<figcaption>{esc(f.caption)} "
                   f'<a href="{url(f.pdf)}">PDF</a></figcaption></figure>')
     if not any(f.kind.endswith("vs-param") for f in figs):
-        h.text("p", "No parameter is swept in this run (a parameter is swept when it takes more than one "
-                    "value within one scene × method × effect).", cls="muted")
+        swept = sorted({k for ks in swept_params(df).values() for k in ks})
+        if swept:
+            h.text("p", f"Swept without a numeric axis: {', '.join(swept)} (each configuration's value is in the "
+                        "tables, the leaderboard and the figures' labels).", cls="muted")
+        else:
+            h.text("p", "No parameter is swept in this run (a parameter is swept when it takes more than one "
+                        "value within one scene × method × effect).", cls="muted")
     h.raw('<h2 id="grids">Image grids</h2>')
     if not grids:
         h.text("p", "No images.", cls="muted")

@@ -2,19 +2,20 @@
 
    Click a thumbnail of an image grid to open it full size. Keys (see the help line of the viewer):
    1..9 pick an image (1 = reference), left/right step through them, space toggles reference <-> the
-   last method shown, i / a / s / f show the image / absolute error / signed error / FLIP map, b shows
+   last method shown, i / a / s / f / u show the image / absolute error / signed error / FLIP map / the
+   rejection map of `score --test unbiased` (rows that have one), b shows
    reference and current side by side, + / - / mouse wheel zoom (nearest-neighbour pixels), drag pans,
    0 fits, Escape closes. Under the cursor: the pixel's exact float32 values (from values/*.js, which
    call ldbenchValues; scripts load from file:// where fetch() is blocked).
 
    Scripted state for tests and links: index.html#ldv=<grid anchor>&idx=<0-based image>&mode=<image|abs|
-   signed|flip>&sbs=1&zoom=<screen px per image px>&keys=<key,key,...>&at=<x>,<y>. The keys go through
+   signed|flip|unbiased>&sbs=1&zoom=<screen px per image px>&keys=<key,key,...>&at=<x>,<y>. The keys go through
    the same keydown handler as real key presses. The viewer element #ldv mirrors its state in data-*
    attributes (data-shown = the source of the image shown, data-zoom, data-mode, data-idx, data-sbs). */
 (function () {
   "use strict";
-  var MODES = ["image", "abs", "signed", "flip"];
-  var MODE_NAMES = {image: "image", abs: "|error|", signed: "signed error", flip: "FLIP"};
+  var MODES = ["image", "abs", "signed", "flip", "unbiased"];
+  var MODE_NAMES = {image: "image", abs: "|error|", signed: "signed error", flip: "FLIP", unbiased: "unbiased test"};
   var grids = {};
   var values = {};
   var waiting = {};
@@ -77,7 +78,7 @@
     el.px = h("div", "ldv-px", "");
     el.px.id = "ldv-px";
     var help = h("div", "ldv-help", "1..9 image (1 = reference) · ←/→ step · space reference ↔ method · " +
-                 "i image · a |error| · s signed error · f FLIP · b side by side · +/−/wheel zoom · drag pan · " +
+                 "i image · a |error| · s signed error · f FLIP · u unbiased test · b side by side · +/−/wheel zoom · drag pan · " +
                  "0 fit · Esc close");
     [el.bar, el.range, el.px, help].forEach(function (x) { foot.appendChild(x); });
     root.appendChild(bar);
@@ -152,7 +153,8 @@
     var bar = st.mode !== "image" && it[st.mode] ? g.bars[st.mode] : null;
     el.bar.hidden = !bar;
     if (bar) el.bar.setAttribute("src", bar.png);
-    el.range.textContent = bar ? bar.label + ": " + bar.lo.toPrecision(3) + " … " + bar.hi.toPrecision(3) : "";
+    el.range.textContent = !bar ? "" : bar.lo === null || bar.lo === undefined ? bar.label :
+                           bar.label + ": " + bar.lo.toPrecision(3) + " … " + bar.hi.toPrecision(3);
     el.links.textContent = "";
     [["PNG", it.png], ["EXR", it.exr], ["map PNG", st.mode !== "image" ? it[st.mode] : null]].forEach(function (l) {
       if (!l[1]) return;
@@ -281,6 +283,7 @@
     else if (k === "a") setMode("abs");
     else if (k === "s") setMode("signed");
     else if (k === "f") setMode("flip");
+    else if (k === "u") setMode("unbiased");
     else if (k === "b") setSbs(!st.sbs);
     else if (k === "+" || k === "=") setZoom(st.zoom * 2);
     else if (k === "-") setZoom(st.zoom / 2);
