@@ -67,36 +67,49 @@ def _scenes(args):
 
 
 def _methods_args(p):
-    pass
+    p.add_argument("name", nargs="?", default=None,
+                   help="one method (or an alias): its parameters; without it, every method in one line each")
 
 
 def _methods(args):
-    from ldbench.methods.base import registry
+    from ldbench.methods.base import canonical_name, registry
 
-    for name, cls in registry().items():
-        also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
-        print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
-        table = cls.Params.table()
-        print(table or "  (no parameters)")
+    reg = registry()
+    if args.name is None:
+        for name, cls in reg.items():
+            also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
+            print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
+        return 0
+    name = canonical_name(args.name)
+    if name not in reg:
+        raise LdbenchError(f"unknown method {args.name!r} (known: {', '.join(reg)})")
+    cls = reg[name]
+    also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
+    print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
+    print(cls.Params.table() or "  (no parameters)")
     return 0
 
 
 # ---- reference -------------------------------------------------------------------------------------
 # Effect parameters with flags of their own; any other one: --effect-set NAME=VALUE.
-EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf'); an ad-hoc "
-                 "`run --effect ao` without it takes the scene's registered d_max, else 5%% of the scene's "
-                 "largest bounding-box extent (a warning on stderr says which)"),
+EFFECT_FLAGS = (("d_max", "--d-max", "ao, rays (kind ao): maximum distance (world units, or 'inf'; default inf)"),
                 ("falloff", "--falloff", "ao: step | quadratic"),
                 ("ray_kind", "--ray-kind", "rays: diffuse | glossy | shadow | ao"),
                 ("rays_per_pixel", "--rays-per-pixel", "rays: rays per hit pixel"))
 
 
-def _effect_args(p, required=True):
+#: what `run` adds to --d-max's help: its ad-hoc AO run picks a finite d_max (unbounded AO blackens enclosed scenes)
+RUN_D_MAX = ("ao, rays (kind ao): maximum distance (world units, or 'inf'); without it, `run --effect ao` takes "
+             "the scene's registered d_max, else 5%% of the scene's largest bounding-box extent (a warning on stderr "
+             "says which)")
+
+
+def _effect_args(p, required=True, d_max_help=None):
     from ldbench.core.effects import EFFECTS
 
     p.add_argument("--effect", required=required, help="the effect to compute: " + " | ".join(EFFECTS))
-    for _, flag, helptext in EFFECT_FLAGS:
-        p.add_argument(flag, default=None, help=helptext)
+    for name, flag, helptext in EFFECT_FLAGS:
+        p.add_argument(flag, default=None, help=d_max_help if name == "d_max" and d_max_help else helptext)
     p.add_argument("--effect-set", action="append", metavar="PARAM=VALUE",
                    help="effect parameter (e.g. exponent=64, light_radius=0.2)")
 
@@ -219,7 +232,7 @@ def _run_args(p):
                                    "a Mitsuba 3 .xml file or a .ply/.obj mesh")
     p.add_argument("--method", action="append",
                    help="instead of a suite: method adapter (ldbench methods); repeat for several")
-    _effect_args(p, required=False)
+    _effect_args(p, required=False, d_max_help=RUN_D_MAX)
     p.add_argument("--save-arrays", action="store_true",
                    help="rays, vpl_range: write each job's per-ray/per-VPL inputs and answers (method and oracle) "
                         "as .npz beside its images (about 60 bytes per ray)")
@@ -452,7 +465,8 @@ def _question_from(args):
 def _score_args(p):
     p.add_argument("run_dir", help="run directory the rows join (created when missing)")
     p.add_argument("--from", dest="folder", metavar="FOLDER",
-                   help="every folder under FOLDER with question.json + answer.* (docs/adapters.md, 'Scoring')")
+                   help="every folder under FOLDER with question.json + answer.* (docs/adapters.md, 'Benchmarking "
+                        "a method that runs elsewhere')")
     p.add_argument("--answer", metavar="FILE", help="one answer: image (.exr, .png) or per-ray/per-VPL file "
                    "(.npy, .npz, .csv)")
     _question_args(p, required=False)
@@ -588,7 +602,7 @@ def _version_text() -> str:
 
 COMMANDS = {
     "scenes": (_scenes_args, _scenes, "list scenes (built-in and registered real ones); fetch real scenes"),
-    "methods": (_methods_args, _methods, "list method adapters and their parameters"),
+    "methods": (_methods_args, _methods, "list the method adapters, or one method's parameters"),
     "reference": (_reference_args, _reference, "render or fetch the cached Mitsuba reference"),
     "run": (_run_args, _run, "run a suite (TOML) or one scene/method/effect"),
     "report": (_report_args, _report, "rebuild the report of a run directory"),

@@ -9,6 +9,7 @@ import pytest
 
 from ldbench.harness.cli import main
 from ldbench.core.errors import LdbenchError
+from ldbench.methods.base import registry
 from testkit import read_only_parent
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,6 +41,12 @@ def test_listings(capsys):
     out = capsys.readouterr().out
     for m in ("direct-raster", "ldm (also: ldm-ao)", "hbao"):
         assert m in out
+    assert len(out.splitlines()) == len(registry())  # one line a method; `methods NAME` for its parameters
+    assert main(["methods", "ldm-ao"]) == 0  # an alias names its method
+    one = capsys.readouterr().out
+    assert one.startswith("ldm (also: ldm-ao)") and "directions" in one and "hbao" not in one
+    assert main(["methods", "nope"]) == 2
+    assert "unknown method 'nope'" in capsys.readouterr().err
 
 
 def test_run_writes_complete_directory(tmp_path):

@@ -165,3 +165,22 @@ def test_module_warnings_are_prefixed_under_python_dash_m(tmp_path):
     p = subprocess.run(args[:3] + ["-qq"] + args[3:-1] + [str(tmp_path / "run2")], cwd=ROOT,
                        capture_output=True, text=True, timeout=300)
     assert p.returncode == 0 and "ignored" not in p.stderr, p.stderr
+
+
+def test_every_docs_section_a_help_text_cites_exists():
+    """A help text that sends the reader to ``docs/X.md, 'Section'`` names a file and a heading that exist."""
+    import re
+
+    cited = []
+    for path, p in _parsers(build_parser()):
+        texts = [p.description or "", p.epilog or "", *(a.help or "" for a in p._actions)]
+        for t in texts:
+            for doc, section in re.findall(r"(docs/[\w/.-]+\.md)(?:, ['\"]([^'\"]+)['\"])?", t):
+                cited.append((" ".join(path), doc, section))
+    assert cited, "no help text cites the docs"
+    for where, doc, section in cited:
+        f = ROOT / doc
+        assert f.is_file(), f"{where}: {doc} does not exist"
+        if section:
+            heads = [l.lstrip("#").strip() for l in f.read_text(encoding="utf-8").splitlines() if l.startswith("#")]
+            assert any(h.startswith(section) or section in h for h in heads), f"{where}: {doc} has no section {section!r}"

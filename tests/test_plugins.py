@@ -213,7 +213,9 @@ def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
     import pandas as pd
 
     listed = _ldbench(venv, "methods")
-    assert "example-ao  [example]  effects: ao" in listed and "samples" in listed, listed
+    assert "example-ao  [example]  effects: ao" in listed and "samples" not in listed, listed
+    params = _ldbench(venv, "methods", "example-ao")
+    assert params.startswith("example-ao  [example]  effects: ao") and "samples" in params, params
     _ldbench(venv, "run", "--scene", "cornell", "--method", "example-ao", "--method", "hbao", "--effect", "ao",
              "--d-max", "0.5", "--out", "local", *TINY)
     local = _rows(venv, "local")
