@@ -163,8 +163,10 @@ def _literal(v: str):
 
 
 def _reference_args(p):
-    p.add_argument("scene", help="built-in or registered scene name (ldbench scenes), a Mitsuba 3 .xml file, "
-                                 "or a .ply/.obj mesh")
+    p.add_argument("--scene", help="built-in or registered scene name (ldbench scenes), a Mitsuba 3 .xml file, "
+                                   "or a .ply/.obj mesh")
+    p.add_argument("scene_arg", nargs="?", metavar="SCENE", help="the scene as a positional argument: deprecated, "
+                   "use --scene as run and export do")
     _effect_args(p)
     p.add_argument("--spp", type=int, default=1024, help="samples per pixel (default 1024)")
     p.add_argument("--size", default="256x256", metavar="WxH", help="image size (default 256x256)")
@@ -179,6 +181,15 @@ def _reference_args(p):
 def _reference(args):
     from ldbench.core.scenes import load_scene
     from .suite import parse_size
+
+    if args.scene_arg is not None:
+        if args.scene is not None and args.scene != args.scene_arg:
+            raise LdbenchError(f"two scenes given: --scene {args.scene} and {args.scene_arg}")
+        log.warning(f"`ldbench reference {args.scene_arg}` is deprecated: write `ldbench reference --scene "
+                    f"{args.scene_arg}` (as run and export)")
+        args.scene = args.scene_arg
+    if args.scene is None:
+        raise LdbenchError("reference needs --scene SCENE")
 
     from .suite import MAX_SPP, checked_int, check_budget
     w, h = parse_size(args.size)

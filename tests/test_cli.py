@@ -72,10 +72,10 @@ def test_run_writes_complete_directory(tmp_path):
     (["run", "--scene", "cornell", "--scene-set", "subdivide=-1", "--method", "direct-raster",
       "--effect", "direct"], ["subdivide"]),
     (["run", "--scene", "cornell", "--method", "direct-raster", "--effect", "direct", "--size", "abc"], ["size"]),
-    (["reference", "cornell", "--effect", "ao", "--falloff", "cubic"], ["falloff"]),
+    (["reference", "--scene", "cornell", "--effect", "ao", "--falloff", "cubic"], ["falloff"]),
     (["report", "/nonexistent/run"], ["not a run directory"]),
-    (["reference", "cornell", "--effect", "ao", "--ray-kind", "ao"], ["does not use parameter 'ray_kind'"]),
-    (["reference", "cornell", "--effect", "rays", "--d-max", "0.5"], ["does not use parameter 'd_max'"]),
+    (["reference", "--scene", "cornell", "--effect", "ao", "--ray-kind", "ao"], ["does not use parameter 'ray_kind'"]),
+    (["reference", "--scene", "cornell", "--effect", "rays", "--d-max", "0.5"], ["does not use parameter 'd_max'"]),
     (["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--frames", str(10 ** 20)], ["frames"]),
     (["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--seed", str(2 ** 63)], ["seed"]),
     (["frobnicate"], ["invalid choice"]),
@@ -92,12 +92,12 @@ def test_bad_input_one_line(tmp_path, args, needles):
 def test_bad_scene_files(tmp_path):
     bad = tmp_path / "bad.xml"
     bad.write_text("<scene version='3.0.0'><shape type='obj'>")
-    rc, _, se = run_cli("reference", str(bad), "--effect", "ao", "--size", "8x8", "--spp", "1")
+    rc, _, se = run_cli("reference", "--scene", str(bad), "--effect", "ao", "--size", "8x8", "--spp", "1")
     assert_one_line_error(rc, se, "malformed XML")
     missing = tmp_path / "missing.xml"
     missing.write_text("<scene version='3.0.0'><sensor type='perspective'><float name='fov' value='40'/>"
                        "</sensor><shape type='ply'><string name='filename' value='nope.ply'/></shape></scene>")
-    rc, _, se = run_cli("reference", str(missing), "--effect", "ao", "--size", "8x8", "--spp", "1")
+    rc, _, se = run_cli("reference", "--scene", str(missing), "--effect", "ao", "--size", "8x8", "--spp", "1")
     assert_one_line_error(rc, se, "nope.ply")
     rc, _, se = run_cli("run", "--scene", str(tmp_path / "gone.ply"), "--method", "direct-raster",
                         "--effect", "direct", "--out", str(tmp_path / "r"))
@@ -281,7 +281,7 @@ def test_every_command_checks_the_memory_a_size_needs_before_any_work(tmp_path):
         pytest.skip(f"this machine holds a {MAX_SIDE}² image: no size to refuse for memory")
     size = f"{side}x{side}"
     for args in (("export", "--scene", "cornell", "--effect", "ao", "--spp", "1", "--out", str(tmp_path / "q")),
-                 ("reference", "cornell", "--effect", "ao", "--spp", "1", "--out", str(tmp_path / "r.exr"))):
+                 ("reference", "--scene", "cornell", "--effect", "ao", "--spp", "1", "--out", str(tmp_path / "r.exr"))):
         rc, _, se = run_cli(*args, "--size", size, env={"LDBENCH_CACHE": str(tmp_path / "cache")})
         assert_one_line_error(rc, se, size, "memory")
     assert sorted(p.name for p in tmp_path.iterdir()) == []
@@ -347,9 +347,9 @@ def test_reference_of_every_image_effect(tmp_path, capsys):
     of the usual kind); per-ray effects are refused with one line."""
     from ldbench.harness.cli import main
 
-    assert main(["reference", "teapot", "--effect", "oit", "--size", "16x16", "--out", str(tmp_path / "o.exr")]) == 0
+    assert main(["reference", "--scene", "teapot", "--effect", "oit", "--size", "16x16", "--out", str(tmp_path / "o.exr")]) == 0
     assert (tmp_path / "o.exr").exists()
-    assert main(["reference", "cornell", "--effect", "rays", "--size", "16x16"]) == 2
+    assert main(["reference", "--scene", "cornell", "--effect", "rays", "--size", "16x16"]) == 2
     assert "per ray" in capsys.readouterr().err
 
 
@@ -430,13 +430,13 @@ def test_reference_out_writes_only_the_exr(tmp_path, capsys):
     from ldbench.core.exr import read_exr
 
     (tmp_path / "photo.png").write_bytes(b"my holiday")
-    assert main(["reference", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
+    assert main(["reference", "--scene", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
                  "--out", str(tmp_path / "photo.exr")]) == 0
     assert (tmp_path / "photo.png").read_bytes() == b"my holiday"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["photo.exr", "photo.png"]
     assert read_exr(tmp_path / "photo.exr")["Y"].shape == (8, 8)
     capsys.readouterr()
-    assert main(["reference", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
+    assert main(["reference", "--scene", "cornell", "--effect", "ao", "--size", "8x8", "--spp", "2",
                  "--out", str(tmp_path / "photo.png")]) == 2
     assert "must name an .exr file" in capsys.readouterr().err
     assert (tmp_path / "photo.png").read_bytes() == b"my holiday"
@@ -491,7 +491,7 @@ def test_undecodable_input_files_are_one_line(tmp_path, kind, request):
     if kind == "suite":
         args = ["run", str(f), "--out", str(tmp_path / "run")]
     elif kind in ("xml", "ply", "obj"):
-        args = ["reference", str(f), "--effect", "ao", "--size", "8x8", "--spp", "1"]
+        args = ["reference", "--scene", str(f), "--effect", "ao", "--size", "8x8", "--spp", "1"]
     elif kind == "baseline":
         args = ["compare", str(f), str(f)]
     elif kind == "history-add":
@@ -526,7 +526,7 @@ def test_xml_scene_with_a_negative_intensity_is_one_line(tmp_path):
     for i, s, needle in (("-5, -5, -5", "1", "negative"),):
         f = tmp_path / "s.xml"
         f.write_text(xml.format(i=i, s=s))
-        rc, _, se = run_cli("reference", str(f), "--effect", "direct", "--size", "8x8", "--spp", "1")
+        rc, _, se = run_cli("reference", "--scene", str(f), "--effect", "direct", "--size", "8x8", "--spp", "1")
         assert_one_line_error(rc, se, needle)
         assert "Warning" not in se
 
@@ -552,3 +552,17 @@ def test_an_unexpected_reference_failure_marks_its_jobs_and_the_run_completes(tm
     df = run_jobs(suite, tmp_path / "run", progress=False, report=False)
     st = sorted(df["status"])
     assert st == ["error: reference failed: MemoryError: simulated", "ok"], st
+
+
+def test_reference_takes_the_scene_as_run_does_and_the_old_spelling_warns(tmp_path):
+    """`reference --scene X` like run and export; `reference X` still works and says once that it is deprecated;
+    two different scenes, or none, are one line."""
+    args = ("--effect", "ao", "--size", "8x8", "--spp", "1", "--no-cache")
+    rc, _, se = run_cli("reference", "--scene", "cornell", *args, "--out", str(tmp_path / "a.exr"))
+    assert rc == 0 and "deprecated" not in se, se
+    rc, _, se = run_cli("reference", "cornell", *args, "--out", str(tmp_path / "b.exr"))
+    assert rc == 0 and se.count("deprecated") == 1 and "--scene cornell" in se, se
+    rc, _, se = run_cli("reference", "cornell", "--scene", "atrium", *args)
+    assert_one_line_error(rc, se, "two scenes")
+    rc, _, se = run_cli("reference", *args)
+    assert_one_line_error(rc, se, "--scene")

@@ -257,7 +257,7 @@ def test_cli_bad_scene_is_one_line(tmp_path, body, needle):
     """What Mitsuba's parser rejects and what ldbench cannot represent: exit 2, one line, no traceback."""
     from test_cli import assert_one_line_error, run_cli
 
-    rc, _, se = run_cli("reference", str(write(tmp_path, body)), "--effect", "ao", "--size", "8x8", "--spp", "1")
+    rc, _, se = run_cli("reference", "--scene", str(write(tmp_path, body)), "--effect", "ao", "--size", "8x8", "--spp", "1")
     assert_one_line_error(rc, se, needle, "scene.xml", "line 3")
 
 

@@ -178,7 +178,7 @@ def test_not_fetched_scene_says_how_to_fetch_it(cache, capsys):
     with pytest.raises(LdbenchError) as e:
         load_scene("sponza")
     assert "\n" not in str(e.value) and "ldbench scenes fetch sponza" in str(e.value)
-    assert main(["reference", "sponza", "--effect", "ao", "--size", "8x8", "--spp", "1"]) == 2
+    assert main(["reference", "--scene", "sponza", "--effect", "ao", "--size", "8x8", "--spp", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "not fetched" in err and "ldbench scenes fetch sponza" in err
     with pytest.raises(LdbenchError, match="takes no parameters"):
