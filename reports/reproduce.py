@@ -790,10 +790,21 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
     if scale not in entry.scales:
         raise LdbenchError(f"unknown scale {scale!r} for {key} (known: {', '.join(entry.scales)})")
     if from_run is not None:
+        from ldbench.harness.rundir import is_run_dir
+        from ldbench.harness.suite import load_suite
+
         run_dir = Path(from_run)
+        if out is not None:
+            raise LdbenchError(f"--from-run evaluates {run_dir} where it is (its reproduce.md and .json): "
+                               "--out does not apply; drop one of them")
         if not run_dir.is_dir():
             raise LdbenchError(f"--from-run: {run_dir} is not a directory")
-        df = read_results(run_dir)
+        df = read_results(run_dir)  # refuses a partial or foreign folder in one line
+        if is_run_dir(run_dir):  # a run of another suite would leave every claim 'not measured'
+            ran = json.loads((run_dir / "suite.json").read_text(encoding="utf-8")).get("name")
+            want = load_suite(suite_file(entry)).name if suite_file(entry).is_file() else None
+            if want is not None and ran != want:
+                raise LdbenchError(f"--from-run: {run_dir} is a run of suite {ran!r}, not of {key}'s suite {want!r}")
     else:
         from ldbench.harness.executors import run_jobs
         from ldbench.harness.suite import load_suite
@@ -806,8 +817,10 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
     res = evaluate(entry, df, scale)
-    (run_dir / "reproduce.json").write_text(json.dumps(res, indent=1, default=str), encoding="utf-8")
-    (run_dir / "reproduce.md").write_text(format_markdown(res), encoding="utf-8")
+    from ldbench.core.files import atomic_write_text
+
+    atomic_write_text(run_dir / "reproduce.json", json.dumps(res, indent=1, default=str))
+    atomic_write_text(run_dir / "reproduce.md", format_markdown(res))
     if report:
         from .report import write_report
 

@@ -2,6 +2,7 @@
 GPU and on a CPU, printing, end to end."""
 from __future__ import annotations
 
+import json
 import math
 import re
 import sys
@@ -292,3 +293,27 @@ def test_stage_and_counter_quantities_and_the_new_claim_kinds(tmp_path):
     assert {c["text"]: c["verdict"] for c in res["claims"]}["build beats trace"] == INCONCLUSIVE
     with pytest.raises(R.LdbenchError, match="unknown quantity"):
         R.quantity("stage")
+
+
+def test_from_run_never_writes_elsewhere_nor_accepts_another_suite(tmp_path, capsys):
+    """--from-run evaluates a run where it is: with --out as well it refuses (it rewrote the source while
+    ignoring --out); a run of another suite is refused (every claim would read 'not measured'); a run of the
+    entry's own suite is evaluated, its reproduce files replaced in place."""
+    run = tmp_path / "run"
+    records.write_results([_row("hbao", FIG8_D_MAX, 80.0)], run)
+    (run / "suite.json").write_text(json.dumps({"name": "nightly", "source": "", "jobs": 1}))
+    before = sorted(p.name for p in run.iterdir())
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run), "--out", str(tmp_path / "x"),
+                 "--no-report"]) == 2
+    assert "--out does not apply" in capsys.readouterr().err
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run), "--no-report"]) == 2
+    assert "is a run of suite 'nightly'" in capsys.readouterr().err
+    assert sorted(p.name for p in run.iterdir()) == before and not (tmp_path / "x").exists()
+    from ldbench.harness.suite import load_suite
+    from ldbench.reports.reproduce import get_entry, suite_file
+
+    name = load_suite(suite_file(get_entry("aalund2015-fig8"))).name
+    (run / "suite.json").write_text(json.dumps({"name": name, "source": "", "jobs": 1}))
+    for _ in range(2):
+        assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run), "--no-report"]) == 0
+    assert (run / "reproduce.json").is_file() and (run / "reproduce.md").is_file()

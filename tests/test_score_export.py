@@ -58,7 +58,7 @@ def _render_outside(gpu, folder):
     return r
 
 
-def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao_run):
+def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao_run, capsys):
     run_dir, df = hbao_run
     folder = _export(tmp_path, Effect("ao", d_max=0.5), "q")
     _render_outside(gpu, folder)
@@ -82,8 +82,9 @@ def test_exported_rendered_outside_and_scored_equals_the_run(tmp_path, gpu, hbao
     assert main(["compare", str(run_dir), str(run_dir), "--out", str(tmp_path / "cmp.md")]) == 0
     assert main(["history", "add", str(run_dir), "--history-dir", str(tmp_path / "hist")]) == 0
     assert any("external" in p.name for p in (tmp_path / "hist").iterdir())  # its own machine file
-    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run_dir), "--out", str(tmp_path / "rep"),
-                 "--no-report", "--no-progress"]) in (0, 1)
+    # reproduce reads it too, and refuses it: a run of another suite would leave every claim 'not measured'
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run_dir), "--no-report", "--no-progress"]) == 2
+    assert "is a run of suite 'score-test'" in capsys.readouterr().err
     # the answer's mask counts: half the pixels without a value
     mask = np.load(folder / "mask.npy")
     mask[: SIZE // 2] = False
