@@ -279,8 +279,8 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
             scores = spec.score(result, prep.reference, scene=scene, inputs=prep.inputs,
                                 stage_ms=timing.get("stage_ms") or {})
             folder = Path(out) / "images" / scene_dir(scene)
-            images = spec.save(result, prep.reference, prep.inputs, folder, job_label(job, scene),
-                               reference_label(job, scene))
+            label = _free_label(folder, job_label(job, scene))
+            images = spec.save(result, prep.reference, prep.inputs, folder, label, reference_label(job, scene))
             rel = f"images/{scene_dir(scene)}/"
             images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
                       for k, v in images.items()}
@@ -291,7 +291,7 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
                 ures, ucols = run_test(a.test, q, a, result, prep.reference, spec, alpha=a.alpha,
                                        correction=a.correction)
                 scores = {**scores, **ucols}
-                images.update({k: rel + v for k, v in save_maps(ures, folder, job_label(job, scene)).items()})
+                images.update({k: rel + v for k, v in save_maps(ures, folder, label).items()})
             meta = getattr(prep.reference, "meta", {}) or {}
             mem = {str(k): int(v) for k, v in a.memory.items()}
             row = dict(run_id=run_id, suite=suite_name, **git, ldbench_version=info["version"], scene=scene.name,
@@ -356,6 +356,17 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
 
         write_report(run_dir)
     return rows
+
+
+def _free_label(folder: Path, label: str) -> str:
+    """``label``, or ``label-2``, ``label-3``, ...: the first stem whose image (``STEM.exr``, which every effect
+    writes) is not in ``folder`` yet, so that a second answer to one question (same method, effect, size and
+    parameters) never overwrites the images the first row points at."""
+    n, out = 1, label
+    while (folder / f"{out}.exr").exists() or (folder / f"{out}.png").exists():
+        n += 1
+        out = f"{label}-{n}"
+    return out
 
 
 # ---- the folder layout and the command line -------------------------------------------------------------

@@ -284,6 +284,28 @@ def test_score_one_answer_from_the_command_line(tmp_path, gpu, hbao_run, capsys)
     assert row["device"] == "external" and row["timing_source"] == "user"
 
 
+def test_a_second_answer_to_one_question_keeps_the_first_rows_images(tmp_path, capsys):
+    """Two answers to one question, same method and parameters, scored into one run one after the other: two
+    rows, each pointing at its own image files, and the first row's files are unchanged by the second."""
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "q", size=8, spp=1)
+    run = tmp_path / "run"
+    args = ["--scene", "cornell", "--effect", "ao", "--d-max", "0.5", "--size", "8x8", "--spp", "1", "--no-report",
+            "--no-progress"]
+    from ldbench.core.exr import write_image
+
+    for value in (0.25, 0.75):
+        write_image(folder / "answer.exr", np.full((8, 8, 1), value, np.float32))
+        assert main(["score", str(run), "--answer", str(folder / "answer.exr"), *args]) == 0, capsys.readouterr().err
+        if value == 0.25:
+            first = records.read_results(run).iloc[0]["images"]
+            kept = (run / first["exr"]).read_bytes()
+    rows = records.read_results(run)
+    assert len(rows) == 2
+    a, b = rows.iloc[0]["images"], rows.iloc[1]["images"]
+    assert a["exr"] != b["exr"] and a["image"] != b["image"] and a["error"] != b["error"]
+    assert (run / a["exr"]).read_bytes() == kept and (run / b["exr"]).is_file()
+
+
 def _write_png(path, a):
     """A PNG written here byte by byte (no filter, one IDAT): uint8 or uint16 codes, H x W (grey) or
     H x W x 3 (RGB), so the reader under test is checked against a writer that is not its own library."""
