@@ -7,3 +7,8 @@ class LdbenchError(Exception):
     The message must be one line that names what was wrong (the scene, parameter, element, path).
     The CLI prints ``ldbench: error: <message>`` and exits with status 2; no traceback.
     """
+
+
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C after part of the work was kept: the message says what (the CLI prints ``ldbench: interrupted:
+    <message>`` and exits with status 130), so that a rerun does not add the same rows twice."""

@@ -685,8 +685,8 @@ def main(argv=None) -> int:
     except LdbenchError as e:
         print(f"ldbench: error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("ldbench: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as e:
+        print(f"ldbench: interrupted: {e}" if str(e) else "ldbench: interrupted", file=sys.stderr)
         return 130
 
 

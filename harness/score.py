@@ -352,9 +352,14 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
         rd.abort()
         raise
     if report:  # as `ldbench report RUN` would, over the old rows and the new
+        from ldbench.core.errors import Interrupted
         from ldbench.reports.report import write_report
 
-        write_report(run_dir)
+        try:
+            write_report(run_dir)
+        except KeyboardInterrupt:
+            raise Interrupted(f"the {len(rows)} scored row(s) are kept in {run_dir} (do not score them again); "
+                              f"its report was not written: ldbench report {run_dir}") from None
     return rows
 
 

@@ -816,15 +816,20 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
-    res = evaluate(entry, df, scale)
+    from ldbench.core.errors import Interrupted
     from ldbench.core.files import atomic_write_text
 
-    atomic_write_text(run_dir / "reproduce.json", json.dumps(res, indent=1, default=str))
-    atomic_write_text(run_dir / "reproduce.md", format_markdown(res))
-    if report:
-        from .report import write_report
+    try:
+        res = evaluate(entry, df, scale)
+        atomic_write_text(run_dir / "reproduce.json", json.dumps(res, indent=1, default=str))
+        atomic_write_text(run_dir / "reproduce.md", format_markdown(res))
+        if report:
+            from .report import write_report
 
-        write_report(run_dir)
+            write_report(run_dir)
+    except KeyboardInterrupt:
+        raise Interrupted(f"the run's rows are kept in {run_dir}; evaluate them without rendering again: "
+                          f"ldbench reproduce {key} --from-run {run_dir}") from None
     return res, run_dir
 
 

@@ -317,3 +317,17 @@ def test_from_run_never_writes_elsewhere_nor_accepts_another_suite(tmp_path, cap
     for _ in range(2):
         assert main(["reproduce", "aalund2015-fig8", "--from-run", str(run), "--no-report"]) == 0
     assert (run / "reproduce.json").is_file() and (run / "reproduce.md").is_file()
+
+
+def test_ctrl_c_after_the_rows_says_they_are_kept(tmp_path, capsys, monkeypatch):
+    from ldbench.reports import report
+
+    records.write_results([_row("hbao", FIG8_D_MAX, 80.0)], tmp_path)
+
+    def interrupt(run_dir):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "write_report", interrupt)
+    assert main(["reproduce", "aalund2015-fig8", "--from-run", str(tmp_path)]) == 130
+    err = capsys.readouterr().err
+    assert "rows are kept" in err and "--from-run" in err, err

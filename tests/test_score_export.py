@@ -555,3 +555,24 @@ def test_score_rays_minus_inf_is_a_non_finite_answer(tmp_path):
     (row,) = score_into_run(items_from_folder(folder), tmp_path / "run", report=False)
     assert row["status"] == "degraded: 2 non-finite answers" and row["nonfinite"] == 2
     assert row["coverage"] == pytest.approx(1 - 5 / n)
+
+
+def test_ctrl_c_while_score_writes_its_report_says_the_rows_are_kept(tmp_path, capsys, monkeypatch):
+    """The rows are committed before the report: Ctrl-C then exits 130 saying they are kept and how to write
+    the report, so that nobody scores them a second time."""
+    from ldbench.core.exr import write_image
+    from ldbench.reports import report
+
+    folder = _export(tmp_path, Effect("ao", d_max=0.5), "q", size=8, spp=1)
+    write_image(folder / "answer.exr", np.full((8, 8, 1), 0.5, np.float32))
+
+    def interrupt(run_dir):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(report, "write_report", interrupt)
+    run = tmp_path / "run"
+    rc = main(["score", str(run), "--answer", str(folder / "answer.exr"), "--scene", "cornell", "--effect", "ao",
+               "--d-max", "0.5", "--size", "8x8", "--spp", "1", "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 130 and "are kept in" in err and f"ldbench report {run}" in err, err
+    assert len(records.read_results(run)) == 1
