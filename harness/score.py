@@ -256,9 +256,11 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
 
     info = ldbench_info()
     git = {"commit": info["commit"], "dirty": info["dirty"]}
+    from .runner import progress_bar
+
     scenes, prepared, rows = {}, {}, []
     try:
-        for q, a in items:
+        for q, a in progress_bar(items, len(items), "answers", progress):
             skey = (q.scene, tuple(sorted(q.scene_params.items())))
             if skey not in scenes:
                 scenes[skey] = load_scene(q.scene, **q.scene_params)

@@ -566,3 +566,54 @@ def test_reference_takes_the_scene_as_run_does_and_the_old_spelling_warns(tmp_pa
     assert_one_line_error(rc, se, "two scenes")
     rc, _, se = run_cli("reference", *args)
     assert_one_line_error(rc, se, "--scene")
+
+
+def _in_a_terminal(args, cwd):
+    """Run ``python -m ldbench.harness.cli ARGS`` with stdout and stderr on a pseudo-terminal; its output."""
+    import fcntl
+    import pty
+    import select
+    import struct
+    import termios
+
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))  # a terminal has a size
+    p = subprocess.Popen([sys.executable, "-m", "ldbench.harness.cli", *args], cwd=cwd, stdin=subprocess.DEVNULL,
+                         stdout=slave, stderr=slave)
+    os.close(slave)
+    out = b""
+    while True:
+        r, _, _ = select.select([master], [], [], 300)
+        if not r:
+            break
+        try:
+            chunk = os.read(master, 65536)
+        except OSError:  # the child closed the terminal
+            break
+        if not chunk:
+            break
+        out += chunk
+    p.wait(timeout=300)
+    os.close(master)
+    return p.returncode, out.decode(errors="replace")
+
+
+def test_progress_bars_on_a_terminal_and_not_in_a_pipe(tmp_path):
+    """References, jobs and scored answers show a progress bar on a terminal (tqdm on stderr), and nothing of it
+    reaches a pipe or a log."""
+    run = ["run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--d-max", "0.5", "--size", "16x16",
+           "--spp", "4", "--frames", "1", "--warmup", "0", "--no-report"]
+    rc, out = _in_a_terminal([*run, "--out", str(tmp_path / "tty")], tmp_path)
+    assert rc == 0, out
+    assert "references" in out and "runs" in out and ("it/s]" in out or "s/it]" in out), out
+    rc, so, se = run_cli(*run, "--out", str(tmp_path / "pipe"))
+    assert rc == 0 and "it/s]" not in se + so and "s/it]" not in se + so, se
+    from ldbench.core.exr import write_image
+    import numpy as np
+
+    ans = tmp_path / "a.exr"
+    write_image(ans, np.full((16, 16, 1), 0.5, np.float32))
+    score = ["score", str(tmp_path / "scored"), "--answer", str(ans), "--scene", "cornell", "--effect", "ao",
+             "--d-max", "0.5", "--size", "16x16", "--spp", "1", "--no-report"]
+    rc, out = _in_a_terminal(score, tmp_path)
+    assert rc == 0 and "answers" in out, out
