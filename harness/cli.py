@@ -255,6 +255,9 @@ def _run_args(p):
     p.add_argument("--warmup", type=int, default=None,
                    help="frames run before timing starts (default: the suite's, 2)")
     p.add_argument("--frames", type=int, default=None, help="timed frames per job (default: the suite's, 5)")
+    p.add_argument("--job-timeout", type=float, default=None, metavar="SECONDS",
+                   help="seconds one job may take before it becomes an error row and the run goes on "
+                        "(default: the suite's job_timeout, 3600; 0: no limit)")
     p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE",
                    help="method parameter (repeatable; with a suite it overrides the suite's value)")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
@@ -336,7 +339,8 @@ def suite_from_args(args):
                 jobs.append(j)
             suite.jobs = jobs
         from .suite import override  # --size/--spp/--warmup/--frames, validated like the file's values
-        return override(suite, size=args.size, spp=args.spp, warmup=args.warmup, frames=args.frames)
+        return override(suite, size=args.size, spp=args.spp, warmup=args.warmup, frames=args.frames,
+                        job_timeout=args.job_timeout)
     if not (args.scene and args.method and args.effect):
         raise LdbenchError("ldbench run needs a suite file, or --scene, --method and --effect")
     from ldbench.methods.base import canonical_name
@@ -354,7 +358,7 @@ def suite_from_args(args):
     if args.seed is not None:
         run["seed"] = args.seed
     head = {"name": "adhoc"}
-    for k in ("size", "spp", "warmup", "frames"):
+    for k in ("size", "spp", "warmup", "frames", "job_timeout"):
         if getattr(args, k) is not None:
             head[k] = getattr(args, k)
     suite = suite_from_dict({"suite": head, "run": [run]}, name="adhoc")

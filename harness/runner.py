@@ -23,6 +23,7 @@ import logging
 import sys
 import time
 import uuid
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,6 +79,7 @@ class RunContext:
     suite_name: str
     out: Path  # the (temporary) run directory being written, or a task's staging folder
     save_arrays: bool = False  # --save-arrays: per-ray / per-VPL inputs and answers (harness/arrays.py)
+    job_timeout: float = 0.0  # seconds one job may take (0: no limit; see time_limit)
     phases: Phases | None = None  # where the jobs' time goes (harness/phases.py), or not recorded
 
 
@@ -103,6 +105,7 @@ class RunPlan:
     machine: dict  # the driver's (rows of jobs that never ran get it)
     reference_cache: bool = True
     save_arrays: bool = False
+    job_timeout: float = 0.0  # seconds one job may take (0: no limit); the suite's job_timeout
 
     def keys(self) -> list:
         """The distinct :func:`prepare_key` of the jobs (one inputs + reference each), in a fixed order."""
@@ -190,7 +193,8 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
     ph = ctx.phases if ctx.phases is not None else Phases()
     t0, before = time.perf_counter(), ph.total()
     try:
-        return _run_job(ctx, job, prep, ph)
+        with time_limit(ctx.job_timeout):
+            return _run_job(ctx, job, prep, ph)
     except LdbenchError as e:
         status = f"error: {e}"
     except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
@@ -199,6 +203,35 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
         ph.add("row", time.perf_counter() - t0 - (ph.total() - before))
     return records.make_row(**_job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, prep.scene,
                                           getattr(prep.reference, "meta", {}), status))
+
+
+class JobTimeout(LdbenchError):
+    """A job ran past its time limit (the suite's ``job_timeout``, ``run --job-timeout``)."""
+
+
+@contextmanager
+def time_limit(seconds: float):
+    """Raise :class:`JobTimeout` inside the block once it has run ``seconds`` (0: no limit), through SIGALRM:
+    a method stuck in Python code (a plugin's endless loop) is stopped there and its row says so. Where no
+    signal can be delivered (not the main thread, no SIGALRM) the block runs unlimited; a call blocked inside
+    the GPU driver is stopped only when it returns to Python."""
+    import signal
+    import threading
+
+    if not seconds or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_alarm(signum, frame):
+        raise JobTimeout(f"the job ran past its time limit of {seconds:g} s (job_timeout, --job-timeout)")
+
+    old = signal.signal(signal.SIGALRM, on_alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
 
 
 def error_text(e: BaseException) -> str:

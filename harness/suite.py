@@ -8,6 +8,7 @@ A suite file::
     spp = 256               # reference samples per pixel
     warmup = 2              # warm-up frames
     frames = 5              # measured frames
+    job_timeout = 3600      # seconds one job may take; past it the job is an error row and the run goes on
 
     [[run]]
     scene = "cornell"               # built-in name, XML path or mesh path (relative to the suite file)
@@ -39,7 +40,10 @@ from ldbench.core.effects import Effect
 from ldbench.core.effects.base import effects_from_user
 from ldbench.core.errors import LdbenchError
 
-SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description"}
+SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description", "job_timeout"}
+#: Seconds one job (set-up, frames, scoring, saving) may take before it becomes an error row and the run goes
+#: on: an hour, well beyond any paper-scale job measured (the slowest, Figure 9's, takes minutes on llvmpipe).
+DEFAULT_JOB_TIMEOUT = 3600.0
 RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
             "size", "spp",
             "warmup", "frames", "test"}
@@ -70,6 +74,7 @@ class Suite:
     name: str
     jobs: list = field(default_factory=list)
     source: str = ""
+    job_timeout: float = DEFAULT_JOB_TIMEOUT  # seconds (0: no limit)
 
 
 #: Image sides: SSIM's smallest window is 3 x 3 (:func:`ldbench.core.metrics.ssim_win_size`); 16384 is the
@@ -199,9 +204,9 @@ def resolve_sizes(jobs: list, scenes: dict) -> list:
     return out
 
 
-def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None) -> "Suite":
-    """``suite`` with the command line's --size/--spp/--warmup/--frames (None = keep), validated as
-    strictly as the suite file's own values."""
+def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None, job_timeout=None) -> "Suite":
+    """``suite`` with the command line's --size/--spp/--warmup/--frames/--job-timeout (None = keep), validated
+    as strictly as the suite file's own values."""
     import dataclasses
 
     wh = parse_size(size) if size is not None else None
@@ -218,6 +223,8 @@ def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None) -
             check_budget(j.width, j.height, j.spp)
         jobs.append(j)
     suite.jobs = jobs
+    if job_timeout is not None:
+        suite.job_timeout = checked_timeout(job_timeout, "--job-timeout")
     return suite
 
 
@@ -379,4 +386,12 @@ def suite_from_dict(data: dict, *, name: str, base_dir: Path | None = None, sour
     if not runs:
         raise LdbenchError("the suite has no [[run]] tables")
     jobs = [j for r in runs for j in expand_run(r, defaults, base_dir)]
-    return Suite(name=head.get("name", name), jobs=jobs, source=source)
+    timeout = checked_timeout(head.get("job_timeout", DEFAULT_JOB_TIMEOUT), "job_timeout")
+    return Suite(name=head.get("name", name), jobs=jobs, source=source, job_timeout=timeout)
+
+
+def checked_timeout(v, name: str) -> float:
+    """A time limit in seconds: a finite number ≥ 0 (0 = none)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+        raise LdbenchError(f"{name} must be a number of seconds ≥ 0 (0: no limit), got {v!r}")
+    return float(v)

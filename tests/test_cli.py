@@ -380,6 +380,36 @@ def test_an_unexpected_exception_is_one_row_and_the_run_completes(tmp_path, monk
     assert st["ldm"] == "ok" and (out / "results.parquet").is_file()
 
 
+def test_a_job_past_its_time_limit_is_one_row_and_the_run_goes_on(tmp_path, monkeypatch):
+    """A method that never returns (an endless loop in Python) is stopped at the suite's job_timeout: its row
+    says so, the other rows are kept, the run completes; the limit is a suite key and a flag, validated."""
+    import time as _time
+
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import override
+    from ldbench.methods.hbao import HBAO
+
+    def forever(self, *a, **k):  # 20 s at most: without the limit this test fails instead of hanging
+        t = _time.perf_counter()
+        while _time.perf_counter() - t < 20:
+            _time.sleep(0.01)
+        raise AssertionError("not stopped by the time limit")
+
+    monkeypatch.setattr(HBAO, "frame", forever)
+    suite = override(_tiny_suite(), job_timeout=1.5)
+    t0 = _time.perf_counter()
+    df = run_jobs(suite, tmp_path / "run", progress=False, report=False)
+    st = dict(zip(df["method"], df["status"]))
+    assert st["hbao"].startswith("error: the job ran past its time limit of 1.5 s"), st
+    assert st["ldm"] == "ok" and _time.perf_counter() - t0 < 15
+    for bad in (-1, float("nan"), "10", True):
+        with pytest.raises(LdbenchError, match="job-timeout must be a number of seconds"):
+            override(_tiny_suite(), job_timeout=bad)
+    rc, _, se = run_cli("run", "--scene", "cornell", "--method", "hbao", "--effect", "ao", "--job-timeout", "-3",
+                        "--out", str(tmp_path / "r"), *TINY)
+    assert_one_line_error(rc, se, "job_timeout must be a number of seconds")
+
+
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
     """One tiny finished run (hbao, AO, 16x16) that tests copy and damage."""

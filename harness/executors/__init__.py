@@ -64,6 +64,7 @@ def run_jobs(suite: "Suite", out_dir, *, progress: bool = True, report: bool = T
         gpu = Gpu()
         plan = plan_run(suite, gpu, reference_cache=reference_cache)
         plan.save_arrays = bool(save_arrays or getattr(ex, "save_arrays", False))
+        plan.job_timeout = float(getattr(suite, "job_timeout", 0.0) or 0.0)
         suite.jobs = plan.jobs
         if not ex.uses_driver_gpu:  # jobs open their own contexts elsewhere: hold no GPU here
             gpu.release()

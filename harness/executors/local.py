@@ -23,7 +23,8 @@ class LocalExecutor:
     def run(self, plan, out, *, gpu, progress: bool = True) -> list[dict]:
         phases, t0 = Phases(), time.perf_counter()
         ctx = RunContext(gpu=gpu, machine=plan.machine, git=plan.git, run_id=plan.run_id,
-                         suite_name=plan.suite_name, out=out, save_arrays=plan.save_arrays, phases=phases)
+                         suite_name=plan.suite_name, out=out, save_arrays=plan.save_arrays, phases=phases,
+                         job_timeout=plan.job_timeout)
         prepared: dict = {}
         failed: dict = {}  # key -> why its reference could not be made
         try:

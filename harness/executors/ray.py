@@ -110,6 +110,7 @@ class TaskSpec:
     out: str  # the driver's partial run directory
     token: str  # content of <out>/.stage/token: seen by the worker = shared file system
     save_arrays: bool = False  # --save-arrays
+    job_timeout: float = 0.0  # seconds one job may take (0: no limit)
 
 
 def forwarded_env() -> tuple:
@@ -302,7 +303,7 @@ class Worker:
         try:
             ctx = RunContext(gpu=self.gpu, machine=self.machine, git=spec.git, run_id=spec.run_id,
                              suite_name=spec.suite_name, out=stage, save_arrays=spec.save_arrays,
-                             phases=self.phases)
+                             phases=self.phases, job_timeout=spec.job_timeout)
             rows = []
             try:
                 for job in jobs:
@@ -511,7 +512,7 @@ class RayExecutor:
             token = uuid.uuid4().hex
             (root / TOKEN).write_text(token)
             spec = TaskSpec(plan.run_id, plan.suite_name, plan.git, str(out), token if self.stage_in_run_dir else "",
-                            save_arrays=plan.save_arrays)
+                            save_arrays=plan.save_arrays, job_timeout=plan.job_timeout)
             start: dict = {}  # once the workers are asked for: their job groups, kind and `ready` refs
 
             def start_workers(block: bool) -> bool:
