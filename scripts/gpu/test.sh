@@ -4,13 +4,12 @@
 #   bash scripts/gpu/test.sh [SCENES] [PYTEST ARGS...]
 #
 # TESTS (default: tests, the whole suite) narrows the run, e.g. TESTS=tests/test_concurrency.py.
-# SCENES: a folder holding scenes/ (a copy of the scene mirror), or a .tar.xz of that scenes/ folder; default
-# $LDBENCH_SHARED, else ../shared beside the checkout. Without it the tests that need real scenes skip and
-# say so in the summary.
+# SCENES: a scene mirror (a folder holding scenes/), or a .tar.xz of that scenes/ folder; default
+# $LDBENCH_SHARED. Without it the tests that need real scenes skip and say so in the summary.
 #
 # The host needs Python >= 3.11 with numpy, scipy, pandas, pyarrow, scikit-image, matplotlib, pytest (and
 # pytest-xdist to run in parallel, pytest-timeout for a per-test limit), setuptools >= 77 and wheel. Offline,
-# the wheels of .offline/wheels (scripts: the offline kit) are installed into that Python first. The checkout
+# the wheels of .offline/wheels (an offline kit: moderngl, Mitsuba, Dr.Jit, ...) are installed first. The checkout
 # is then installed in editable mode (`pip install -e .`, no network), so that the tests' subprocesses and
 # the virtual environments they make import the same code as pytest.
 #
@@ -18,6 +17,7 @@
 #   junit.xml      every test's outcome (pytest --junitxml)
 #   pytest.log     pytest's output
 #   summary.txt    one line: device, driver, counts, wall time
+#   setup.log      what the installs printed
 #   gpu-memory.csv the GPU's memory in use and load every 5 s (where nvidia-smi exists)
 # Exit status: pytest's.
 set -uo pipefail
@@ -26,14 +26,15 @@ OUT=${OUT:-/tmp/ldbench-gpu-tests}
 mkdir -p "$OUT"
 PY=${PYTHON:-python3}
 
-src=${1:-${LDBENCH_SHARED:-../shared}}
+src=${1:-${LDBENCH_SHARED:-}}
 [ $# -gt 0 ] && shift
 if [ -f "$src" ]; then  # a tarball of scenes/: unpacked once per host
     dst=/tmp/ldbench-shared
     [ -d "$dst/scenes" ] || { mkdir -p "$dst" && tar -xJf "$src" -C "$dst"; }
     src=$dst
 fi
-[ -d "$src/scenes" ] && export LDBENCH_SHARED=$(cd "$src" && pwd) || echo "note: no scenes under $src; tests on real scenes skip" >&2
+if [ -n "$src" ] && [ -d "$src/scenes" ]; then export LDBENCH_SHARED=$(cd "$src" && pwd)
+else echo "note: no scene mirror (SCENES or LDBENCH_SHARED); tests on real scenes skip" >&2; fi
 
 # Offline, the kit's wheels go to a folder named site-packages that a .pth file of this Python names: then the
 # tests' subprocesses (whatever PYTHONPATH they set) and the virtual environments they make (which list this
