@@ -106,6 +106,16 @@ def write_image(path, image: np.ndarray, extra: dict | None = None, header: dict
     return write_exr(path, ch, header)
 
 
+def read_answer_channels(path) -> np.ndarray:
+    """``H × W × C`` float32 of an image rendered elsewhere (an answer, its variance): channel ``Y``, else
+    whichever of ``R``, ``G``, ``B`` it has (one line when it has none)."""
+    ch = read_exr(path)
+    names = ["Y"] if "Y" in ch else [c for c in "RGB" if c in ch]
+    if not names:
+        raise LdbenchError(f"{Path(path).name}: no Y or R, G, B channel (has {', '.join(sorted(ch))})")
+    return np.stack([np.asarray(ch[c], np.float32) for c in names], -1)
+
+
 def read_image(path, layer: str | None = None) -> np.ndarray:
     """Read an image written by :func:`write_image` (or a layer of a multi-layer file) as ``H × W × C``."""
     ch = read_exr(path)

@@ -118,13 +118,9 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
     if suffix == ".exr":
         if transfer not in (None, "linear"):
             raise LdbenchError(f"{path.name}: an EXR is linear; --transfer {transfer} applies to PNG only")
-        from ldbench.core.exr import read_exr
+        from ldbench.core.exr import read_answer_channels
 
-        ch = read_exr(path)
-        names = ["Y"] if "Y" in ch else [c for c in "RGB" if c in ch]
-        if not names:
-            raise LdbenchError(f"{path.name}: no Y or R, G, B channel (has {', '.join(sorted(ch))})")
-        img = np.stack([np.asarray(ch[c], np.float32) for c in names], -1)
+        img = read_answer_channels(path)
     elif suffix == ".png":
         if transfer not in TRANSFERS:
             raise LdbenchError(f"{path.name}: a PNG answer needs its transfer curve: --transfer srgb|linear")
@@ -250,14 +246,12 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
     from . import records
     from .naming import slug
     from ldbench.core.plugins import ldbench_info
-    from .runner import Prepared, job_label, prepare, reference_label, release_inputs, scene_dir
+    from .runner import Prepared, job_label, prepare, progress_bar, reference_label, release_inputs, scene_dir
     from ldbench.core.scenes import load_scene
     from .suite import Job
 
     info = ldbench_info()
     git = {"commit": info["commit"], "dirty": info["dirty"]}
-    from .runner import progress_bar
-
     scenes, prepared, rows = {}, {}, []
     try:
         for q, a in progress_bar(items, len(items), "answers", progress):
@@ -397,6 +391,8 @@ def _answer_meta(folder: Path) -> dict:
 
 def items_from_folder(root) -> list:
     """(question, answer) pairs of every answered question under ``root`` (module docstring)."""
+    from .unbiased_score import VARIANCE_NAMES
+
     root = Path(root)
     if not root.is_dir():
         raise LdbenchError(f"not a folder: {root}")
@@ -416,8 +412,6 @@ def items_from_folder(root) -> list:
             raise LdbenchError(f"{folder}: more than one answer ({', '.join(p.name for p in found)})")
         meta = _answer_meta(folder)
         masks = [folder / n for n in MASK_NAMES if (folder / n).is_file()]
-        from .unbiased_score import VARIANCE_NAMES
-
         extra = {k: folder / f for k, f in VARIANCE_NAMES.items() if (folder / f).is_file()}
         out.append((q, make_answer(found[0], mask=masks[0] if masks else None, **extra, **meta)))
     if not out:
@@ -430,6 +424,8 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
                 stage_ms=None, memory=None, method_version=None, method_commit=None, test=None, variance=None,
                 second_moment=None, samples=None, alpha=0.01, correction="sidak") -> Answer:
     """An :class:`Answer` with its values checked (one line for each bad one: a wrong type too)."""
+    from .unbiased_score import check_test_args
+
     for name, v in (("method", method), ("paper", paper), ("method_version", method_version),
                     ("method_commit", method_commit)):
         if v is not None and not isinstance(v, str):
@@ -469,10 +465,4 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
                   mask=None if mask is None else Path(mask), transfer=transfer, png_scale=scale, stage_ms=stages,
                   memory=mem, method_version=None if method_version is None else str(method_version),
                   method_commit=None if method_commit is None else str(method_commit),
-                  **_test_fields(test, variance, second_moment, samples, alpha, correction))
-
-
-def _test_fields(test, variance, second_moment, samples, alpha, correction) -> dict:
-    from .unbiased_score import check_test_args
-
-    return check_test_args(test, variance, second_moment, samples, alpha, correction)
+                  **check_test_args(test, variance, second_moment, samples, alpha, correction))

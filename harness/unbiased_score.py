@@ -44,7 +44,7 @@ def check_test_args(test, variance, second_moment, samples, alpha, correction) -
 
 def read_exr_image(path, channels: int) -> np.ndarray:
     """H×W×channels float32 of a linear EXR (channel ``Y``, or ``R, G, B``; grey repeated for colour)."""
-    from ldbench.core.exr import read_exr
+    from ldbench.core.exr import read_answer_channels
 
     path = Path(path)
     if not path.is_file():
@@ -52,13 +52,9 @@ def read_exr_image(path, channels: int) -> np.ndarray:
     if path.suffix.lower() != ".exr":
         raise LdbenchError(f"{path.name}: must be an EXR (linear float values)")
     try:
-        ch = read_exr(path)
+        img = read_answer_channels(path)
     except (OSError, ValueError) as e:
         raise LdbenchError(f"cannot read {path}: {e}") from None
-    names = ["Y"] if "Y" in ch else [c for c in "RGB" if c in ch]
-    if not names:
-        raise LdbenchError(f"{path.name}: no Y or R, G, B channel (has {', '.join(sorted(ch))})")
-    img = np.stack([np.asarray(ch[c], np.float32) for c in names], -1)
     if channels == 3 and img.shape[-1] == 1:
         img = np.repeat(img, 3, -1)
     elif channels == 1 and img.shape[-1] == 3:

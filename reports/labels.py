@@ -9,7 +9,6 @@ a parameter the row's method does not have is no difference. An effect's label i
 from __future__ import annotations
 
 import functools
-import json
 import math
 
 #: the value :func:`param_value` gives for a parameter the row's method does not have
@@ -82,22 +81,22 @@ def effect_text(effect: str, effect_params: dict) -> str:
         return f"{effect} (" + ", ".join(f"{k} = {fmt_value(v)}" for k, v in rest) + ")" if rest else str(effect)
 
 
-def differing_keys(rows) -> list[str]:
-    """What sets ``rows`` apart: ``scene``, ``effect``, ``size`` where they differ, then every method
-    parameter that takes more than one value among the rows of one method (defaults filled in)."""
-    out = [k for k, col in (("scene", "scene"), ("effect", "effect_text"), ("size", "size"))
-           if len({str(r[col]) for r in rows}) > 1]
+def swept_params(rows) -> dict:
+    """{method: the parameters that take more than one value among its rows}, the defaults filled in
+    (rows need ``method`` and ``params`` only)."""
     by_method: dict = {}
     for r in rows:
         by_method.setdefault(str(r["method"]), []).append(params_of(r["method"], r["params"]))
-    keys = sorted({k for ps in by_method.values() for p in ps for k in p})
-    for k in keys:
-        for ps in by_method.values():
-            vals = [json.dumps(p.get(k, None), default=str, sort_keys=True) for p in ps]
-            if len(set(vals)) > 1 and not all(same(json.loads(vals[0]), json.loads(v)) for v in vals):
-                out.append(k)
-                break
-    return out
+    return {m: {k for k in {k for p in ps for k in p} if any(not same(ps[0].get(k), p.get(k)) for p in ps[1:])}
+            for m, ps in by_method.items()}
+
+
+def differing_keys(rows) -> list[str]:
+    """What sets ``rows`` apart: ``scene``, ``effect``, ``size`` where they differ, then every method
+    parameter that takes more than one value among the rows of one method (:func:`swept_params`)."""
+    out = [k for k, col in (("scene", "scene"), ("effect", "effect_text"), ("size", "size"))
+           if len({str(r[col]) for r in rows}) > 1]
+    return out + sorted(set().union(*swept_params(rows).values()))
 
 
 def label_parts(row, keys) -> list[str]:

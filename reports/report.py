@@ -73,14 +73,8 @@ def shown_params(method, p, keep=()) -> list:
 def swept_params(df) -> dict:
     """{method: names of the parameters that take more than one value among its rows}: a table shows
     them in every row of the method, even where a row has the default value."""
-    rows = [{"method": m, "params": p if isinstance(p, dict) else F.as_dict(p), "scene": "", "effect_text": "",
-             "size": ""} for m, p in zip(df["method"], df["params"])]
-    out: dict = {}
-    for r in rows:
-        out.setdefault(r["method"], set())
-    for m in out:
-        out[m] = set(labels.differing_keys([r for r in rows if r["method"] == m]))
-    return out
+    return labels.swept_params([{"method": m, "params": p if isinstance(p, dict) else F.as_dict(p)}
+                                for m, p in zip(df["method"], df["params"])])
 
 
 def _params_str(p, method=None, sep=" · ", keep=()) -> str:
