@@ -78,7 +78,8 @@ def expand_includes(path: Path, seen: tuple = (), files: list | None = None) -> 
 def shader_source(path, stage_macro: str, defines: dict | None = None, version: int = 430,
                   files: list | None = None) -> str:
     """The whole source of one stage: ``#version``, the stage macro, ``defines``, the binding numbers, then
-    ``path`` with its includes (``files``, if given, receives the files by source string number)."""
+    ``path`` with its includes (``files``, if given, receives the files in the order of their line numbering:
+    :func:`expand_includes`)."""
     header = [f"#version {version}", f"#define {stage_macro} 1"]
     for k, v in (defines or {}).items():
         if isinstance(v, bool):
