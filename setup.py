@@ -1,5 +1,5 @@
 """Build hook only (the project is described in pyproject.toml): a wheel records the commit it was built
-from in ``core/build_info.json``, so an installed ldbench still knows its commit (core/plugins.py,
+from in ``ldbench/core/build_info.json``, so an installed ldbench still knows its commit (ldbench/core/plugins.py,
 ``ldbench_info``). Outside a git checkout the file holds ``LDBENCH_COMMIT`` / ``LDBENCH_DIRTY`` if set,
 else nulls."""
 import json

@@ -1,5 +1,5 @@
 """How much the old secondary-ray origin biased the Mitsuba references: ``ao`` and ``indirect`` rendered with
-the current origin (Mitsuba's spawn offset of the crease point, core/conventions.py) and with the old
+the current origin (Mitsuba's spawn offset of the crease point, ldbench/core/conventions.py) and with the old
 rule (x − 16 ε d_cam + ε n, reproduced here by patching the reference's primary hits), same seed, same
 random numbers.
 

@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Debian system libraries ldbench needs: headless EGL + Mesa (llvmpipe) for moderngl, and a shared
 # libLLVM >= 17 for Mitsuba's llvm_* variants (Debian 12's default LLVM 15 crashes them; any libLLVM
-# >= 17 that references/variant.py finds will do, else Debian's libllvm19 is installed). Installs them
+# >= 17 that ldbench/references/variant.py finds will do, else Debian's libllvm19 is installed). Installs them
 # when we are root; otherwise prints the exact command and fails.
 set -euo pipefail
 MIN_LLVM=17
 
-# Major version of the newest shared libLLVM in the places references/variant.py searches (0: none).
+# Major version of the newest shared libLLVM in the places ldbench/references/variant.py searches (0: none).
 newest_llvm() {
   local best=0 f v
   if [ -n "${DRJIT_LIBLLVM_PATH:-}" ] && [ -f "$DRJIT_LIBLLVM_PATH" ]; then set -- "$DRJIT_LIBLLVM_PATH"; else

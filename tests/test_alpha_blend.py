@@ -1,4 +1,4 @@
-"""``alpha-blend`` (methods/alpha_blend): plain over blending in submission order on llvmpipe. It equals a
+"""``alpha-blend`` (ldbench/methods/alpha_blend): plain over blending in submission order on llvmpipe. It equals a
 numpy fold of each pixel's fragments in mesh order (the order the rasterizer keeps per pixel); it equals
 the exact composite when the meshes are submitted back to front, and the exact reference exposes it when
 they are not; coverage is every pixel a fragment reached."""

@@ -1,4 +1,4 @@
-"""The binding table (core/bindings.py): its invariants, the GLSL header, and the loader's check that
+"""The binding table (ldbench/core/bindings.py): its invariants, the GLSL header, and the loader's check that
 refuses a program whose blocks disagree with it. Every program the harness compiles goes through that
 check, so the method tests (test_builds, test_ldm, test_ldi, ...) check every shader variant they build."""
 import numpy as np
@@ -13,7 +13,7 @@ from ldbench.core.gpu import METHODS_DIR, check_bindings
 def test_table_is_consistent():
     assert bindings.table_errors() == []
     assert {b.kind for b in TABLE.values()} <= set(bindings.KINDS)
-    # methods/structures/linked.py binds node page p at B_NODES0 + p
+    # ldbench/methods/structures/linked.py binds node page p at B_NODES0 + p
     assert [B.NODES0 + p for p in range(4)] == [B.NODES0, B.NODES1, B.NODES2, B.NODES3]
 
 
@@ -85,7 +85,7 @@ def test_project_shaders_must_name_their_blocks(tmp_path, gpu):
     cs = gpu.compute(tmp_path / "k.glsl")
     check_bindings(cs, tmp_path / "k.glsl")
     assert bindings.program_mismatches(cs, strict=True) == [
-        "storage block Mystery is not in the binding table (core/bindings.py)"]
+        "storage block Mystery is not in the binding table (ldbench/core/bindings.py)"]
     with pytest.raises(LdbenchError, match="Mystery is not in the binding table"):
         check_bindings(gpu.ctx.compute_shader(
             "#version 430\nlayout(local_size_x = 1) in;\nlayout(std430, binding = 3) buffer Mystery { float m[]; };\n"

@@ -1,4 +1,4 @@
-"""Build variants of the layered structures (methods/structures/, docs/fast_builds.md): every variant
+"""Build variants of the layered structures (ldbench/methods/structures/, docs/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
 vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, triangles under a texel
 with a vertex on a texel centre, zero-area and sliver triangles, triangles larger than the map, triangles

@@ -1,4 +1,4 @@
-"""The one-pass multi-direction build (methods/structures/sources.py ``source="one_pass"``, archer2019 §3.1) against an
+"""The one-pass multi-direction build (ldbench/methods/structures/sources.py ``source="one_pass"``, archer2019 §3.1) against an
 exact CPU rasterization and against itself split into one raster per direction; its counters; the
 per-list sort's long-list fallback; the GPU prefix sum it relies on.
 

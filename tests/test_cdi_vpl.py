@@ -1,4 +1,4 @@
-"""The ``cdi-vpl`` adapter (methods/cdi_vpl): ray queries through the CDI against the exact oracle (the holes
+"""The ``cdi-vpl`` adapter (ldbench/methods/cdi_vpl): ray queries through the CDI against the exact oracle (the holes
 of the non-conservative one-pass raster as hit agreement), the light grid against a numpy binning, the
 shading formula, ``indirect`` on cornell against Mitsuba with the random and exact baselines, the static CDI.
 

@@ -37,7 +37,7 @@ CASES = {
 }
 SIZE = 32
 #: Bit for bit, except cdi-vpl's shading: the VPL grid's cells list their VPLs in the order atomicAdd hands out
-#: the slots (methods/cdi_vpl/grid.glsl), so a pixel sums the same positive terms in another order; that moves
+#: the slots (ldbench/methods/cdi_vpl/grid.glsl), so a pixel sums the same positive terms in another order; that moves
 #: a sum of n terms by at most (n − 1)·2^-24 of itself (n ≤ 64 here: 4e-6; measured 1.3e-7 on llvmpipe).
 REL = {"cdi-vpl": 4e-6}
 #: counters that may change after the first frame: a growing pool sizes itself on it (two build passes)

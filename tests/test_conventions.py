@@ -1,4 +1,4 @@
-"""core/conventions.py and its GLSL twin methods/glsl/conventions.glsl agree on random inputs (a compute
+"""ldbench/core/conventions.py and its GLSL twin ldbench/methods/glsl/conventions.glsl agree on random inputs (a compute
 shader on the test GPU), and the epsilons are Mitsuba's."""
 import numpy as np
 

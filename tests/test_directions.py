@@ -1,4 +1,4 @@
-"""Direction sets (methods/directions.py): EQSP equal-area partitions and the LDM axes."""
+"""Direction sets (ldbench/methods/directions.py): EQSP equal-area partitions and the LDM axes."""
 from __future__ import annotations
 
 import math

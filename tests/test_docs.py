@@ -88,8 +88,8 @@ def test_the_checks_bite(tmp_path):
     (tmp_path / "there.md").write_text("x")
     doc = tmp_path / "doc.md"
     doc.write_text("[ok](there.md) [web](https://example.org/x.md) [anchor](#top) [gone](missing.md#a)\n"
-                   "`core/gpu.py` `tests/test_docs.py::test_the_checks_bite` `methods/glsl/*.glsl` "
-                   "`scripts/gpu/no-such-script.sh` `methods/<name>.py` `methods/ldi/`\n"
+                   "`ldbench/core/gpu.py` `tests/test_docs.py::test_the_checks_bite` `ldbench/methods/glsl/*.glsl` "
+                   "`scripts/gpu/no-such-script.sh` `ldbench/methods/<name>.py` `ldbench/methods/ldi/`\n"
                    "    python scripts/gpu/gone.py OUT   # tests/test_docs.py::test_gone\n")
     assert broken_links(doc) == ["link missing.md#a", "path scripts/gpu/no-such-script.sh",
                                  "path scripts/gpu/gone.py", "test tests/test_docs.py::test_gone"]

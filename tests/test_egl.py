@@ -1,4 +1,4 @@
-"""EGL device selection (core/egl.py): the CUDA_VISIBLE_DEVICES GPU found through EGL_NV_device_cuda.
+"""EGL device selection (ldbench/core/egl.py): the CUDA_VISIBLE_DEVICES GPU found through EGL_NV_device_cuda.
 
 CI has no NVIDIA GPU: the selection rules are checked on fake device lists shaped like what the NVIDIA
 driver reports (EGL order differing from CUDA's and from nvidia-smi's), and the ctypes query and the

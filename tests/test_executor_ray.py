@@ -101,7 +101,7 @@ def _calls(procs, phase):
 
 
 def test_ray_workers_log_where_their_time_went(cluster, tmp_path, ldb_log):
-    """Each worker's split (harness/phases.py) counts what it did: one reference, two groups of one job
+    """Each worker's split (ldbench/harness/phases.py) counts what it did: one reference, two groups of one job
     (each taken from the object store, set up, rendered, scored, saved), and it accounts for most of the
     worker's busy time but never more; the first call's wait is apart from the idle time between calls.
     The driver logs its split (what it put into the object store, the groups' files it moved) and one per

@@ -1,4 +1,4 @@
-"""Atomic writes (core/files.py): a reader sees the old file or the new one, never part of one."""
+"""Atomic writes (ldbench/core/files.py): a reader sees the old file or the new one, never part of one."""
 import stat
 import threading
 

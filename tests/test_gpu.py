@@ -152,7 +152,7 @@ def test_a_second_context_released_leaves_the_first_usable(gpu):
 
 def test_read_goes_through_staging(gpu):
     """gpu.read returns the bytes asked for (offset, size, growing staging) and never reads the buffer
-    itself: NVIDIA moves a buffer the CPU reads to host memory (core/gpu.py Gpu.read)."""
+    itself: NVIDIA moves a buffer the CPU reads to host memory (ldbench/core/gpu.py Gpu.read)."""
     data = np.arange(5000, dtype=np.uint32)
     buf = gpu.ctx.buffer(data.tobytes())
     direct = []
@@ -181,7 +181,7 @@ def test_methods_never_read_gpu_buffers_directly():
     import re
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1] / "methods"
+    root = Path(__file__).resolve().parents[1] / "ldbench" / "methods"
     bad = []
     for f in root.rglob("*.py"):
         for i, line in enumerate(f.read_text().splitlines(), 1):

@@ -15,7 +15,7 @@ LLVMPIPE = {"device": "cpu-software", "gl_renderer": "llvmpipe (LLVM 15.0.6, 256
 
 
 def _write_run(d, run_id, *, day=1, ms=10.0, psnr=30.0, machine=GPU, seed=0, runner_style=False):
-    """A run directory with two benchmarks. ``runner_style``: like harness/runner.py, only the
+    """A run directory with two benchmarks. ``runner_style``: like ldbench/harness/runner.py, only the
     ``machine`` dict is given (no machine_key column)."""
     rng = np.random.default_rng(seed)
     mcols = R.machine_columns(machine)

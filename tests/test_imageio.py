@@ -1,4 +1,4 @@
-"""The run's image files (core/imageio.py): PNG previews hold the sRGB pixels of the image, written atomically."""
+"""The run's image files (ldbench/core/imageio.py): PNG previews hold the sRGB pixels of the image, written atomically."""
 import numpy as np
 import pytest
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from layout import ROOT, import_prefix, packages
+from layout import PACKAGE, ROOT, import_prefix, packages
 
 #: The layer of each top-level folder (its modules may import their own layer, without cycles, or lower ones).
 FOLDER_LAYER = {"core": "foundation", "methods": "methods", "references": "references", "harness": "harness",
@@ -42,11 +42,11 @@ MOVING = {
 }
 
 #: Names that will move out of a module into the foundation ({file: names}): the validated-parameter
-#: declaration of methods/base.py (param, group, ParamsBase), which the effects declare their parameters
+#: declaration of ldbench/methods/base.py (param, group, ParamsBase), which the effects declare their parameters
 #: with. An import of only these names counts as an import of the foundation.
 MOVING_NAMES = {"methods/base.py": ("param", "group", "ParamsBase")}
 
-#: Import circles another change is dissolving (the layered structures merging into methods/structures/):
+#: Import circles another change is dissolving (the layered structures merging into ldbench/methods/structures/):
 #: a circle among these modules only is tolerated; delete the entry once they are gone.
 PENDING_CYCLES: tuple = ()
 
@@ -60,10 +60,10 @@ def modules() -> dict[str, Path]:
     """{folder-dotted name: path} of every module of the packages (a package is its __init__)."""
     out = {}
     for pkg in packages():
-        for f in (ROOT / pkg).rglob("*.py"):
+        for f in (PACKAGE / pkg).rglob("*.py"):
             if "__pycache__" in f.parts:
                 continue
-            parts = list(f.relative_to(ROOT).with_suffix("").parts)
+            parts = list(f.relative_to(PACKAGE).with_suffix("").parts)
             if parts[-1] == "__init__":
                 parts.pop()
             out[".".join(parts)] = f
@@ -71,7 +71,7 @@ def modules() -> dict[str, Path]:
 
 
 def layer(path: Path) -> str:
-    rel = path.relative_to(ROOT).as_posix()
+    rel = path.relative_to(PACKAGE).as_posix()
     for name, group in MOVING.items():
         if any(rel == m or (m.endswith("/") and rel.startswith(m)) for m in group):
             return name
@@ -131,7 +131,7 @@ class Graph:
                     source = self._local(node.module, where)
                 if not source:
                     continue
-                moving = MOVING_NAMES.get(self.mods[source].relative_to(ROOT).as_posix(), ())
+                moving = MOVING_NAMES.get(self.mods[source].relative_to(PACKAGE).as_posix(), ())
                 for a in node.names:
                     sub = f"{source}.{a.name}"
                     if sub in self.mods:  # from pkg import module
@@ -246,7 +246,7 @@ def test_the_tree_is_found(graph):
 
 
 def test_no_import_cycles(graph):
-    rel = lambda c: {graph.mods[m].relative_to(ROOT).as_posix() for m in c}  # noqa: E731
+    rel = lambda c: {graph.mods[m].relative_to(PACKAGE).as_posix() for m in c}  # noqa: E731
     cycles = [c for c in graph.cycles() if not any(rel(c) <= p for p in PENDING_CYCLES)]
     assert not cycles, "import cycles:\n" + "\n".join(graph.describe(c) for c in cycles)
 

@@ -1,4 +1,4 @@
-"""One overflow rule for every adapter built on a layered structure (methods/invariants.py): fragments a
+"""One overflow rule for every adapter built on a layered structure (ldbench/methods/invariants.py): fragments a
 full pool dropped are a violated invariant, whatever the pool policy (``pool = "fixed"`` included), and the
 runner marks the row ``degraded``. ``ldm`` and ``ll-oit`` are the adapters with a ``pool`` parameter; ``ldi``
 and ``cdi-vpl`` list their structures' overflow by the same helper (theirs can only overflow at the

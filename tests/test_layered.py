@@ -1,4 +1,4 @@
-"""The layered-structure package (methods/structures/): every layout and build against an exact CPU
+"""The layered-structure package (ldbench/methods/structures/): every layout and build against an exact CPU
 rasterization, payload words, invariants, bounded walks, the GPU prefix sum, and a concurrency stress test
 of the lock-free insert."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``ldi`` (methods/ldi, niessner2010): cube directions, depth peeling and compaction (against the CPU raster,
+"""``ldi`` (ldbench/methods/ldi, niessner2010): cube directions, depth peeling and compaction (against the CPU raster,
 numpy's cumsum and the one-pass build, bit for bit), the pixel-crossing walk (against a CPU DDA, analytic
 planes from all six cube faces, rays along face boundaries, grazing rays, the ε rule) and the rays effect."""
 from __future__ import annotations

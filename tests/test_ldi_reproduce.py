@@ -1,4 +1,4 @@
-"""niessner2010-table1 (reports/reproductions/niessner2010.py): rows find their jobs at both scales, the claims
+"""niessner2010-table1 (ldbench/reports/reproductions/niessner2010.py): rows find their jobs at both scales, the claims
 compare the right rows, and :func:`premise` judges what the engine's two-row claims cannot (LDI rays vs the
 oracle in one row, the published absolute build times and memory) — on synthetic result rows."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``ldm`` (methods/ldm, formerly ``ldm-ao``): analytic AO under a disk, every layout and insert variant
+"""``ldm`` (ldbench/methods/ldm, formerly ``ldm-ao``): analytic AO under a disk, every layout and insert variant
 giving identical images, convergence in the number of directions against Mitsuba, overflow reporting, the
 CI-sized configuration, crease pixels, and ray queries (the ``rays`` effect) against the exact oracle."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``ldm`` indirect light (aalund2015 §3.4, §4.2; methods/ldm/indirect.py, docs/ldm_indirect.md): the spot
+"""``ldm`` indirect light (aalund2015 §3.4, §4.2; ldbench/methods/ldm/indirect.py, docs/ldm_indirect.md): the spot
 light's flux, a closed form (a square emitter lit by the spot facing a parallel receiver), energy in a closed
 cube, the photon differential against finite differences of the rotated offset rays, Cornell against
 Mitsuba, blend vs atomic splats, counters, invariants and the photon buffer's growth, the paper's split
@@ -337,7 +337,7 @@ def test_overflow_is_reported(gpu):
 
 
 # ---------------------------------------------------------------------------------------------------
-# Figure 10 (reports/reproductions/aalund2015.py, suites/aalund2015-fig10.toml)
+# Figure 10 (ldbench/reports/reproductions/aalund2015.py, suites/aalund2015-fig10.toml)
 
 def test_fig10_published_numbers_and_ci_run(tmp_path):
     """The caption's numbers as data, and `ldbench reproduce aalund2015-fig10 --scale ci` end to end: every

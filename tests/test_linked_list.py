@@ -1,4 +1,4 @@
-"""Layered per-pixel linked lists (methods/structures/linked.py) against an exact CPU rasterization."""
+"""Layered per-pixel linked lists (ldbench/methods/structures/linked.py) against an exact CPU rasterization."""
 from __future__ import annotations
 
 import numpy as np

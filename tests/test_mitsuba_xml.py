@@ -1,4 +1,4 @@
-"""Mitsuba 3 XML loader (core/mitsuba_xml.py, on Mitsuba's parser), checked against Mitsuba itself where it
+"""Mitsuba 3 XML loader (ldbench/core/mitsuba_xml.py, on Mitsuba's parser), checked against Mitsuba itself where it
 matters. Content hashes pinned below are those the earlier hand-written parser gave the same files: cached
 references are keyed on them."""
 

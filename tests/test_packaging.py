@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 
 from ldbench.harness import records
-from layout import ROOT, import_prefix, installed_path, packages
+from layout import PACKAGE, ROOT, import_prefix, installed_path, packages
 
 PACKAGES = tuple(packages())
 PREFIX = import_prefix()  # "ldbench." once the folders are installed under one name
-ADAPTER_DIRS = sorted(p.parent.name for p in (ROOT / "methods").glob("*/__init__.py"))
+ADAPTER_DIRS = sorted(p.parent.name for p in (PACKAGE / "methods").glob("*/__init__.py"))
 TINY = ["--size", "16x16", "--spp", "1", "--frames", "1", "--warmup", "0", "--no-report", "--no-progress"]
 
 
@@ -40,10 +40,10 @@ def _expected_files() -> set:
     """What the wheel must hold: every module, adapter, GLSL file, registry and bundled suite."""
     out = set()
     for pkg in PACKAGES:
-        for p in (ROOT / pkg).rglob("*"):
+        for p in (PACKAGE / pkg).rglob("*"):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".glsl", ".toml", ".js", ".css"):
-                out.add(installed_path(p.relative_to(ROOT).as_posix()))
-    out |= {installed_path(f"harness/suites/{p.name}") for p in (ROOT / "suites").glob("*.toml")}
+                out.add(installed_path(p.relative_to(PACKAGE).as_posix()))
+    out |= {installed_path(f"ldbench/harness/suites/{p.name}") for p in (ROOT / "suites").glob("*.toml")}
     return out
 
 
@@ -57,7 +57,7 @@ def installed(tmp_path_factory):
     src.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(ROOT / name, src / name)
-    for name in (*PACKAGES, "suites"):
+    for name in ("ldbench", "suites"):
         shutil.copytree(ROOT / name, src / name, symlinks=True, ignore=ignore)
     dist = tmp / "dist"
     p = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
@@ -100,9 +100,9 @@ def test_wheel_holds_every_adapter_glsl_and_suite(installed):
     assert not missing, f"missing from the wheel: {sorted(missing)}"
     assert len(ADAPTER_DIRS) >= 3
     for a in ADAPTER_DIRS:
-        assert installed_path(f"methods/{a}/__init__.py") in names
-    registry_toml = next(ROOT.glob("*/scene_registry.toml")).relative_to(ROOT).as_posix()
-    assert installed_path(registry_toml) in names and installed_path("harness/suites/default.toml") in names
+        assert installed_path(f"ldbench/methods/{a}/__init__.py") in names
+    registry_toml = next(PACKAGE.glob("*/scene_registry.toml")).relative_to(PACKAGE).as_posix()
+    assert installed_path(registry_toml) in names and installed_path("ldbench/harness/suites/default.toml") in names
     top = {n.split("/")[0] for n in names} - {n.split("/")[0] for n in names if ".dist-info/" in n}
     # nothing generic at the top of site-packages: one import name once the folders are mapped under it
     assert top == ({PREFIX[:-1]} if PREFIX else set(PACKAGES)), sorted(top)
@@ -139,7 +139,7 @@ def test_bundled_suite_by_name(installed):
 
 
 # --------------------------------------------------------------------------------------------------
-# commit detection (harness/records.py)
+# commit detection (ldbench/harness/records.py)
 
 
 @pytest.mark.skipif(shutil.which("git") is None, reason="git not installed")

@@ -1,4 +1,4 @@
-"""Parameter groups (methods/base.py ``group``): the flat dotted view, the earlier names, the errors."""
+"""Parameter groups (ldbench/methods/base.py ``group``): the flat dotted view, the earlier names, the errors."""
 from __future__ import annotations
 
 import pytest

@@ -1,4 +1,4 @@
-"""Methods and effects from outside ldbench (core/plugins.py): entry points, ``package.module:Class``
+"""Methods and effects from outside ldbench (ldbench/core/plugins.py): entry points, ``package.module:Class``
 names, one error for two classes with one name, provenance columns, and the example plugin of
 examples/example-ao installed into a fresh virtual environment and run from outside the source tree,
 under the local and the Ray executor. Nothing here is marked slow: `make test` (CI) runs all of it
@@ -243,7 +243,7 @@ def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
 
 
 def test_installed_wheel_records_the_commit_it_was_built_from(tmp_path):
-    """setup.py writes core/build_info.json into the wheel; an installed ldbench reports that commit
+    """setup.py writes ldbench/core/build_info.json into the wheel; an installed ldbench reports that commit
     (rows' ``commit`` column and ``--version``), not None."""
     if shutil.which("git") is None or not (ROOT / ".git").exists():
         pytest.skip("needs git and a checkout")

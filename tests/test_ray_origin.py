@@ -1,4 +1,4 @@
-"""Where secondary rays start (core/conventions.py spawn_origin, crease_point): the references and the
+"""Where secondary rays start (ldbench/core/conventions.py spawn_origin, crease_point): the references and the
 ray batches are not biased by their own origin offset, and a pixel centre on a crease still sees the other
 wall. Mitsuba on the CPU, a few seconds."""
 from __future__ import annotations
@@ -107,7 +107,7 @@ def test_batch_origins_are_mitsubas_spawn_offset():
 
 def test_reference_spawn_offset_near_the_origin():
     """The references' secondary rays start at x + ε(x) n with ε(x) = (1 + max|x|) · RayEpsilon
-    (ldbench.references.integrators.spawn_origin, core/conventions.py offset_scale): near the origin the offset
+    (ldbench.references.integrators.spawn_origin, ldbench/core/conventions.py offset_scale): near the origin the offset
     is RayEpsilon itself, not max|x| · RayEpsilon. A light sphere of radius r = 1 mm centred c = 0.5 mm above
     the plane y = 0 (the floor within 2 m of the origin): the part of it above an origin at height h is
     (1 + (c − h)/r)/2, h = ε(x) = 0.10–0.25 mm here. The soft-shadows reference (1024 samples) over its r = 0

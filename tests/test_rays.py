@@ -1,4 +1,4 @@
-"""The ``rays`` effect (core/effects/rays.py, references/rays.py): the oracle against closed forms, the
+"""The ``rays`` effect (ldbench/core/effects/rays.py, ldbench/references/rays.py): the oracle against closed forms, the
 ray batch's distributions and determinism, and the per-ray metrics."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The reference cache (references/cache.py) uses an entry only when its file name, its JSON and the
+"""The reference cache (ldbench/references/cache.py) uses an entry only when its file name, its JSON and the
 key in its EXR header agree."""
 import shutil
 

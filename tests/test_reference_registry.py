@@ -1,4 +1,4 @@
-"""The references' registry (references/registry.py): every effect's reference key has a renderer, and
+"""The references' registry (ldbench/references/registry.py): every effect's reference key has a renderer, and
 render_effect hands each effect to the renderer of its key, with the arguments that renderer takes."""
 import pytest
 

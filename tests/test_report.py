@@ -1,4 +1,4 @@
-"""The HTML report (reports/report.py, reports/figures.py) on a small real run and on synthetic rows."""
+"""The HTML report (ldbench/reports/report.py, ldbench/reports/figures.py) on a small real run and on synthetic rows."""
 from __future__ import annotations
 
 import html.parser

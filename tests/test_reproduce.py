@@ -1,4 +1,4 @@
-"""``ldbench reproduce`` (reports/reproduce.py): registry, row matching, claims, timing verdicts on a
+"""``ldbench reproduce`` (ldbench/reports/reproduce.py): registry, row matching, claims, timing verdicts on a
 GPU and on a CPU, printing, end to end."""
 from __future__ import annotations
 
@@ -147,7 +147,7 @@ def test_gpu_timing_keeps_the_iqr_rule(tmp_path):
 
 
 def test_a_paper_is_one_data_module(tmp_path, monkeypatch):
-    """Adding a paper is adding a module to reports/reproductions/: found without engine changes."""
+    """Adding a paper is adding a module to ldbench/reports/reproductions/: found without engine changes."""
     import ldbench.reports.reproductions as pkg
 
     (tmp_path / "zz_test2099.py").write_text(

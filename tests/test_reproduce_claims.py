@@ -1,6 +1,6 @@
 """The claims an audit found untestable can fail: each is fed synthetic result rows on both sides of its
-bound (and, for timed bounds, noise straddling it), through the real entries of reports/reproductions and
-the verdict engine (reports/reproduce.py). Also: every claim prints its verdict rule and the derivation
+bound (and, for timed bounds, noise straddling it), through the real entries of ldbench/reports/reproductions and
+the verdict engine (ldbench/reports/reproduce.py). Also: every claim prints its verdict rule and the derivation
 of its window, and no claim has a window without one."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Paper claims fed rows on both sides of their bounds (reports/reproductions): aalund2015-trace (§3.1 two-way query,
+"""Paper claims fed rows on both sides of their bounds (ldbench/reports/reproductions): aalund2015-trace (§3.1 two-way query,
 §4.1 early stop), and further entries below. Each claim is fed synthetic rows on both sides of its bound
 (and noise straddling it where timed), through the real entry and the verdict engine; CPU times are 'not
 measurable here'. That each entry runs at --scale ci is tested in tests/test_reproduce_entries_at_ci_scale.py."""

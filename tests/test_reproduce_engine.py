@@ -1,4 +1,4 @@
-"""The verdict engine's noise rules (reports/reproduce.py): an order claim on a stage
+"""The verdict engine's noise rules (ldbench/reports/reproduce.py): an order claim on a stage
 takes that stage's own IQR; a gap claim tests its two ratios with the rows' noise; a row with no device
 gets no timing verdict; claims that only mean something at paper scale say so at ci scale; the notes
 about CPU times say what the engine does. Synthetic rows through the real entries, no GPU."""

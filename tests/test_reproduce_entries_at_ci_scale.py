@@ -1,4 +1,4 @@
-"""Reproduce entries at --scale ci (reports/reproductions: niessner2010-fig7, -rays, -sec7; yang2010-costs;
+"""Reproduce entries at --scale ci (ldbench/reports/reproductions: niessner2010-fig7, -rays, -sec7; yang2010-costs;
 archer2019-layouts; aalund2015-trace): each runs, its table has every row with our value, and every claim gets
 a verdict (time claims on cpu-software: 'not measurable here'; on a GPU, 'inconclusive' where the difference
 is within the timing noise). The published numbers are checked against the papers' words."""

@@ -1,5 +1,5 @@
 """The results schema: docs/results-columns.md documents every column a run writes, with the type
-harness/records.py gives it; every column survives write + read_results (Parquet and CSV) with its
+ldbench/harness/records.py gives it; every column survives write + read_results (Parquet and CSV) with its
 nested fields decoded; every file carries the schema version."""
 import json
 import math

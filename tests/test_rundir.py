@@ -1,4 +1,4 @@
-"""Run directories (harness/rundir.py): users' folders are never deleted, replacement is atomic, one
+"""Run directories (ldbench/harness/rundir.py): users' folders are never deleted, replacement is atomic, one
 writer at a time, and killed runs leave nothing that a later run does not clean up."""
 import json
 import os

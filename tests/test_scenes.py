@@ -1,4 +1,4 @@
-"""Built-in scene builders and the scene dispatcher (core/scenes.py)."""
+"""Built-in scene builders and the scene dispatcher (ldbench/core/scenes.py)."""
 import time
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""``ldbench export`` and ``ldbench score`` (harness/export.py, harness/score.py): a question exported,
+"""``ldbench export`` and ``ldbench score`` (ldbench/harness/export.py, ldbench/harness/score.py): a question exported,
 answered outside the harness (the method run by hand, an independent numpy tracer, Mitsuba on the
 exported XML) and scored gives the harness's own numbers.
 """
@@ -503,7 +503,7 @@ def test_score_hostile_answer_files_are_one_line(tmp_path, capsys):
 
 
 def test_export_replaces_only_an_earlier_export_and_all_at_once(tmp_path, monkeypatch):
-    """export --out follows run --out's rule (harness/rundir.py): a user's folder (even one holding a
+    """export --out follows run --out's rule (ldbench/harness/rundir.py): a user's folder (even one holding a
     scene.xml) and an export beside which an answer was saved are refused before any work, untouched; an
     earlier export is replaced whole (no batch.npz of the previous question left), and an export that fails
     halfway leaves the previous one as it was, with no temporary folder."""

@@ -1,4 +1,4 @@
-"""The structure spec (methods/structures/spec.py) and its knobs that no single adapter test pins down."""
+"""The structure spec (ldbench/methods/structures/spec.py) and its knobs that no single adapter test pins down."""
 from __future__ import annotations
 
 import dataclasses

@@ -1,6 +1,6 @@
 """Suites and parameters are strict: a value of the wrong type, out of range or unused is one clear
-error before anything renders, never a silent conversion (harness/suite.py, methods/base.py _coerce,
---set/--spp/--frames/--warmup/--size in harness/cli.py)."""
+error before anything renders, never a silent conversion (ldbench/harness/suite.py, ldbench/methods/base.py _coerce,
+--set/--spp/--frames/--warmup/--size in ldbench/harness/cli.py)."""
 import dataclasses
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""``score --test unbiased`` (core/unbiased.py, harness/unbiased_score.py, references/mc_ao.py).
+"""``score --test unbiased`` (ldbench/core/unbiased.py, ldbench/harness/unbiased_score.py, ldbench/references/mc_ao.py).
 
 Closed-form cases with binomial bounds: the rejection count of ``m`` independent pixels at level α is
 Binomial(m, α), standard deviation ``sqrt(α (1 − α) / m)`` as a fraction; every bound below is 5 of those
@@ -288,7 +288,7 @@ def test_score_from_a_folder_whose_answer_declares_itself_unbiased(tmp_path, cap
 
 
 def test_a_suite_tests_the_unbiased_mc_ao_method(tmp_path):
-    # mc-ao (methods/mc_ao/: exact primary hits, ldbench's own ray streams, the Mitsuba oracle) declares
+    # mc-ao (ldbench/methods/mc_ao/: exact primary hits, ldbench's own ray streams, the Mitsuba oracle) declares
     # itself unbiased; a [[run]] with test = "unbiased" tests it, on llvmpipe, and it passes.
     from ldbench.harness.executors import run_jobs
     from ldbench.harness.suite import suite_from_dict

@@ -1,4 +1,4 @@
-"""The ``vpl_range`` effect (core/effects/vpl_range.py, references/vpl_range.py) and the ``cdi-vpl``
+"""The ``vpl_range`` effect (ldbench/core/effects/vpl_range.py, ldbench/references/vpl_range.py) and the ``cdi-vpl``
 ranges: the six rays (numpy and their GLSL twin), the Mitsuba RSM, VPL ranges inside a box of known size
 against the closed form (oracle and CDI), the random baseline, the metrics, an end-to-end run.
 
@@ -28,7 +28,7 @@ from ldbench.methods.cdi_vpl import CdiVpl, CdiVplParams
 from ldbench.references.vpl_range import exact_ranges, make_vpls
 from testkit import box
 
-VPL_GLSL = Path(__file__).resolve().parents[1] / "methods" / "cdi_vpl" / "vpl.glsl"
+VPL_GLSL = Path(__file__).resolve().parents[1] / "ldbench" / "methods" / "cdi_vpl" / "vpl.glsl"
 LO, HI = np.array([-1.0, 0.0, -1.5]), np.array([1.2, 2.0, 1.0])
 
 

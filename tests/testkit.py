@@ -147,7 +147,7 @@ def expected_lists(with_material: bool = False, snap_bits: int | None = None):
     """Per layer and texel, the sorted depths of every triangle covering the texel centre (CPU);
     ``with_material``: sorted (depth, material id) pairs (the id is the mesh index, as Scene.merged).
     ``snap_bits``: depths on the plane through the vertices snapped to that many sub-pixel bits, as a GPU
-    whose fill rule has ``snapped_plane`` interpolates (methods/structures/splat.py); else through the given ones."""
+    whose fill rule has ``snapped_plane`` interpolates (ldbench/methods/structures/splat.py); else through the given ones."""
     clip, rows = layer_transforms()
     size = np.array([LAYER_W, LAYER_H], np.float64)
     out = np.empty((2, LAYER_H, LAYER_W), object)

@@ -1,5 +1,5 @@
 """Fast-build measurements (run by scripts/gpu/fast-builds.sh; docs/fast_builds.md): the build variants of the
-layered structures (methods/structures/) timed alone, on the LDM's maps of aalund2015 Figure 8.
+layered structures (ldbench/methods/structures/) timed alone, on the LDM's maps of aalund2015 Figure 8.
 
     python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION] [--variants A,B]
 

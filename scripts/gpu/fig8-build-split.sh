@@ -50,26 +50,26 @@ stale() {  # stale LABEL: true (and says so) when a patch of this copy failed: i
 run() {  # run LABEL: the bench in the copy, with this script's arguments
     stale "$1" && return
     echo "== $1"
-    (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
+    (cd "$W/tree" && export PYTHONPATH="$PWD" &&
      timeout 200 "$PY" scripts/gpu/fast_builds_bench.py "$W/out-$1" fig8 --variants "$V" ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep -o "variant=[^ ]* build_ms=[^ ]*\|stages=[^ ]*" | paste - -)
 }
 frame() {  # frame LABEL: the default Figure 8 frame in the copy; its stage times
     stale "$1" && return
     echo "== $1"
-    (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
+    (cd "$W/tree" && export PYTHONPATH="$PWD" &&
      timeout 250 "$PY" scripts/gpu/fast_defaults.py "$W/out-$1" --only fig8 --labels default ${ARGS[@]+"${ARGS[@]}"} 2>&1 |
      grep "^fig8 default total")
 }
 passes() {  # passes LABEL: each dispatch's GPU time in one build of the copy (build_passes.py)
     stale "$1" && return
     echo "== $1"
-    (cd "$W/tree" && LDBENCH_LINKS="$W/links" . scripts/gpu/env.sh &&
+    (cd "$W/tree" && export PYTHONPATH="$PWD" &&
      timeout 200 "$PY" scripts/gpu/build_passes.py ${PASSES_ARGS:-} 2>&1 | grep "ms")
 }
 copy() {  # the package's folders and the scripts, as they are in the working tree
     rm -rf "$W/tree"; mkdir -p "$W/tree"
-    for d in core harness methods references reports scripts suites pyproject.toml; do cp -r "$src/$d" "$W/tree/"; done
+    for d in ldbench scripts suites pyproject.toml; do cp -r "$src/$d" "$W/tree/"; done
 }
 patch() {  # patch FILE OLD NEW (exactly one occurrence; else the copy is marked stale)
     "$PY" - "$W/tree/$1" "$2" "$3" <<'PYEOF' || touch "$W/tree/.stale"
@@ -86,57 +86,57 @@ cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced b
 for split in ${LDBENCH_SPLIT-build ao}; do
 if [ "$split" = build ]; then
 copy; run as-is
-cut no-small-triangles methods/glsl/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
+cut no-small-triangles ldbench/methods/glsl/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
     $'            if (!sp_long(t, v0, v1, v2) && false) {'
-cut no-tiles methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
-cut small-triangles-no-store methods/glsl/splat_raster.glsl $'            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0' \
+cut no-tiles ldbench/methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
+cut small-triangles-no-store ldbench/methods/glsl/splat_raster.glsl $'            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0' \
     $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0'
-cut small-triangles-counter-only methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
+cut small-triangles-counter-only ldbench/methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
     $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
-cut tiles-no-store methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
+cut tiles-no-store ldbench/methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
     $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
-cut no-sort methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
-cut tiles-no-coverage-loop methods/glsl/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
+cut no-sort ldbench/methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
+cut tiles-no-coverage-loop ldbench/methods/glsl/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
     $'        uint m = sp_bin_n == 0xFFFFFFFFu ? 1u : 0u;\n'
 fi
 if [ "$split" = sort ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run sort-build-as-is
-for r in 4 6 8; do V=$TS cut "sort-build-$r-nodes" methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' "#define SP_SORT_R $r"; done
+for r in 4 6 8; do V=$TS cut "sort-build-$r-nodes" ldbench/methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' "#define SP_SORT_R $r"; done
 copy; frame sort-frame-as-is
-copy; patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
+copy; patch ldbench/methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
     $'#if 0\n            if (held'
-patch methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
+patch ldbench/methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
 frame sort-frame-nodes-when-found
 fi
 if [ "$split" = tiles ]; then
 # the long triangles' tiles (splat_tiles.glsl, fill_rule.glsl fr_tile) with one of their parts undone
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run tiles-as-is
-copy; patch methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
-patch methods/structures/splat.py '            tiles["FR_NARROW"] = 1' '            pass'; V=$TS run tiles-edges-in-doubles
-copy; patch methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
-patch methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
-V=$TS cut tiles-no-boxes-pass methods/structures/splat.py 'BOX_CAP = 256 ' 'BOX_CAP = 0 '
-V=$TS cut tiles-attributes-binned methods/glsl/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
-V=$TS cut tiles-8-nodes methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
-V=$TS cut tiles-insert-from-the-back methods/glsl/splat_tiles.glsl \
+copy; patch ldbench/methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
+patch ldbench/methods/structures/splat.py '            tiles["FR_NARROW"] = 1' '            pass'; V=$TS run tiles-edges-in-doubles
+copy; patch ldbench/methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
+patch ldbench/methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
+V=$TS cut tiles-no-boxes-pass ldbench/methods/structures/splat.py 'BOX_CAP = 256 ' 'BOX_CAP = 0 '
+V=$TS cut tiles-attributes-binned ldbench/methods/glsl/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
+V=$TS cut tiles-8-nodes ldbench/methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
+V=$TS cut tiles-insert-from-the-back ldbench/methods/glsl/splat_tiles.glsl \
     $'    for (int j = 0; j < SP_SORT_R; ++j) {\n        if (uint(j) == c) { d[j] = z; m[j] = n; break; }\n        if (d[j] > z) {\n            float tz = d[j]; d[j] = z; z = tz;\n            uint tn = m[j]; m[j] = n; n = tn;\n        }\n    }' \
     $'    for (int j = SP_SORT_R - 1; j > 0; --j) {\n        if (uint(j) > c) continue;\n        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }\n        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }\n    }\n    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }'
 fi
 if [ "$split" = undo ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
-R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
+R=ldbench/methods/glsl/splat_raster.glsl; T=ldbench/methods/glsl/splat_tiles.glsl
 copy; V=$TS run undo-as-is
 V=$TS cut undo-fragments-stored-at-once $R '    uint slot = atomicAdd(sp_frags, 1u);' '    uint slot = uint(SP_FRAG_N);'
 V=$TS cut undo-fragment-buffer-2x $R '#define SP_FRAG_N (SPLAT_GROUP * 4)' '#define SP_FRAG_N (SPLAT_GROUP * 2)'
 V=$TS cut undo-queue-8x $R '#define SP_QUEUE_N (SPLAT_GROUP * 6)' '#define SP_QUEUE_N (SPLAT_GROUP * 8)'
 V=$TS cut undo-fragments-with-triangle $R $'#if LS_PAYLOAD > 0\n#define SP_FRAG uvec3' $'#if 1\n#define SP_FRAG uvec3'
-V=$TS cut undo-one-chunk-per-workgroup methods/structures/splat.py 'GROUP_CHUNKS = 4 ' 'GROUP_CHUNKS = 1 '
+V=$TS cut undo-one-chunk-per-workgroup ldbench/methods/structures/splat.py 'GROUP_CHUNKS = 4 ' 'GROUP_CHUNKS = 1 '
 V=$TS cut undo-queue-in-fixed-point $R $'                    if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;' \
     $'                    SpPair p;\n                    if (!sp_project(k, v0, v1, v2, p)) continue;'
 V=$TS cut undo-nodes-rank-by-rank $T '#if LS_PAYLOAD == 0 && defined(LL_AGGREGATE)' '#if 0'
-V=$TS cut undo-one-layer-per-workgroup methods/structures/splat.py 'TILE_LAYERS = 2 ' 'TILE_LAYERS = 1 '
+V=$TS cut undo-one-layer-per-workgroup ldbench/methods/structures/splat.py 'TILE_LAYERS = 2 ' 'TILE_LAYERS = 1 '
 V=$TS cut undo-insert-with-nodes $T '{ sp_insert_depth(sd, depth); ++held; continue; }' \
     '{ sp_insert(sd, sn, held, depth, SP_LATE); ++held; continue; }'
 copy; patch $T $'void sp_insert_depth(inout float d[SP_SORT_R], float z) {\n    for (int j = 0; j < SP_SORT_R; ++j) { float lo = min(d[j], z); z = max(d[j], z); d[j] = lo; }' \
@@ -151,20 +151,20 @@ V=$TS cut undo-edges-from-vertices $T $'#if defined(FR_NARROW)\n    sp_setup_edg
 copy; patch $T '    if (e < sp_box_cap && e < n_large) {   // set up by the boxes pass' '    if (false) {'
 patch $T '    else if (e < n_large) {                // beyond' \
     '    else if (e < n_large && (e >= sp_box_cap || sp_box_meets(sp_box[k * sp_box_cap + e], t0, t1))) {  //'
-patch methods/structures/splat.py '            tiles["SP_ALL_BOXED"] = 1' '            pass'
+patch ldbench/methods/structures/splat.py '            tiles["SP_ALL_BOXED"] = 1' '            pass'
 V=$TS run undo-tiles-set-up-per-tile
 V=$TS cut undo-planes-before-coverage $T $'            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;\n            SpPlanes pl = sp_bin_planes(b, k, eb);' \
     $'            SpPlanes pl = sp_bin_planes(b, k, eb);\n            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;'
 fi
 if [ "$split" = passes ]; then
-R=methods/glsl/splat_raster.glsl; T=methods/glsl/splat_tiles.glsl
+R=ldbench/methods/glsl/splat_raster.glsl; T=ldbench/methods/glsl/splat_tiles.glsl
 copy; passes passes-as-is
 Q='if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
 copy; patch $R "$Q" 'if (!sp_reaches(k0, k - k0, v0, v1, v2) || n_layers > 0u) continue;'
 passes passes-small-projected-none-queued
 copy; patch $R "$Q" 'if (n_layers > 0u || !sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
 passes passes-small-nothing-projected
-copy; patch methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
+copy; patch ldbench/methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
     '    uint old = LL_EOL; ll_head[list] = n;'
 passes passes-small-plain-head-store
 copy; patch $R '            SP_FRAG_STORE(f);' '            if (f.y == 0x7FC00001u) SP_FRAG_STORE(f);'
@@ -184,11 +184,11 @@ fi
 if [ "$split" = ao ]; then
 W_AO='            float t = ldm_walk(q[j], cs[j] > 0.0 ? 1.0 : -1.0, first[j]);'
 copy; frame ao-as-is
-copy; patch methods/ldm/ao.glsl "$W_AO" \
+copy; patch ldbench/methods/ldm/ao.glsl "$W_AO" \
     '            float t = first[j] == LS_END ? -1.0 : ls_depth(first[j]) - q[j].zx;'; frame ao-first-node-only
-copy; patch methods/ldm/ao.glsl "$W_AO" \
+copy; patch ldbench/methods/ldm/ao.glsl "$W_AO" \
     '            float t = first[j] == LS_END ? -1.0 : float(first[j] & 1u);'; frame ao-head-only
-copy; patch methods/ldm/ao.glsl "$W_AO" \
+copy; patch ldbench/methods/ldm/ao.glsl "$W_AO" \
     '            float t = q[j].zx + float(q[j].list & 1u) - 1.0;'; frame ao-query-only
 fi
 done

@@ -186,7 +186,7 @@ for name, r in runs.items():
     if r["done"]:
         df = read_results(work / name)
         frames.append(df.groupby("method")[["total_ms", "wall_ms"]].sum().round(1).assign(run=name).reset_index())
-# the split lines (harness/phases.py) as one table: per phase, seconds and ms per call of the serial process
+# the split lines (ldbench/harness/phases.py) as one table: per phase, seconds and ms per call of the serial process
 # and of all workers of each Ray run (its driver's references apart)
 split = {}
 for name in runs:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Re-measure, after the staging read-back (core/gpu.py Gpu.read), the H200 figures that earlier runs took
+# Re-measure, after the staging read-back (ldbench/core/gpu.py Gpu.read), the H200 figures that earlier runs took
 # while NVIDIA's driver had moved CPU-read buffers to host memory (docs/fast_builds.md, "Read-backs"):
 # Sibenik LDM AO at the Figure 8 settings (pre-sorted insert; 1013 ms before), the hairball stress build
 # (sorted insert; 274 ms before) and yang2010's Table 1 teapot (ll-oit 43.7 ms before).
