@@ -95,9 +95,9 @@ def test_project_shaders_must_name_their_blocks(tmp_path, gpu):
 def test_the_project_shaders_agree(gpu):
     """The shaders that compile alone, with their default defines, as their methods compile them."""
     from ldbench.core.gpu import GLSL_DIR
-    progs = [gpu.program(GLSL_DIR / "gbuffer.glsl"), gpu.program(GLSL_DIR / "layered_build.glsl"),
-             gpu.compute(GLSL_DIR / "linked_list_sort.glsl"), gpu.compute(GLSL_DIR / "pairs_scatter.glsl"),
-             gpu.compute(GLSL_DIR / "scan.glsl"), gpu.compute(GLSL_DIR / "layered_peel_commit.glsl"),
+    progs = [gpu.program(GLSL_DIR / "gbuffer/gbuffer.glsl"), gpu.program(GLSL_DIR / "layered/build.glsl"),
+             gpu.compute(GLSL_DIR / "layered/linked_list_sort.glsl"), gpu.compute(GLSL_DIR / "layered/pairs_scatter.glsl"),
+             gpu.compute(GLSL_DIR / "common/scan.glsl"), gpu.compute(GLSL_DIR / "layered/peel_commit.glsl"),
              gpu.compute(METHODS_DIR / "ldm" / "photon_trace.glsl"),
              gpu.compute(METHODS_DIR / "ldi" / "trace_rays.glsl")]
     for p in progs:

@@ -415,7 +415,7 @@ def test_tile_sort_of_lists_longer_than_its_registers(gpu, payload):
 
 
 def wide_scenes() -> tuple[Scene, Scene]:
-    """Long triangles beyond the tiles' int32 steps (fill_rule.glsl fr_tile). "sliver": two slivers 2,240 texels
+    """Long triangles beyond the tiles' int32 steps (layered/fill_rule.glsl fr_tile). "sliver": two slivers 2,240 texels
     long in the 32² edge-case layers (edges over 1,024 texels: the doubles' path), laid along the direction in
     which no layer's depth changes. "far": in a layer of 1024 × 8 texels, one triangle with edges under 1,024
     texels whose edge functions at the tiles reach 2^36 (clamped to 2^30 before the steps)."""

@@ -7,7 +7,7 @@ Broken on purpose once each (and seen failing): projecting along the wrong axis 
 of the fragment loop fails ``test_fragments_outside_a_layer_are_dropped``; the sort pass with the slow
 path disabled (``len <= LA_MAX_LIST`` always) fails ``test_long_lists_take_the_exact_sort``; the scan's
 Hillis-Steele step reading ``t > off`` fails ``test_scan_matches_cumsum``. ``slot`` from
-a plain read-modify-write instead of ``atomicAdd`` in layered_store.glsl passes here (llvmpipe's fragment
+a plain read-modify-write instead of ``atomicAdd`` in layered/store.glsl passes here (llvmpipe's fragment
 threads rarely collide on one list); on a GPU the lost fragments show as the invariant "nodes reachable !=
 stored" (every run checks it: the row is ``degraded``).
 """

@@ -1,4 +1,4 @@
-"""ldbench/core/conventions.py and its GLSL twin ldbench/methods/glsl/conventions.glsl agree on random inputs (a compute
+"""ldbench/core/conventions.py and its GLSL twin ldbench/methods/glsl/common/conventions.glsl agree on random inputs (a compute
 shader on the test GPU), and the epsilons are Mitsuba's."""
 import numpy as np
 
@@ -6,7 +6,7 @@ from ldbench.core import conventions as conv
 
 N = 4096
 SHADER = """
-#include "conventions.glsl"
+#include "common/conventions.glsl"
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer In { vec4 fin[]; };     // 8 per item
 layout(std430, binding = 1) readonly buffer InU { uvec4 uin[]; };   // 1 per item

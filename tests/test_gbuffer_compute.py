@@ -229,7 +229,7 @@ def exact_hits(scene, cam, w, h):
 
 
 #: The positions' error against the float64 truth, over the eye distance, for both rasters. Analysis: the
-#: float32 barycentric solve of gbuffer_position.glsl (clip coordinates, cross products, a division) loses a
+#: float32 barycentric solve of gbuffer/position.glsl (clip coordinates, cross products, a division) loses a
 #: few ulps times the conditioning of the ray against the plane (worst at grazing: the floor here);
 #: measured 5.8e-6 on llvmpipe and 6.5e-6 on the H200 (both rasters the same bits). The bound is 3× the
 #: larger; the hardware's own interpolated position (its vertices snapped to the sub-pixel grid) was 6.2e-4

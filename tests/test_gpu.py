@@ -18,7 +18,7 @@ def test_classify_device():
 def test_include_and_defines(tmp_path, gpu):
     (tmp_path / "inc.glsl").write_text("float twice(float x) { return 2.0 * x; }\n")
     (tmp_path / "k.glsl").write_text(
-        '#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+        '#include "inc.glsl"\n#include "common/common.glsl"\nlayout(local_size_x = 1) in;\n'
         "layout(std430, binding = 0) buffer B { float v[]; };\n"
         "void main() { v[0] = twice(SCALE) + PI * 0.0; }\n")
     assert "twice" in expand_includes(tmp_path / "k.glsl")
@@ -35,6 +35,28 @@ def test_include_and_defines(tmp_path, gpu):
         gpu.compute(tmp_path / "err.glsl")
 
 
+def test_shared_includes_are_namespaced(tmp_path, caplog):
+    """Shared shader files live in folders the include names (``common/common.glsl``). A plugin's include by
+    a bare shared name (as written before the folders) still resolves, with a deprecation message naming the
+    new spelling; the project's own shaders get no such fallback, and a missing include names file:line."""
+    from ldbench.core import gpu as gpumod
+    (tmp_path / "old.glsl").write_text('// a plugin\n#include "common.glsl"\n')
+    with caplog.at_level("WARNING", logger="ldbench.core.gpu"):
+        assert "PI" in expand_includes(tmp_path / "old.glsl")
+    assert '#include "common/common.glsl"' in caplog.text
+    (tmp_path / "gone.glsl").write_text('// a plugin\n\n#include "no_such_file.glsl"\n')
+    with pytest.raises(LdbenchError, match=rf"{tmp_path}/gone.glsl:3: #include \"no_such_file.glsl\" not found"):
+        expand_includes(tmp_path / "gone.glsl")
+    inside = gpumod.METHODS_DIR / "ldm" / "_probe_flat_include.glsl"
+    try:
+        inside.write_text('#include "common.glsl"\n')
+        with pytest.raises(LdbenchError, match=r"ldm/_probe_flat_include.glsl:1: #include \"common.glsl\" not found"):
+            expand_includes(inside)
+    finally:
+        inside.unlink()
+    assert not list(gpumod.GLSL_DIR.glob("*.glsl")), "shared shader files belong in a folder of glsl/"
+
+
 def test_compile_errors_name_the_file_and_line(tmp_path, gpu):
     """A compile error reads ``file:line: message`` with the line of the file it is in, whether that is an
     include (here two deep) or the including file after its includes; a file outside methods/ (a plugin's) is
@@ -42,14 +64,18 @@ def test_compile_errors_name_the_file_and_line(tmp_path, gpu):
     (tmp_path / "deep.glsl").write_text("// a comment\nfloat deep(float x) { return x; }\n")
     (tmp_path / "inc.glsl").write_text('#include "deep.glsl"\nfloat twice(float x) {\n'
                                        "    return 2.0 * missing_in_inc;\n}\n")
-    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common/common.glsl"\nlayout(local_size_x = 1) in;\n'
                                      "void main() { float y = twice(1.0); }\n")
     with pytest.raises(LdbenchError, match=rf"k.glsl failed to compile: {tmp_path}/inc.glsl:3: .*missing_in_inc"):
         gpu.compute(tmp_path / "k.glsl")
     (tmp_path / "inc.glsl").write_text('#include "deep.glsl"\nfloat twice(float x) { return 2.0 * x; }\n')
-    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common.glsl"\nlayout(local_size_x = 1) in;\n'
+    (tmp_path / "k.glsl").write_text('#include "inc.glsl"\n#include "common/common.glsl"\nlayout(local_size_x = 1) in;\n'
                                      "void main() {\n    float y = twice(missing_in_main);\n}\n")
     with pytest.raises(LdbenchError, match=rf"{tmp_path}/k.glsl:5: .*missing_in_main"):
+        gpu.compute(tmp_path / "k.glsl")
+    (tmp_path / "k.glsl").write_text('// blank lines before an include\n\n\n#include "deep.glsl"\n'
+                                     "layout(local_size_x = 1) in;\nvoid main() { float y = missing_after_blank; }\n")
+    with pytest.raises(LdbenchError, match=rf"{tmp_path}/k.glsl:6: .*missing_after_blank"):
         gpu.compute(tmp_path / "k.glsl")
     (tmp_path / "v.glsl").write_text('#if defined(VERTEX_SHADER)\nvoid main() { gl_Position = vec4(0.0); }\n'
                                      '#elif defined(FRAGMENT_SHADER)\n#include "deep.glsl"\nout vec4 c;\n'
@@ -138,9 +164,9 @@ def test_a_second_context_released_leaves_the_first_usable(gpu):
     from ldbench.core.gpu import GLSL_DIR, Gpu
 
     buf = gpu.ctx.buffer(reserve=64)
-    cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
+    cs = gpu.compute(GLSL_DIR / "common/fill_uint.glsl")
     other = Gpu()
-    other.compute(GLSL_DIR / "fill_uint.glsl")
+    other.compute(GLSL_DIR / "common/fill_uint.glsl")
     other.release()
     cs["n"].value, cs["value"].value = 16, 7
     buf.bind_to_storage_buffer(0)

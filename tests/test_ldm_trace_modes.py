@@ -1,4 +1,4 @@
-"""The LDM trace modes (``trace.query``, ``trace.walk``; ldbench/methods/glsl/ldm_trace.glsl): the full walk of
+"""The LDM trace modes (``trace.query``, ``trace.walk``; ldbench/methods/ldm/ldm_trace.glsl): the full walk of
 unsorted lists answers exactly like the early stop on pre-sorted lists (AO images and per-ray t, both
 layouts); the AO of either query equals the sum over the maps it is meant to use, rebuilt from the
 ``rays`` effect's answers along the maps' axes (two_way: the N maps, each along the side of the normal;

@@ -4,7 +4,7 @@ scenes with intersecting triangles, the tie rule, the first-n-layers variant, ov
 triangles within a mesh (removed at scene load).
 
 Every kernel broken once on purpose (an edit of the GLSL, then restored), each failing a behaviour test
-here: the depth-only order (no tie rule) in oit.glsl fails the tie-rule and slow-path tests; no insertion
+here: the depth-only order (no tie rule) in oit/oit.glsl fails the tie-rule and slow-path tests; no insertion
 sort, and transmittance T *= α, in resolve.glsl fail ``test_methods_equal_the_exact_reference`` and first-n
 layers; the slow path taking an equal copy twice (i >= li) fails the slow path on ties (max_list = 1) and
 first-n with max_list = 4; the first-n selection keeping the farthest fails first-n (n = 1); the first-n

@@ -75,7 +75,7 @@ def test_six_rays_geometry():
 
 def test_glsl_rays_equal_numpy(gpu, tmp_path):
     """The method's own VPLs (``indirect``) get the harness's rays: vpl.glsl's directions (with the hash and
-    frame of conventions.glsl) equal the numpy definition to float precision."""
+    frame of common/conventions.glsl) equal the numpy definition to float precision."""
     src = VPL_GLSL.read_text() + """
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer In { vec4 nin[]; };

@@ -49,7 +49,7 @@ _TABLE = {
     "GBUF_LARGE": _b("ssbo", 3, "raster", "compute G-buffer: indirect command and triangles left to the hardware",
                      "GbufLarge"),
     # -- one-kernel utilities, each alone in its program
-    "FILL": _b("ssbo", 0, "fill_uint", "the uint buffer fill_uint.glsl clears", "FillData"),
+    "FILL": _b("ssbo", 0, "fill_uint", "the uint buffer common/fill_uint.glsl clears", "FillData"),
     "SCAN_DATA": _b("ssbo", 0, "scan", "values scanned in place (ldbench/methods/scan.py)", "ScanData"),
     "SCAN_SUMS": _b("ssbo", 1, "scan", "per-workgroup sums of the scan", "ScanSums"),
     "PROBE": _b("ssbo", 0, "splat_probe", "the raster-rule probe's per-texel records", "Probe"),
@@ -83,7 +83,7 @@ _TABLE = {
                           "SceneGeometry.triangle_positions", "SplatPositions"),
     "ORTHO_AXES": _b("ssbo", 11, "trace", "axes of the orthographic layer sets the traces walk (ortho_layers)",
                      "OrthoAxes"),
-    "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit.glsl)", "OITMaterials"),
+    "OIT_MATERIALS": _b("ssbo", 11, "oit", "albedo and opacity of each material (oit/oit.glsl)", "OITMaterials"),
     # -- per-method buffers of the traces, 12..19
     "LDM_ANGLE": _b("ssbo", 12, "ldm", "statistics: angle between each ray and its map's direction",
                     "LdmAngle"),
@@ -119,7 +119,7 @@ _TABLE = {
     "MLAB_COUNTS": _b("ssbo", 14, "mlab", "MLAB: layers in use per pixel", "MlabCounts"),
     "MLAB_LOCKS": _b("ssbo", 15, "mlab", "MLAB spinlock: one lock word per pixel", "MlabLocks"),
     "MLAB_STATS": _b("ssbo", 16, "mlab", "MLAB: fragments, lost fragments, merges", "MlabStats"),
-    # -- the harness's ray batches (ldbench/methods/glsl/rays.glsl), shared by every method's ray queries
+    # -- the harness's ray batches (ldbench/methods/glsl/common/rays.glsl), shared by every method's ray queries
     "RAYS": _b("ssbo", 20, "rays", "the ray batch (harness ray layout)", "RayBatch"),
     "HITS": _b("ssbo", 21, "rays", "hit distance of each ray", "RayHits"),
     # -- images

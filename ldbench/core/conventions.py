@@ -3,7 +3,7 @@ into directions, which random numbers they use, and how six distances become a V
 
 The harness's ray batches (``rays``, ``vpl_range``), the Mitsuba references and the methods' shaders all
 follow these rules, so a method and its reference trace the same rays. The GLSL twin is
-``ldbench/methods/glsl/conventions.glsl`` (``#include "conventions.glsl"``); ``tests/test_conventions.py`` evaluates
+``ldbench/methods/glsl/common/conventions.glsl`` (``#include "common/conventions.glsl"``); ``tests/test_conventions.py`` evaluates
 both on random inputs and checks that they agree. numpy + stdlib only (a foundation module).
 
 **Epsilons** (Mitsuba 3's float32 ``math.RayEpsilon`` and ``math.ShadowEpsilon``): :data:`RAY_EPSILON`,

@@ -7,11 +7,13 @@ wall clock on a software rasterizer) and :meth:`begin_frame` / :meth:`end_frame`
 
 Shaders: one ``.glsl`` file per program with stage sections selected by ``#if defined(VERTEX_SHADER)``
 etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the file and then in
-``ldbench/methods/glsl/``, and default ``#define``s injected after ``#version``, with the binding numbers of
+``ldbench/methods/glsl/``, whose shared files sit in folders named in the include (``common/``, ``gbuffer/``,
+``layered/``, ``lights/``, ``oit/``: ``#include "layered/linked_list.glsl"``); and default ``#define``s injected after ``#version``, with the binding numbers of
 :mod:`ldbench.core.bindings` (``#define B_RAYS 20``...). Every program compiled is checked against that table.
 """
 from __future__ import annotations
 
+import logging
 import re
 import time
 from contextlib import contextmanager
@@ -23,6 +25,8 @@ from . import bindings
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 
+log = logging.getLogger(__name__)
+
 METHODS_DIR = Path(__file__).resolve().parent.parent / "methods"
 GLSL_DIR = METHODS_DIR / "glsl"
 STAGES = {
@@ -30,7 +34,9 @@ STAGES = {
     "geometry_shader": "GEOMETRY_SHADER",
     "fragment_shader": "FRAGMENT_SHADER",
 }
-_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+#: one ``#include "x"`` line (blanks only within the line: ``\s`` would also take the newlines before it, and
+#: the line numbers after the include would be off by as many)
+_INCLUDE = re.compile(r'^[ \t]*#include[ \t]+"([^"]+)"[ \t]*$', re.M)
 #: Peak host memory of one job per image pixel: 358 B measured (maximum RSS of `ldbench run` with a
 #: report, direct-raster at 1024^2 vs 2048^2 on llvmpipe, whose GPU memory is host memory; ldm-ao 292 B).
 HOST_BYTES_PER_PIXEL = 400
@@ -64,15 +70,38 @@ def expand_includes(path: Path, seen: tuple = (), files: list | None = None) -> 
 
     def repl(m):
         name = m.group(1)
-        for d in (path.parent, GLSL_DIR):
-            if (d / name).exists():
-                body = expand_includes(d / name, seen + (path,), files)
-                line = src.count("\n", 0, m.start()) + 1  # the #include's own line
-                k = files.index(d / name)
-                return f"#line {k * LINE_STRIDE + 1} {k}\n{body}\n#line {me * LINE_STRIDE + line + 1} {me}"
-        raise LdbenchError(f"shader {path.name}: #include \"{name}\" not found")
+        found = next((d / name for d in (path.parent, GLSL_DIR) if (d / name).is_file()), None)
+        if found is None:
+            found = _flat_include(path, name)
+        if found is None:
+            line = src.count("\n", 0, m.start()) + 1
+            raise LdbenchError(f"{shader_name(path)}:{line}: #include \"{name}\" not found (beside the file or "
+                               f"under ldbench/methods/glsl/, e.g. \"common/common.glsl\")")
+        body = expand_includes(found, seen + (path,), files)
+        line = src.count("\n", 0, m.start()) + 1  # the #include's own line
+        k = files.index(found)
+        return f"#line {k * LINE_STRIDE + 1} {k}\n{body}\n#line {me * LINE_STRIDE + line + 1} {me}"
 
     return _INCLUDE.sub(repl, src)
+
+
+def _flat_include(path: Path, name: str) -> Path | None:
+    """A plugin's include by a shared file's bare name (``"common.glsl"``), as it was written before the
+    shared files had folders: the one file of that name under ldbench/methods/glsl/, with a deprecation
+    message. The project's own shaders must name the folder (``"common/common.glsl"``)."""
+    if "/" in name or Path(path).resolve().is_relative_to(METHODS_DIR):
+        return None
+    hits = sorted(GLSL_DIR.rglob(name))
+    if len(hits) != 1:
+        return None
+    new = hits[0].relative_to(GLSL_DIR).as_posix()
+    if (path, name) not in _WARNED_FLAT:
+        _WARNED_FLAT.add((path, name))
+        log.warning("%s: #include \"%s\" is deprecated: write #include \"%s\"", shader_name(path), name, new)
+    return hits[0]
+
+
+_WARNED_FLAT: set = set()
 
 
 def shader_source(path, stage_macro: str, defines: dict | None = None, version: int = 430,

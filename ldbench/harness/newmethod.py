@@ -104,7 +104,7 @@ class {cls}(Method):
 '''
 
 GLSL = '''// {name}: normal-oriented hemisphere SSAO on ldbench's G-buffer (docs/adapters.md, "G-buffer").
-#include "common.glsl"
+#include "common/common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;

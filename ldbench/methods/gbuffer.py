@@ -131,12 +131,12 @@ class GBuffer:
     """Position (w = hit), camera-facing geometric normal (w = material), albedo, depth.
 
     ``raster``: ``"hardware"`` draws the scene into the three textures and a depth texture
-    (``gbuffer.glsl``); ``"compute"`` rasterizes a visibility buffer in compute shaders with the hardware's
+    (``gbuffer/gbuffer.glsl``); ``"compute"`` rasterizes a visibility buffer in compute shaders with the hardware's
     fill rule (:func:`~ldbench.methods.structures.splat.fill_rule`) and resolves it into the same three
-    textures (``gbuffer_raster.glsl``, ``gbuffer_resolve.glsl``; docs/gbuffer.md). No consumer reads the
+    textures (``gbuffer/raster.glsl``, ``gbuffer/resolve.glsl``; docs/gbuffer.md). No consumer reads the
     depth texture, so the compute G-buffer has none. ``max_pixels``: the compute raster gives a triangle
     whose viewport-clamped bounding box holds more pixel centres than this to the hardware
-    (``gbuffer_large.glsl``), as it does triangles crossing the near or far plane."""
+    (``gbuffer/large.glsl``), as it does triangles crossing the near or far plane."""
 
     def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
         if raster not in RASTERS:
@@ -147,14 +147,14 @@ class GBuffer:
         self.raster, self.max_pixels = raster, int(max_pixels)
         self.size = None
         if raster == "hardware":
-            self.prog = gpu.program(GLSL_DIR / "gbuffer.glsl")
+            self.prog = gpu.program(GLSL_DIR / "gbuffer/gbuffer.glsl")
             self.vao = geometry.vao(self.prog)
             return
         from ldbench.methods.structures.splat import fill_rule, rule_defines
 
-        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer_raster.glsl", rule_defines(fill_rule(gpu)))
-        self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer_resolve.glsl")
-        self.large_prog = gpu.program(GLSL_DIR / "gbuffer_large.glsl")
+        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer/raster.glsl", rule_defines(fill_rule(gpu)))
+        self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl")
+        self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl")
         n = geometry.triangles
         self.large = res.buffer("gbuffer.large", reserve=4 * (LARGE_CMD_WORDS + 3 * n))
         cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)

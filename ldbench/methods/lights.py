@@ -1,7 +1,7 @@
 """Lights on the GPU: the spot light's GLSL uniforms and its cube shadow atlas.
 
 :class:`CubeShadowMap` renders the distance from the light to the nearest surface into six 90° faces
-laid side by side in one ``6s × s`` float texture (``ldbench/methods/glsl/cube_shadow.glsl``; depth test on,
+laid side by side in one ``6s × s`` float texture (``ldbench/methods/glsl/lights/cube_shadow.glsl``; depth test on,
 no culling), for a shading pass that looks up the face of a direction and compares distances. The
 far plane encloses the scene's bounds seen from the light (+1 %), the near plane is 1e-4 of it.
 ``direct-raster`` shades with it and the LDI adapter's soft-shadow and indirect passes test visibility
@@ -50,7 +50,7 @@ class CubeShadowMap:
     def __init__(self, gpu, geo, res, scene, light, size: int):
         self.gpu, self.light, self.size = gpu, light, int(size)
         s = self.size
-        self.prog = gpu.program(GLSL_DIR / "cube_shadow.glsl")
+        self.prog = gpu.program(GLSL_DIR / "lights/cube_shadow.glsl")
         self.vao = geo.vao(self.prog)
         self.atlas = res.texture("shadow.atlas", (6 * s, s), 1, "f4")
         self.atlas.filter = (gpu.ctx.NEAREST, gpu.ctx.NEAREST)

@@ -5,7 +5,7 @@
   framebuffers they own per size, the peel program's camera uniforms and the depth-complexity counters.
 - :class:`OITMethod`: the common part of the three adapters — the scene's triangles on the GPU
   (:class:`~ldbench.methods.gbuffer.SceneGeometry`), the **material table** (one ``vec4`` per material: albedo,
-  opacity; SSBO binding ``B.OIT_MATERIALS``, ``oit_material[]`` in ``ldbench/methods/glsl/oit.glsl``), the camera's
+  opacity; SSBO binding ``B.OIT_MATERIALS``, ``oit_material[]`` in ``ldbench/methods/glsl/oit/oit.glsl``), the camera's
   clip transform and depth row, the output texture (RGBA32F: composite colour, alpha = 1 where the
   method saw at least one fragment) and its read-back as a :class:`~ldbench.methods.base.Result`.
 - Depth: every method orders fragments by the *linear view depth* dot(depth_row, (p, 1)) = (p − eye)·forward,

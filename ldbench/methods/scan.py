@@ -1,4 +1,4 @@
-"""GPU exclusive prefix sum of a ``uint`` SSBO, in place (``ldbench/methods/glsl/scan.glsl``).
+"""GPU exclusive prefix sum of a ``uint`` SSBO, in place (``ldbench/methods/glsl/common/scan.glsl``).
 
 The shared building block of every compaction: the linearised arrays' offsets (count → scan → fill),
 compacted depth-peeled layers, light-grid cells. Blocks of 1024 elements are scanned by one workgroup
@@ -33,8 +33,8 @@ class Scan:
 
     def __init__(self, gpu, res=None, prefix: str = "scan."):
         self.gpu, self.res, self.prefix = gpu, res, prefix
-        self.blocks = gpu.compute(GLSL_DIR / "scan.glsl", {"SCAN_BLOCKS": 1})
-        self.add = gpu.compute(GLSL_DIR / "scan.glsl", {"SCAN_ADD": 1})
+        self.blocks = gpu.compute(GLSL_DIR / "common/scan.glsl", {"SCAN_BLOCKS": 1})
+        self.add = gpu.compute(GLSL_DIR / "common/scan.glsl", {"SCAN_ADD": 1})
         self._sums: list = []
 
     def _sum_buffer(self, level: int, nb: int):

@@ -86,47 +86,47 @@ cut() {  # cut LABEL FILE OLD NEW: the bench in a fresh copy with OLD replaced b
 for split in ${LDBENCH_SPLIT-build ao}; do
 if [ "$split" = build ]; then
 copy; run as-is
-cut no-small-triangles ldbench/methods/glsl/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
+cut no-small-triangles ldbench/methods/glsl/layered/splat_raster.glsl $'            if (!sp_long(t, v0, v1, v2)) {' \
     $'            if (!sp_long(t, v0, v1, v2) && false) {'
 cut no-tiles ldbench/methods/structures/splat.py $'            self._tiles(extra, capacity)\n' $'            pass\n'
-cut small-triangles-no-store ldbench/methods/glsl/splat_raster.glsl $'            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0' \
+cut small-triangles-no-store ldbench/methods/glsl/layered/splat_raster.glsl $'            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0' \
     $'            if (pl.d0 + dot(pl.dd, q) != 1.0e30) continue;\n            sp_store(t, ls_list(k, ivec2(x, y), ls_size), pl.d0'
-cut small-triangles-counter-only ldbench/methods/glsl/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
+cut small-triangles-counter-only ldbench/methods/glsl/layered/linked_list.glsl $'    uint old = atomicExchange(ll_head[list], n);\n' \
     $'    if (z != 1.0e30) return n;\n    uint old = atomicExchange(ll_head[list], n);\n'
-cut tiles-no-store ldbench/methods/glsl/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
+cut tiles-no-store ldbench/methods/glsl/layered/splat_tiles.glsl $'            uint n = ll_alloc(ls_capacity);\n' \
     $'            if (depth != 1.0e30) continue;\n            uint n = ll_alloc(ls_capacity);\n'
 cut no-sort ldbench/methods/structures/linked.py $'        if not self.sorted_insert and sort:\n' $'        if False:\n'
-cut tiles-no-coverage-loop ldbench/methods/glsl/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
+cut tiles-no-coverage-loop ldbench/methods/glsl/layered/splat_tiles.glsl $'        uint m = sp_bin_n;\n' \
     $'        uint m = sp_bin_n == 0xFFFFFFFFu ? 1u : 0u;\n'
 fi
 if [ "$split" = sort ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run sort-build-as-is
-for r in 4 6 8; do V=$TS cut "sort-build-$r-nodes" ldbench/methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' "#define SP_SORT_R $r"; done
+for r in 4 6 8; do V=$TS cut "sort-build-$r-nodes" ldbench/methods/glsl/layered/splat_tiles.glsl '#define SP_SORT_R 10' "#define SP_SORT_R $r"; done
 copy; frame sort-frame-as-is
-copy; patch ldbench/methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
+copy; patch ldbench/methods/glsl/layered/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD == 0\n            if (held' \
     $'#if 0\n            if (held'
-patch ldbench/methods/glsl/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
+patch ldbench/methods/glsl/layered/splat_tiles.glsl $'#if defined(SP_SORTING) && LS_PAYLOAD > 0\n' $'#if defined(SP_SORTING)\n'
 frame sort-frame-nodes-when-found
 fi
 if [ "$split" = tiles ]; then
-# the long triangles' tiles (splat_tiles.glsl, fill_rule.glsl fr_tile) with one of their parts undone
+# the long triangles' tiles (layered/splat_tiles.glsl, layered/fill_rule.glsl fr_tile) with one of their parts undone
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
 copy; V=$TS run tiles-as-is
-copy; patch ldbench/methods/glsl/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
+copy; patch ldbench/methods/glsl/layered/fill_rule.glsl '    r.wide = max(m.x, m.y) > lim;' '    r.wide = true;'
 patch ldbench/methods/structures/splat.py '            tiles["FR_NARROW"] = 1' '            pass'; V=$TS run tiles-edges-in-doubles
-copy; patch ldbench/methods/glsl/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
-patch ldbench/methods/glsl/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
+copy; patch ldbench/methods/glsl/layered/fill_rule.glsl '    r.full = r.c.x' '    r.full = false && r.c.x'
+patch ldbench/methods/glsl/layered/fill_rule.glsl '    r.none = r.c.x' '    r.none = false && r.c.x'; V=$TS run tiles-no-whole-tile-flags
 V=$TS cut tiles-no-boxes-pass ldbench/methods/structures/splat.py 'BOX_CAP = 256 ' 'BOX_CAP = 0 '
-V=$TS cut tiles-attributes-binned ldbench/methods/glsl/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
-V=$TS cut tiles-8-nodes ldbench/methods/glsl/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
-V=$TS cut tiles-insert-from-the-back ldbench/methods/glsl/splat_tiles.glsl \
+V=$TS cut tiles-attributes-binned ldbench/methods/glsl/layered/splat_tiles.glsl '#if LS_PAYLOAD > 0 || !defined(SP_OWNED_HEAD)' '#if 1'
+V=$TS cut tiles-8-nodes ldbench/methods/glsl/layered/splat_tiles.glsl '#define SP_SORT_R 10' '#define SP_SORT_R 8'
+V=$TS cut tiles-insert-from-the-back ldbench/methods/glsl/layered/splat_tiles.glsl \
     $'    for (int j = 0; j < SP_SORT_R; ++j) {\n        if (uint(j) == c) { d[j] = z; m[j] = n; break; }\n        if (d[j] > z) {\n            float tz = d[j]; d[j] = z; z = tz;\n            uint tn = m[j]; m[j] = n; n = tn;\n        }\n    }' \
     $'    for (int j = SP_SORT_R - 1; j > 0; --j) {\n        if (uint(j) > c) continue;\n        if (d[j - 1] > z) { d[j] = d[j - 1]; m[j] = m[j - 1]; }\n        else if (uint(j) == c || d[j] > z) { d[j] = z; m[j] = n; }\n    }\n    if (c == 0u || d[0] > z) { d[0] = z; m[0] = n; }'
 fi
 if [ "$split" = undo ]; then
 TS=splat/linked-yang-queue-batch16-aggregate-tilesort
-R=ldbench/methods/glsl/splat_raster.glsl; T=ldbench/methods/glsl/splat_tiles.glsl
+R=ldbench/methods/glsl/layered/splat_raster.glsl; T=ldbench/methods/glsl/layered/splat_tiles.glsl
 copy; V=$TS run undo-as-is
 V=$TS cut undo-fragments-stored-at-once $R '    uint slot = atomicAdd(sp_frags, 1u);' '    uint slot = uint(SP_FRAG_N);'
 V=$TS cut undo-fragment-buffer-2x $R '#define SP_FRAG_N (SPLAT_GROUP * 4)' '#define SP_FRAG_N (SPLAT_GROUP * 2)'
@@ -157,14 +157,14 @@ V=$TS cut undo-planes-before-coverage $T $'            if (!inside || (!b.tri.fu
     $'            SpPlanes pl = sp_bin_planes(b, k, eb);\n            if (!inside || (!b.tri.full && !fr_tile_covers(b.tri, d, px))) continue;'
 fi
 if [ "$split" = passes ]; then
-R=ldbench/methods/glsl/splat_raster.glsl; T=ldbench/methods/glsl/splat_tiles.glsl
+R=ldbench/methods/glsl/layered/splat_raster.glsl; T=ldbench/methods/glsl/layered/splat_tiles.glsl
 copy; passes passes-as-is
 Q='if (!sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
 copy; patch $R "$Q" 'if (!sp_reaches(k0, k - k0, v0, v1, v2) || n_layers > 0u) continue;'
 passes passes-small-projected-none-queued
 copy; patch $R "$Q" 'if (n_layers > 0u || !sp_reaches(k0, k - k0, v0, v1, v2)) continue;'
 passes passes-small-nothing-projected
-copy; patch ldbench/methods/glsl/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
+copy; patch ldbench/methods/glsl/layered/linked_list.glsl '    uint old = atomicExchange(ll_head[list], n);' \
     '    uint old = LL_EOL; ll_head[list] = n;'
 passes passes-small-plain-head-store
 copy; patch $R '            SP_FRAG_STORE(f);' '            if (f.y == 0x7FC00001u) SP_FRAG_STORE(f);'

@@ -2,7 +2,7 @@
 // pseudo-random depths into n_lists lists at once, from many workgroups (on llvmpipe: several CPU
 // threads), so inserts into one list race on the same predecessors.
 #define LL_WRITABLE 1
-#include "linked_list.glsl"
+#include "layered/linked_list.glsl"
 layout(local_size_x = 64) in;
 uniform uint n_inserts;
 uniform uint n_lists;

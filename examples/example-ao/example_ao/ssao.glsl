@@ -1,5 +1,5 @@
 // example-ao: normal-oriented hemisphere SSAO on ldbench's shared G-buffer (see example_ao/__init__.py).
-#include "common.glsl"
+#include "common/common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;

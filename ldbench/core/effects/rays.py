@@ -32,7 +32,7 @@ arrays to the method and to the oracle:
 **Inputs** (:class:`RayBatch`): ``origin``, ``direction`` (unit), ``tmax`` (float32, ∞ allowed) and
 ``normal`` (n at the origin, for methods whose self-intersection rule needs it), ``pixel`` (the
 row-major pixel index, row 0 at the top). On the GPU (:meth:`RayBatch.upload`) they are one SSBO of
-``vec4(origin, tmax), vec4(direction, 0), vec4(normal, 0)`` per ray (``ldbench/methods/glsl/rays.glsl``).
+``vec4(origin, tmax), vec4(direction, 0), vec4(normal, 0)`` per ray (``ldbench/methods/glsl/common/rays.glsl``).
 
 **A method returns** ``arrays["t"]``: the hit distance per ray (``inf`` = miss; NaN = no answer, which
 counts as a wrong answer; ``-inf`` means nothing: it counts as no answer and in ``nonfinite``, and makes

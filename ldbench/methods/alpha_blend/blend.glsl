@@ -2,10 +2,10 @@
 // depth test) in submission order, blended with (SRC_ALPHA, ONE_MINUS_SRC_ALPHA) on both targets:
 //   target 0: (c, a)        C <- a c + (1 - a) C over the background the pass starts from
 //   target 1: (1, 1, 1, 1)  alpha 1: the texel becomes 1 where any fragment lands (coverage)
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
-#include "oit_peel_vertex.glsl"
+#include "oit/peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 flat in uint v_material;

@@ -9,7 +9,7 @@ spherical coordinates (:func:`ldbench.methods.directions.stacks_slices`; 169 = 1
 
 * ``one_pass`` (the paper): one raster of the scene per pass, each triangle swizzled to its dominant axis in
   a geometry shader, the fragment shader projecting every fragment into all the deep images
-  (``ldbench/methods/glsl/layered_build_one_pass.glsl``); not conservative (holes show in the ``rays`` hit
+  (``ldbench/methods/glsl/layered/build_one_pass.glsl``); not conservative (holes show in the ``rays`` hit
   agreement); ``pass_directions`` > 0 splits it into passes of that many directions (1: the same CDI,
   direction by direction);
 * ``brute_force``: one raster per direction in its own view (the paper's baseline: "re-rasterizes geometry

@@ -6,7 +6,7 @@
 //
 // Deep image k: orthographic along v_k over the bounding sphere (ol_centre, ol_radius), texel
 // ((dot(p - c, u), dot(p - c, w)) / radius · ½ + ½) · size, stored depth dot(p - c, v) (ldbench/methods/ldm
-// ldm_layers). Read through the layered-structure interface (layered.glsl); linear arrays are walked
+// ldm_layers). Read through the layered-structure interface (layered/layered.glsl); linear arrays are walked
 // backwards for sigma < 0.
 //
 // Self-intersection (ours; the paper does not say): x's own surface is in x's list, at the depth where its
@@ -20,8 +20,8 @@
 // was tried and measured worse: self hits on curved surfaces, docs/cdi_vpl.md).
 #ifndef LDBENCH_CDI_TRACE_GLSL
 #define LDBENCH_CDI_TRACE_GLSL
-#include "layered.glsl"
-#include "ortho_layers.glsl"
+#include "layered/layered.glsl"
+#include "layered/ortho_layers.glsl"
 
 uniform uint cdi_dirs;
 uniform float cdi_bias;

@@ -1,6 +1,6 @@
 // The 3D light grid (archer2019 §3.2, "hybrid lighting"): cells of grid_cell metres over the scene bounds,
 // each holding the indices of the VPLs whose sphere (position, range) overlaps it, as linearised arrays
-// (count -> ldbench/methods/scan.py prefix sum -> fill, the layout of ldbench/methods/glsl/linear_arrays.glsl: after the fill
+// (count -> ldbench/methods/scan.py prefix sum -> fill, the layout of ldbench/methods/glsl/layered/linear_arrays.glsl: after the fill
 // grid_off[c] is the end of cell c's list and the beginning of c + 1's).
 //   GRID_MASK   one invocation per G-buffer pixel: grid_mask[cell of its surface] = 1 (the depth mask: no
 //               VPL goes into a cell no visible surface lies in; depth_mask = False: the host sets all 1)

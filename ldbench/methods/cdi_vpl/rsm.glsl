@@ -3,7 +3,7 @@
 // Per texel: o_position = (p, 1) (w = 0: nothing), o_normal = the geometric normal facing the light,
 // o_flux = (albedo · I · fall-off · Ω, area): the flux the texel's VPL reflects and the area it covers,
 // Ω = (2 tan(cut-off) / R)² cos³α the texel's solid angle, area = Ω d² / max(|cos|, 0.05).
-#include "common.glsl"
+#include "common/common.glsl"
 
 #if defined(VERTEX_SHADER)
 uniform mat4 light_view_proj;

@@ -3,7 +3,7 @@
 // off at its range:
 //   L(x) = ρ/π Σ_{|y - x| < range} Φ cos θ_x cos θ_y / (π (|y - x|² + A/π))
 // (one diffuse bounce; A/π bounds the 1/d² singularity as a disk of area A seen on its axis does).
-#include "common.glsl"
+#include "common/common.glsl"
 #include "grid_common.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 struct Vpl { vec4 pos_range; vec4 normal_area; vec4 flux; };

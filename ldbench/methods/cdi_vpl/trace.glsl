@@ -5,7 +5,7 @@
 //                vpl_range_out[i] = mean (range_max = 0) or max of min(t, cap), a miss counting cap.
 //   CDI_RANDOM   (`vpl_range`, range = random) vpl_range_out[i] = (r_min + u (r_max - r_min)),
 //                u = hash01(i, seed): no ray is cast.
-#include "rays.glsl"
+#include "common/rays.glsl"
 #include "vpl.glsl"
 #if !defined(CDI_RANDOM)
 #include "cdi_trace.glsl"

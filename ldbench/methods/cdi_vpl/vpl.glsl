@@ -1,10 +1,10 @@
 // The six rays of a VPL, the GLSL twin of ldbench/core/effects/vpl_range.py vpl_directions (the hash and the frame
-// are those of conventions.glsl):
+// are those of common/conventions.glsl):
 // ray 0 along the primary direction p, rays 1..5 at cone_angle from p, azimuths phi0 + 2 pi k / 5 in the
 // Duff et al. (2017) frame of p, phi0 = 2 pi hash01(texel, seed).
 #ifndef LDBENCH_VPL_GLSL
 #define LDBENCH_VPL_GLSL
-#include "conventions.glsl"
+#include "common/conventions.glsl"
 #define VPL_TWO_PI 6.28318530717958648
 
 // Direction of ray k (0..5) of a VPL with primary direction p.

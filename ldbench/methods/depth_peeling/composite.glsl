@@ -5,7 +5,7 @@
 // (DST_ALPHA, ONE) for colour and (ZERO, ONE_MINUS_SRC_ALPHA) for alpha, i.e. C += T α c, T *= 1 − α; the
 // second target, R32F, counts the layers of each pixel (a target without alpha blends with A_d = 1: +1).
 // OIT_FINAL: the output, C + T · background, alpha = 1 where the pixel had a layer.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }

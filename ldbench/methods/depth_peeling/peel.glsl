@@ -8,10 +8,10 @@
 // previous layer's k is read back from it exactly, so "behind the previous layer" is an integer comparison:
 // a layer is never peeled twice or skipped. Surfaces within one step (2^-20 of the depth range) at a pixel
 // are one layer to depth peeling: the depth test keeps the first to arrive and the others are lost.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
-#include "oit_peel_vertex.glsl"
+#include "oit/peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 uniform vec2 depth_map;        // (near, 1 / (far - near))

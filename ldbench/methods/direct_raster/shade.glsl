@@ -1,7 +1,7 @@
 // Direct light from the spot light at every G-buffer pixel: albedo/pi * I * falloff * cos / d^2 * V,
 // V from the cube shadow atlas. Background pixels are 0.
-#include "common.glsl"
-#include "cube_shadow.glsl"
+#include "common/common.glsl"
+#include "lights/cube_shadow.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(rgba32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_image;

@@ -4,7 +4,7 @@
 // counts the pixels that had one (zero: every layer is peeled).
 // DDP_FINAL: the output, front C + T_front · back (the back accumulation starts as the background), alpha =
 // 1 where the pixel had a fragment (the min-max pass wrote a depth there).
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }

@@ -11,10 +11,10 @@
 // three targets in every pass (the front target is cleared, the fragments peeled earlier pass the front
 // accumulation through). Default: the front target starts as a copy of front_prev, so the fragments peeled
 // earlier are discarded (no texture read of the front, no blending); MAX over the same values: same output.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
-#include "oit_peel_vertex.glsl"
+#include "oit/peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 uniform int init;                 // 1: the min-max pass

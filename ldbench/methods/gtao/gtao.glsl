@@ -14,7 +14,7 @@
 //     V = nlen / 4 * sum_{h in h0, h1} (-cos(2h - gamma) + cos(gamma) + 2 h sin(gamma))
 // and AO = (mean over slices of V) ^ final_power.
 // FALLOFF_MODE 0 = step, 1 = quadratic, 2 = unbounded (d_max = inf: rho = 1, radius = max_radius_px).
-#include "common.glsl"
+#include "common/common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;

@@ -32,7 +32,7 @@
 // projected radius of d_max).
 // Output: r = AO (1 = unoccluded; 1 on background); with COUNT_STEPS, r = the samples marched per pixel
 // (sum over directions), 0 where none.
-#include "common.glsl"
+#include "common/common.glsl"
 
 #ifndef INTEGRAL
 #define INTEGRAL 1

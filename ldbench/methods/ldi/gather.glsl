@@ -1,6 +1,6 @@
 // Image effects of the LDI adapter: one invocation per G-buffer pixel x1 (normal n1 facing the camera,
 // albedo a1), N secondary rays traced through the LDIs (ldi_trace.glsl). Random numbers: a PCG hash of
-// (pixel, sample, seed) (sample_stream); origin, frame and warps of conventions.glsl (spawn_origin, the
+// (pixel, sample, seed) (sample_stream); origin, frame and warps of common/conventions.glsl (spawn_origin, the
 // offset of the references and of the rays effect's batches; the G-buffer has no triangle, so no crease
 // point).
 //
@@ -20,9 +20,9 @@
 // EFFECT 3 `soft_shadows`: the spot light's unshadowed direct term at x1 times the fraction of shadow rays
 //   towards points uniform (by area) on the sphere of light_radius around the light that reach it
 //   (t_max = distance * (1 - shadow_eps)). Writes the final radiance.
-#include "common.glsl"
-#include "conventions.glsl"
-#include "cube_shadow.glsl"
+#include "common/common.glsl"
+#include "common/conventions.glsl"
+#include "lights/cube_shadow.glsl"
 #include "ldi_trace.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;

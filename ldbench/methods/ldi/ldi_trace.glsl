@@ -1,5 +1,5 @@
 // Pixel-crossing ray traversal of orthographic LDIs (niessner2010 §3.2), over the layered-structure
-// interface (layered.glsl, LS_LAYOUT 2: compacted per-texel lists sorted by depth).
+// interface (layered/layered.glsl, LS_LAYOUT 2: compacted per-texel lists sorted by depth).
 //
 // LDI k looks along v_k, (u_k, w_k, v_k) right-handed orthonormal; it covers the scene's bounding sphere
 // (centre ol_centre, radius R) with ol_size² pixels of side 2R / ol_size; a fragment's stored depth is
@@ -28,8 +28,8 @@
 //    grid already (it counts as `ended`, a miss).
 #ifndef LDBENCH_LDI_TRACE_GLSL
 #define LDBENCH_LDI_TRACE_GLSL
-#include "layered.glsl"
-#include "ortho_layers.glsl"
+#include "layered/layered.glsl"
+#include "layered/ortho_layers.glsl"
 
 uniform int ldi_k;            // squares per cube-face edge: 6k² directions
 uniform int ldi_half;         // 1: one LDI per pair of opposite directions

@@ -1,8 +1,8 @@
-// LDI ray queries (the `rays` effect): one invocation per ray of the harness's batch (rays.glsl). A ray
+// LDI ray queries (the `rays` effect): one invocation per ray of the harness's batch (common/rays.glsl). A ray
 // that points into the surface it starts on (dot(n, d) < 0) hits it at once: t = 0.
 // LDI_STATS (an untimed statistics dispatch): ldi_stats[r] = (pixel crossings, LDI | ended << 31).
 #include "ldi_trace.glsl"
-#include "rays.glsl"
+#include "common/rays.glsl"
 
 layout(local_size_x = 64) in;
 uniform uint n_rays;

@@ -27,7 +27,7 @@ upper hemisphere; {±v_i} is an antipodally symmetric equal-area set of 2N direc
 orthographic ``resolution²`` view along v_i that covers the scene's bounding sphere (centre = bounds
 centre, radius = farthest vertex), so every map sees all geometry; stored depth = (p − c)·v_i.
 
-Trace (aalund2015 §3.1, ``ldbench/methods/glsl/ldm_trace.glsl``): project x into map i, walk the sorted list to
+Trace (aalund2015 §3.1, ``ldbench/methods/ldm/ldm_trace.glsl``): project x into map i, walk the sorted list to
 x's depth; along +v_i the first hit is the next entry beyond x, along −v_i the previous one. The
 surface x itself is in the list: entries closer than the receiver plane's crossing of the texel's
 column, plus ``bias`` texels, are skipped (see the GLSL).
@@ -56,7 +56,7 @@ Parameter                        Default   Paper    Meaning
 ``resolution``                   128       200, 50  texels per side of each LDM
 ``gbuffer``                      compute            camera G-buffer: compute | hardware raster (the same textures)
 ``trace.bias``                   0.25               self-intersection bias along the ray, in LDM texels
-``trace.crease``                 0.5       0        crease window behind the point, in texels (ldbench/methods/glsl/ldm_trace.glsl)
+``trace.crease``                 0.5       0        crease window behind the point, in texels (ldbench/methods/ldm/ldm_trace.glsl)
 ``structure.pool``               lazy               pool sizing: grow | count | fixed | lazy (count: linked only;
                                                     lazy: no read-back inside a build, docs/fast_builds.md)
 ``structure.source``             splat     raster   fragments from: raster (hardware, per map) | one_pass
@@ -140,7 +140,7 @@ ONE_WAY_SLOTS = 12  # candidates per cell of the one-way table (3 uvec4): the 9 
 def one_way_axis_table(axes: np.ndarray, res: int = LUT_RES) -> np.ndarray:
     """Candidate nearest +v_k (largest signed d·v: ``trace.query = one_way``) per cell of the full cube:
     (6·res², :data:`ONE_WAY_SLOTS`) uint32, unused slots 0xFFFFFFFF. Row of d: face 2a + (d_a < 0) of its
-    dominant axis a, cell of (d_{a+1}, d_{a+2}) / |d_a| (``ldm_one_way_row`` in ldbench/methods/glsl/ldm_trace.glsl).
+    dominant axis a, cell of (d_{a+1}, d_{a+2}) / |d_a| (``ldm_one_way_row`` in ldbench/methods/ldm/ldm_trace.glsl).
     As :func:`~ldbench.methods.directions.nearest_axis_table`: each cell lists the nearest axes of a 3 × 3
     grid of directions over it, so a lookup finds the true nearest unless a sliver of its Voronoi cell
     holds none of the samples (then the second nearest)."""
@@ -198,7 +198,7 @@ class LdmTrace(ParamsBase):
                               choices=("dispatches", "grid"))
 
     def defines(self) -> dict:
-        """The GLSL defines of the query and walk modes (ldbench/methods/glsl/ldm_trace.glsl) and of the AO pass."""
+        """The GLSL defines of the query and walk modes (ldbench/methods/ldm/ldm_trace.glsl) and of the AO pass."""
         return {**({"LDM_ONE_WAY": 1} if self.query == "one_way" else {}),
                 **({"LDM_FULL_WALK": 1} if self.walk == "full" else {}),
                 **({"LDM_PREFETCH": self.prefetch} if self.prefetch > 1 else {})}

@@ -107,10 +107,10 @@ void main() {   // one invocation per photon (grid-stride)
 // One workgroup per photon (grid-stride over photons), its 64 invocations stride over the pixels of the
 // splat's screen rectangle: a 400-pixel splat is not left to one thread. The pixels the raster path
 // shades: the quad as the geometry shader's strip, triangles (q0, q1, q2) and (q2, q1, q3), covered by the
-// hardware's rule (fill_rule.glsl), each shared-edge centre once, samples beyond the near or far plane
+// hardware's rule (layered/fill_rule.glsl), each shared-edge centre once, samples beyond the near or far plane
 // dropped as clipping would; so the two paths differ by the order of their sums (and at a pixel where the
 // GPU's own viewport transform rounds a corner across a sub-pixel step: tests/test_ldm_indirect.py).
-#include "fill_rule.glsl"
+#include "layered/fill_rule.glsl"
 layout(std430, binding = B_PHOTON_ACCUM) buffer Accum { float accum[]; };   // 3 floats per pixel, rows bottom-up
 uniform sampler2D g_position;
 uniform sampler2D g_albedo;

@@ -26,7 +26,7 @@
 #if defined(PHOTON_STATS)
 #extension GL_NV_shader_atomic_float : require
 #endif
-#include "common.glsl"
+#include "common/common.glsl"
 #include "ldm_trace.glsl"
 #include "photon.glsl"
 

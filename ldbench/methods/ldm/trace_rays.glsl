@@ -5,7 +5,7 @@
 // LDM_ANGLE_STATS (an untimed statistics dispatch): ldm_angle[r] = the angle between ray r and its
 // map's direction, in degrees, instead of tracing.
 #include "ldm_trace.glsl"
-#include "rays.glsl"
+#include "common/rays.glsl"
 
 layout(local_size_x = 64) in;
 uniform uint n_rays;

@@ -8,8 +8,8 @@
 // (~L^2/4 steps), or with OIT_FIRST_N = n and 4n < L only its first n places by selection (~nL steps: the
 // cheap extraction of the n closest layers that makes the layer cap pay). A longer list is composited
 // exactly by repeated minimum search over the list itself (O(nL); counted in oit_counters[0]).
-#include "layered.glsl"
-#include "oit.glsl"
+#include "layered/layered.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }

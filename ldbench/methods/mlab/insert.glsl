@@ -10,10 +10,10 @@
 //   SYNC 0 (spinlock):  a per-pixel lock taken with atomicCompSwap, at most MAX_SPIN tries per fragment
 //                       (a fragment that never gets it is counted in `lost`, never an endless loop);
 //                       the order among a pixel's fragments is the GPU's.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
-#include "oit_peel_vertex.glsl"
+#include "oit/peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 #if SYNC == 1

@@ -1,6 +1,6 @@
 // MLAB's resolve (full-screen triangle): the pixel's layers front to back, C = Σ T_prefix C_i, then
 // + Π T_i × background; alpha = 1 where a fragment landed.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }

@@ -25,7 +25,7 @@ and the knobs of one layout or source (``sorted_insert``, ``max_list``, ``instan
 ``splat_group``, ``splat_large``, ``max_layers``, ``canonical``, ``page_nodes``). :func:`make_structure` builds it.
 Every fragment pass of every layout and assembly runs the chosen source.
 
-**GLSL** (``ldbench/methods/glsl/layered.glsl``, compiled with ``structure.defines()``): ``ls_list(layer, px,
+**GLSL** (``ldbench/methods/glsl/layered/layered.glsl``, compiled with ``structure.defines()``): ``ls_list(layer, px,
 size)``, ``ls_first(list)``, ``ls_next(list, node)``, ``ls_depth(node)``, ``ls_payload(node, k)``,
 ``ls_bound()``, ``ls_count(list)``. A tracer written against it reads every layout.
 

@@ -3,7 +3,7 @@
 :class:`LayeredStructure` holds what every layout shares (``layers`` images of ``width × height`` texels,
 the per-layer clip transform and depth row, the counters buffer) and runs one *fragment pass* through its
 fragment source (:mod:`ldbench.methods.structures.sources`, :mod:`ldbench.methods.structures.splat`), which stores every
-fragment with ``ls_store`` of ``ldbench/methods/glsl/layered_store.glsl``. The layouts
+fragment with ``ls_store`` of ``ldbench/methods/glsl/layered/store.glsl``. The layouts
 (:mod:`ldbench.methods.structures.linked`, :mod:`ldbench.methods.structures.linear`) implement the build around it.
 
 Each layer ``k`` has a clip transform ``clip[k]`` (world → clip) and a depth row ``depth_row[k]``; the
@@ -115,7 +115,7 @@ class LayeredStructure:
         return self
 
     def defines(self) -> dict:
-        """``#define``s of every shader that includes ``layered.glsl`` for this structure."""
+        """``#define``s of every shader that includes ``layered/layered.glsl`` for this structure."""
         d = {"LS_LAYOUT": LAYOUT_CODES[self.layout], "LS_PAYLOAD": len(self.payload)}
         for i, name in enumerate(self.payload):
             d[f"LS_PL_{name.upper()}"] = i
@@ -246,12 +246,12 @@ def ortho_layers(axes: np.ndarray, centre: np.ndarray, radius: float):
     return clip, rows, (u, w, axes)
 
 
-B_ORTHO_AXES = B.ORTHO_AXES  # ldbench/methods/glsl/ortho_layers.glsl
+B_ORTHO_AXES = B.ORTHO_AXES  # ldbench/methods/glsl/layered/ortho_layers.glsl
 
 
 def bind_ortho_layers(cs, axes_buf, centre, radius: float, resolution: int) -> None:
     """The uniforms and the axes buffer (the (u, w, v) basis of :func:`ortho_layers`, as vec4 rows) of a
-    program that includes ``ortho_layers.glsl``; a uniform the program does not use is skipped."""
+    program that includes ``layered/ortho_layers.glsl``; a uniform the program does not use is skipped."""
     for name, v in (("ol_centre", tuple(float(x) for x in centre)), ("ol_radius", float(radius)),
                     ("ol_size", (int(resolution), int(resolution)))):
         if name in cs:
@@ -260,8 +260,8 @@ def bind_ortho_layers(cs, axes_buf, centre, radius: float, resolution: int) -> N
 
 
 def fill_uint(gpu, buffer, n: int, value: int):
-    """``buffer[0 .. n) = value`` on the GPU (``ldbench/methods/glsl/fill_uint.glsl``)."""
-    cs = gpu.compute(GLSL_DIR / "fill_uint.glsl")
+    """``buffer[0 .. n) = value`` on the GPU (``ldbench/methods/glsl/common/fill_uint.glsl``)."""
+    cs = gpu.compute(GLSL_DIR / "common/fill_uint.glsl")
     cs["n"].value = int(n)
     cs["value"].value = int(value)
     buffer.bind_to_storage_buffer(B.FILL)

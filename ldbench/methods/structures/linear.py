@@ -20,13 +20,13 @@ read with unit stride and its length is known without a walk. Build, per frame (
 ``assembly = "sort"`` (:meth:`LinearisedArrays.build_sorted`): one fragment pass (any source) appends
 every fragment as a pair (list id, depth, payload words) and counts it in its list; an exclusive scan of
 the counts, a scatter of the pairs into their lists (a counting sort by list id,
-``ldbench/methods/glsl/pairs_scatter.glsl``, stage ``fill``) and the per-list depth sort give the same contiguous
+``ldbench/methods/glsl/layered/pairs_scatter.glsl``, stage ``fill``) and the per-list depth sort give the same contiguous
 sorted lists as the count → scan → fill → sort build with one fragment pass instead of two, and no
 compare-and-swap anywhere. Stages ``emit``, ``scan``, ``fill``, ``sort``; the pairs hold ``capacity``
 fragments, sized from the emitted count as above.
 
 ``spec.canonical``: a last stage ``canon`` orders the fragments at equal depth by their payload words
-(``ldbench/methods/glsl/layered_canon.glsl``), so that every source gives the same structure bit for bit (the
+(``ldbench/methods/glsl/layered/canon.glsl``), so that every source gives the same structure bit for bit (the
 LDIs of niessner2010). A source that assembles the arrays itself (``peel``,
 :mod:`ldbench.methods.structures.peel`) replaces count → scan → fill → sort.
 
@@ -144,8 +144,8 @@ class LinearisedArrays(LayeredStructure):
             self.sort_lists()
 
     def canonicalize(self):
-        """Order fragments at equal depth by payload (``layered_canon.glsl``)."""
-        cs = self.gpu.compute(GLSL_DIR / "layered_canon.glsl", self.defines())
+        """Order fragments at equal depth by payload (``layered/canon.glsl``)."""
+        cs = self.gpu.compute(GLSL_DIR / "layered/canon.glsl", self.defines())
         cs["n_lists"].value = self.n_lists
         self.bind()
         cs.run(min(-(-self.n_lists // 64), 8192))
@@ -172,7 +172,7 @@ class LinearisedArrays(LayeredStructure):
         with stage("scan"):
             self.scan.run(self.offsets, n + 1)
         with stage("fill"):
-            cs = self.gpu.compute(GLSL_DIR / "pairs_scatter.glsl", self.defines())
+            cs = self.gpu.compute(GLSL_DIR / "layered/pairs_scatter.glsl", self.defines())
             self.bind()
             cs.run(max(1, min(-(-self.capacity // 256), 65535)))
             self.gpu.ctx.memory_barrier()
@@ -186,8 +186,8 @@ class LinearisedArrays(LayeredStructure):
         return np.diff(np.concatenate([[0], np.minimum(off, self.capacity)]))
 
     def sort_lists(self):
-        """Per-list depth sort (``linear_sort.glsl``)."""
-        cs = self.gpu.compute(GLSL_DIR / "linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
+        """Per-list depth sort (``layered/linear_sort.glsl``)."""
+        cs = self.gpu.compute(GLSL_DIR / "layered/linear_sort.glsl", {**self.defines(), "LA_MAX_LIST": self.max_list})
         cs["n_lists"].value = self.n_lists
         self.bind()
         cs.run(min(-(-self.n_lists // 64), 8192))
@@ -201,7 +201,7 @@ class LinearisedArrays(LayeredStructure):
         reachable through the offsets: the end of the last list, must equal fragments_stored),
         sort_overflow_lists, and :meth:`~ldbench.methods.structures.core.LayeredStructure.build_stats`.
         """
-        c = self.stats_pass("linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
+        c = self.stats_pass("layered/linear_stats.glsl", C_NONEMPTY, C_UNSORTED)
         ends = np.frombuffer(self.gpu.read(self.offsets, 8, offset=4 * (self.n_lists - 1)), np.uint32)
         filled, total = int(ends[0]), int(ends[1])
         overflow = int(c[C_OVERFLOW])

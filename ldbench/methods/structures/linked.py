@@ -75,7 +75,7 @@ EOL = 0xFFFFFFFF
 MAX_PAGES = 4
 NODE_BYTES = 8
 NODE_DTYPE = np.dtype([("depth", "<f4"), ("next", "<u4")])
-# counter indices (ldbench/methods/glsl/linked_list.glsl)
+# counter indices (ldbench/methods/glsl/layered/linked_list.glsl)
 C_NODES, C_SORT_LONG, C_NONEMPTY, C_MAXLEN, C_UNSORTED, C_LINKED, C_FAILED, C_OVERFLOW = range(8)
 
 
@@ -219,7 +219,7 @@ class LayeredLinkedLists(LayeredStructure):
         source sorted most lists itself (``structure.splat_sort``), only the lists it left."""
         left = self.source.unsorted_lists() if self.source is not None else None
         listed = {"LL_SORT_LISTED": 1} if left is not None else {}
-        cs = self.gpu.compute(GLSL_DIR / "linked_list_sort.glsl",
+        cs = self.gpu.compute(GLSL_DIR / "layered/linked_list_sort.glsl",
                               {**self.defines(), "LL_MAX_LIST": self.max_list, **listed})
         if "n_lists" in cs:
             cs["n_lists"].value = self.n_lists
@@ -241,7 +241,7 @@ class LayeredLinkedLists(LayeredStructure):
         by the sort pass); insert_failures (sorted inserts abandoned: lost LL_MAX_RETRIES races or a walk
         past the capacity bound; expected 0); build_passes; pages.
         """
-        c = self.stats_pass("linked_list_stats.glsl", C_NONEMPTY, C_LINKED)
+        c = self.stats_pass("layered/linked_list_stats.glsl", C_NONEMPTY, C_LINKED)
         failures, overflow = int(c[C_FAILED]), int(c[C_OVERFLOW])
         nodes = int(c[C_NODES])
         stored = nodes - failures

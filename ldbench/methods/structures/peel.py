@@ -2,9 +2,9 @@
 
 :class:`Peel` assembles the linear arrays itself (``assembles``), stages:
 
-``peel``     per layer m: two raster passes of every layer at once (``layered_peel.glsl``: the smallest
+``peel``     per layer m: two raster passes of every layer at once (``layered/peel.glsl``: the smallest
              depth above layer m − 1's key, then the smallest triangle id at that depth: coincident
-             fragments are peeled one per layer, not lost) and a commit pass (``layered_peel_commit.glsl``)
+             fragments are peeled one per layer, not lost) and a commit pass (``layered/peel_commit.glsl``)
              that appends the texel's layer m (texel, m, depth, triangle) to a scratch list and counts the
              layer's fragments in an atomic counter. Peeling stops after the first pass that finds no
              fragment (one 4-byte read-back per layer, as the paper's occlusion query) or at ``max_layers``.
@@ -12,7 +12,7 @@
              the paper's CPU compaction done on the GPU); the total sizes the arrays.
 ``scatter``  scratch entry → slot begin(texel) + m: depth and payload (normal, albedo, material looked up from the
              triangle id, the paper's "triangle ids", packed as the raster packs them;
-             ``layered_compact.glsl``).
+             ``layered/compact.glsl``).
 
 With ``spec.canonical`` the layout's ``canon`` stage follows; the structure is then the one the ``raster``
 source gives, bit for bit (``tests/test_ldi.py``).
@@ -71,9 +71,9 @@ class Peel(FragmentSource):
         self.scratch = None
         self._scratch_total = self._scratch_overflow = 0
         self._vaos: dict = {}
-        self._commit = gpu.compute(GLSL_DIR / "layered_peel_commit.glsl")
-        self._ends = gpu.compute(GLSL_DIR / "layered_compact.glsl", {**s.defines(), "COMPACT_ENDS": 1})
-        self._scatter = gpu.compute(GLSL_DIR / "layered_compact.glsl", {**s.defines(), "COMPACT_SCATTER": 1})
+        self._commit = gpu.compute(GLSL_DIR / "layered/peel_commit.glsl")
+        self._ends = gpu.compute(GLSL_DIR / "layered/compact.glsl", {**s.defines(), "COMPACT_ENDS": 1})
+        self._scatter = gpu.compute(GLSL_DIR / "layered/compact.glsl", {**s.defines(), "COMPACT_SCATTER": 1})
 
     # ---- scratch ----------------------------------------------------------------------------------
     def _state(self):
@@ -181,9 +181,9 @@ class Peel(FragmentSource):
 
     def _peel_pass(self, p: int):
         """Peel pass ``p`` (1: the nearest depth above the last key, 2: the smallest triangle id at it) of
-        every layer at once (``layered_peel.glsl``, the full vertex buffer: triangle ids)."""
+        every layer at once (``layered/peel.glsl``, the full vertex buffer: triangle ids)."""
         st, ctx = self.s, self.gpu.ctx
-        prog = self.gpu.program(GLSL_DIR / "layered_peel.glsl", {**st.defines(), "PEEL_PASS": p})
+        prog = self.gpu.program(GLSL_DIR / "layered/peel.glsl", {**st.defines(), "PEEL_PASS": p})
         key = id(prog)
         if key not in self._vaos:
             self._vaos[key] = st.geo.vao(prog)

@@ -6,12 +6,12 @@ with ``ls_store`` compiled with the ``extra`` defines). The sources (``spec.sour
 
 * ``raster`` (:class:`Raster`): the scene rasterized in each layer's own view, one instanced draw
   (``gl_InstanceID`` = layer; ``spec.instanced = False``: one draw per layer, the "brute force" of
-  archer2019), both faces, no depth test (``ldbench/methods/glsl/layered_build.glsl``). Texel centres are sampled
+  archer2019), both faces, no depth test (``ldbench/methods/glsl/layered/build.glsl``). Texel centres are sampled
   exactly.
 * ``one_pass`` (:class:`OnePass`, archer2019 §3.1): the scene rasterized *once*, each triangle swizzled
   to its dominant axis over the square of a bounding sphere (default the geometry's; ``raster_size``²
   samples, default the layer size), and every fragment projected into each layer in the fragment shader
-  (``ldbench/methods/glsl/layered_build_one_pass.glsl``); ``pass_layers`` > 0 splits the layers into passes of
+  (``ldbench/methods/glsl/layered/build_one_pass.glsl``); ``pass_layers`` > 0 splits the layers into passes of
   that many (1 = one raster per layer of the *same* fragments: identical lists up to order). Not
   conservative: a layer sees a triangle's fragments at the raster's sample positions, not at its own
   texel centres (holes where a triangle is more face-on to the layer than to its dominant axis, extra
@@ -76,7 +76,7 @@ class FragmentSource:
 class Raster(FragmentSource):
     """``raster``: every layer rasterized by the hardware in its own view (module docstring)."""
 
-    shader = "layered_build.glsl"
+    shader = "layered/build.glsl"
 
     def __init__(self, structure):
         super().__init__(structure)
@@ -112,7 +112,7 @@ class OnePass(Raster):
     """``one_pass``: one swizzled raster whose fragments every layer takes (module docstring).
     ``sphere`` = (centre, radius) the raster covers; None: the geometry's bounding sphere."""
 
-    shader = "layered_build_one_pass.glsl"
+    shader = "layered/build_one_pass.glsl"
 
     def __init__(self, structure, sphere=None):
         super().__init__(structure)

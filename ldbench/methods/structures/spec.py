@@ -33,7 +33,7 @@ ASSEMBLIES = ("direct", "sort")
 POOLS = ("grow", "count", "fixed", "lazy")
 PAYLOAD_WORDS = ("normal", "albedo", "material")
 #: how the splat rasterizes its long triangles: ``raster``, one instanced draw of them by the hardware;
-#: ``tiles``, a compute pass over tiles of every layer (``splat_tiles.glsl``).
+#: ``tiles``, a compute pass over tiles of every layer (``layered/splat_tiles.glsl``).
 SPLAT_LARGE = ("raster", "tiles")
 SPLAT_MAX_LIMIT = 64  # texels: keeps the splat's integer edge functions within int32
 

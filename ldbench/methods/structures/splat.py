@@ -4,7 +4,7 @@ Variant of the fragment pass of :mod:`ldbench.methods.structures` (docs/fast_bui
 every triangle in every layer is the reference source; it is bound by the rasterizer's triangle rate, not
 by memory (measured in docs/fast_builds.md).
 
-:class:`Splat` (``ldbench/methods/glsl/splat_raster.glsl``): one invocation per (triangle, batch of
+:class:`Splat` (``ldbench/methods/glsl/layered/splat_raster.glsl``): one invocation per (triangle, batch of
 ``splat_batch`` layers) loads its positions (``SceneGeometry.triangle_positions``), projects the triangle
 into each layer of its batch, snaps it to the hardware's
 sub-pixel grid and stores every texel centre it covers with the same ``ls_store`` as the raster (every
@@ -15,12 +15,12 @@ GPU interpolates, measured once per context by :func:`fill_rule`. A triangle who
 ``splat_max`` texels in some layer is appended by the splat to an index list of long triangles, which the
 spec's ``splat_large`` rasterizes in the same build:
 
-- ``tiles`` (default, ``ldbench/methods/glsl/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
+- ``tiles`` (default, ``ldbench/methods/glsl/layered/splat_tiles.glsl``): a compute pass over tiles of 8 × 8 texels of every
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
   the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass that sets up
   the first ``BOX_CAP`` long triangles (box, edges, planes) in every layer (the tiles set up any others
-  themselves); its stores: ``splat_tiles.glsl``. Why it is the default: docs/fast_builds.md.
-- ``raster``: one instanced indirect draw of them by the hardware (``layered_build.glsl``).
+  themselves); its stores: ``layered/splat_tiles.glsl``. Why it is the default: docs/fast_builds.md.
+- ``raster``: one instanced indirect draw of them by the hardware (``layered/build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).
 """
@@ -37,12 +37,12 @@ from .sources import FragmentSource, Raster
 
 B_VERTICES, B_LARGE, B_SORT = B.SPLAT_VERTICES, B.SPLAT_LARGE, B.SPLAT_SORT
 B_BOXES, B_SETUPS, B_POSITIONS = B.SPLAT_BOXES, B.SPLAT_SETUPS, B.SPLAT_POSITIONS
-TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (splat_tiles.glsl)
+TILE_X, TILE_Y = 8, 8      # texels per tile of the long triangles' pass (layered/splat_tiles.glsl)
 TILE_LAYERS = 2            # layers a workgroup of that pass takes in turn
 GROUP_CHUNKS = 4           # with the queue: chunks of splat_group triangles a splat workgroup takes in turn
 WIN_ROWS = 256             # layers of a splat batch whose window rows the queue keeps in shared memory (8 KB)
-BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (splat_tiles.glsl)
-CMD_STRIDE = 5             # words of a DrawElementsIndirectCommand (the draws' tight stride; splat_raster.glsl's 5u)
+BOX_CAP = 256              # long triangles whose boxes and set-ups in every layer the boxes pass writes (layered/splat_tiles.glsl)
+CMD_STRIDE = 5             # words of a DrawElementsIndirectCommand (the draws' tight stride; layered/splat_raster.glsl's 5u)
 CMD_WORDS = 16             # two of them (one per pass parity), padded; the indices follow
 _RULES: dict = {}          # id(ctx) -> fill rule
 
@@ -55,7 +55,7 @@ _IPROBE_VAL = np.array([0.0, 300.0, -200.0])
 
 
 def rule_defines(rule: dict) -> dict:
-    """The GLSL defines of a :func:`fill_rule` (``splat_raster.glsl``, ``fill_rule.glsl``)."""
+    """The GLSL defines of a :func:`fill_rule` (``layered/splat_raster.glsl``, ``layered/fill_rule.glsl``)."""
     return {"LS_SUBPIXEL_BITS": rule["subpixel_bits"], "SPLAT_TOP": int(rule["top"]),
             "SPLAT_BOTTOM": int(rule["bottom"]), "SPLAT_LEFT": int(rule["left"]), "SPLAT_RIGHT": int(rule["right"]),
             "SPLAT_SNAPPED_PLANE": int(rule["snapped_plane"])}
@@ -67,7 +67,7 @@ def fill_rule(gpu) -> dict:
     (varyings are interpolated on the plane through the snapped vertices, not the given ones)}``.
 
     Fill rule: two counter-clockwise right triangles sharing their diagonal, with edges through texel
-    centres, and the same two clockwise, are rasterized into a 4 × 4 framebuffer (``splat_probe.glsl``).
+    centres, and the same two clockwise, are rasterized into a 4 × 4 framebuffer (``layered/splat_probe.glsl``).
     The rule must cover each shared edge exactly once (one of top/bottom, one of left/right) and not
     depend on the winding; anything else is refused. Interpolation: one triangle off the sub-pixel grid
     with a steep varying (:func:`plane_from_probe`). NVIDIA interpolates on the snapped plane, llvmpipe on
@@ -82,7 +82,7 @@ def fill_rule(gpu) -> dict:
     b = [(3.5, 3.5), (1.5, 3.5), (3.5, 1.5)]
     tris = [a, b, [a[0], a[2], a[1]], [b[0], b[2], b[1]]]  # CCW, CCW, CW, CW
     bits = int(ctx.info.get("GL_SUBPIXEL_BITS") or 8)
-    prog = gpu.program(GLSL_DIR / "splat_probe.glsl")
+    prog = gpu.program(GLSL_DIR / "layered/splat_probe.glsl")
     fill = np.concatenate([np.array(tris, np.float32).reshape(-1, 2), np.zeros((12, 1), np.float32)], 1)
     interp = np.concatenate([_IPROBE_POS, _IPROBE_VAL[:, None]], 1).astype(np.float32)
     vbos = [ctx.buffer(fill.tobytes()), ctx.buffer(interp.tobytes())]
@@ -165,7 +165,7 @@ def window_terms(clip: np.ndarray, width: int, height: int, extent: np.ndarray) 
 
 
 def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int, terms: float = 0.0) -> bool:
-    """Whether no triangle can be wide in the tiles' pass (``fill_rule.glsl`` ``fr_tile``: an edge component
+    """Whether no triangle can be wide in the tiles' pass (``layered/fill_rule.glsl`` ``fr_tile``: an edge component
     beyond its int32 steps' limit, in sub-pixel units): the longest edge in texels of the densest layer (``scale``),
     snapped, with room for the window coordinates' float rounding (2^-19 of their ``terms``,
     :func:`window_terms`), within the limit."""
@@ -175,7 +175,7 @@ def tiles_narrow(longest_edge: float, scale: float, subpixel_bits: int, terms: f
 
 
 def long_bound(longest_edges: np.ndarray, scale: float, splat_max: float) -> int:
-    """The most triangles the splat can leave to the long triangles' pass (``splat_raster.glsl`` ``sp_long``):
+    """The most triangles the splat can leave to the long triangles' pass (``layered/splat_raster.glsl`` ``sp_long``):
     those whose longest edge (world units) times ``scale`` exceeds ``splat_max``, with room for the GPU's float
     rounding, and those not finite."""
     x = np.asarray(longest_edges, np.float64) * scale
@@ -241,7 +241,7 @@ class Splat(FragmentSource):
     def run(self, extra: dict, capacity: int):
         """One fragment pass: the compute splat of the small triangles, then the large ones by the
         spec's ``splat_large``; every store is ``ls_store``'s compiled with ``extra`` (the tiles' own
-        push for yang2010's insert: ``splat_tiles.glsl``)."""
+        push for yang2010's insert: ``layered/splat_tiles.glsl``)."""
         s, gpu = self.s, self.s.gpu
         ctx = gpu.ctx
         if not s.layers_affine:
@@ -250,7 +250,7 @@ class Splat(FragmentSource):
         # the tiles sort the lists of the linked insert's pass (not of a counting pass)
         self._sorted_pass = self.tile_sort and "LS_PASS_COUNT" not in extra and "LL_SORTED" not in extra
         zero_sort = {"SP_ZERO_SORT": 1} if self._sorted_pass else {}   # the splat empties the tiles' list of lists
-        cs = gpu.compute(GLSL_DIR / "splat_raster.glsl", {**self.defines(extra), **zero_sort})
+        cs = gpu.compute(GLSL_DIR / "layered/splat_raster.glsl", {**self.defines(extra), **zero_sort})
         self.uniforms(cs, capacity)
         cs["sp_parity"].value = parity
         if zero_sort:
@@ -274,7 +274,7 @@ class Splat(FragmentSource):
             self._hardware(extra, capacity)
 
     def _tiles(self, extra: dict, capacity: int):
-        """The long triangles by the compute pass over tiles (``splat_tiles.glsl``), after the pass that sets them
+        """The long triangles by the compute pass over tiles (``layered/splat_tiles.glsl``), after the pass that sets them
         up in every layer."""
         s = self.s
         tiles = {**self.defines(extra), "SPLAT_TILE_X": TILE_X, "SPLAT_TILE_Y": TILE_Y, "SP_TILE_N": TILE_X * TILE_Y,
@@ -290,14 +290,14 @@ class Splat(FragmentSource):
         if self.boxes is not None:
             self.boxes.bind_to_storage_buffer(B_BOXES)
             self.setups.bind_to_storage_buffer(B_SETUPS)
-            cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, "SP_BOXES_PASS": 1})
+            cs = s.gpu.compute(GLSL_DIR / "layered/splat_tiles.glsl", {**tiles, "SP_BOXES_PASS": 1})
             self.uniforms(cs, capacity)
             cs["sp_box_cap"].value = self.box_cap
             cs["sp_parity"].value = self.parity
             cs.run(s.layers)
             s.gpu.ctx.memory_barrier()
         sort = {"SP_TILE_SORT": 1} if self._sorted_pass else {}
-        cs = s.gpu.compute(GLSL_DIR / "splat_tiles.glsl", {**tiles, **sort})
+        cs = s.gpu.compute(GLSL_DIR / "layered/splat_tiles.glsl", {**tiles, **sort})
         if sort:
             self.bind_sort(cs)
         self.uniforms(cs, capacity)
@@ -308,7 +308,7 @@ class Splat(FragmentSource):
         s.gpu.ctx.memory_barrier()
 
     def _hardware(self, extra: dict, capacity: int):
-        """The long triangles by one instanced indirect draw (``layered_build.glsl``)."""
+        """The long triangles by one instanced indirect draw (``layered/build.glsl``)."""
         s, ctx = self.s, self.s.gpu.ctx
         prog = s.gpu.program(GLSL_DIR / Raster.shader, {**s.defines(), **extra})
         if "layer_base" in prog:

@@ -7,10 +7,10 @@
 // w = w(z, a) is the paper's depth weight (WEIGHT 7, 8, 9, 10: its equations; 0: constant 1, the weighted
 // average of Bavoil & Myers 2008), z = the linear view depth (paper: |z| in camera-space units) and, for
 // equation 10, d(z) = the window depth gl_FragCoord.z.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
-#include "oit_peel_vertex.glsl"
+#include "oit/peel_vertex.glsl"
 
 #elif defined(FRAGMENT_SHADER)
 in float v_depth;

@@ -1,6 +1,6 @@
 // Weighted blended OIT's resolve (full-screen triangle): C = accum.rgb / clamp(accum.a, 1e-4, 5e4)
 // × (1 − R) + R × background, R = Π(1 − a) = exp(−Σ −log(1 − a)); alpha = 1 where a fragment landed.
-#include "oit.glsl"
+#include "oit/oit.glsl"
 
 #if defined(VERTEX_SHADER)
 void main() { gl_Position = oit_fullscreen(gl_VertexID); }

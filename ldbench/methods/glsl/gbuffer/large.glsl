@@ -1,7 +1,7 @@
 // The compute G-buffer's hardware path (ldbench/methods/gbuffer.py, raster = "compute"): the triangles the compute
-// raster left (too large, or crossing the near or far plane, gbuffer_raster.glsl) drawn from its index
+// raster left (too large, or crossing the near or far plane, gbuffer/raster.glsl) drawn from its index
 // list by one indirect draw into an attachment-less framebuffer; every fragment goes through the same
-// visibility-buffer step as a computed one (gbuffer_vis.glsl) with the hardware's window depth.
+// visibility-buffer step as a computed one (gbuffer/vis.glsl) with the hardware's window depth.
 #extension GL_ARB_ES3_1_compatibility : enable
 #if defined(VERTEX_SHADER)
 uniform mat4 view_proj;
@@ -13,7 +13,7 @@ void main() {
 }
 
 #elif defined(FRAGMENT_SHADER)
-#include "gbuffer_vis.glsl"
+#include "gbuffer/vis.glsl"
 flat in uint v_triangle;
 void main() {
 #if defined(GL_ARB_ES3_1_compatibility) || __VERSION__ >= 450

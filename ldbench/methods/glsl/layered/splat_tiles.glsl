@@ -1,5 +1,5 @@
 // The long triangles of the splat build (ldbench/methods/structures/splat.py, splat_large = "tiles"): those
-// splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE_X ×
+// layered/splat_raster.glsl left in its index list sp_large, rasterized in compute over tiles of SPLAT_TILE_X ×
 // SPLAT_TILE_Y texels: one workgroup per (tile x, tile y, SP_TILE_LAYERS layers taken in turn), one invocation
 // per texel. For each layer the long triangles whose snapped box meets the tile are binned (set up by the boxes
 // pass, or here beyond its cap, with their edge functions at the tile's first texel): with LL_AGGREGATE each
@@ -8,9 +8,9 @@
 // SP_ALL_BOXED, when the boxes pass set up every long triangle, only the edge values at the tile and the flags by
 // shuffle, the rest loaded from the set-up, the planes only once a texel is covered); without, the workgroup bins
 // SP_TILE_N at a time in shared memory. Every invocation tests its texel centre against the binned ones by integer
-// steps from there. Coverage is the hardware's at any size (fill_rule.glsl fr_tile: exact int32 steps, edges
-// longer than a thousand texels in doubles), depth and the near/far test are splat_raster.glsl's
-// (splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
+// steps from there. Coverage is the hardware's at any size (layered/fill_rule.glsl fr_tile: exact int32 steps, edges
+// longer than a thousand texels in doubles), depth and the near/far test are layered/splat_raster.glsl's
+// (layered/splat_planes.glsl): the same fragments as the hardware draw of the "raster" mode.
 // Runs after the compute splat has completed, so every invocation owns its texel's list for the pass: with
 // yang2010's unsorted insert (linked layout) it pushes its fragments onto the head held in a register and
 // writes the head once, with no atomic on it; any other store goes through ls_store.
@@ -22,7 +22,7 @@
 // at once, and the head is loaded only at the end: no register holds it across the loop). At the end it adds the
 // nodes the small triangles' splat linked at the head, while the registers hold them, and links what it holds in depth order, a node's depth and link in one store: the whole list when it
 // fits; otherwise in front of the chain's remaining nodes, and the list is appended to sp_sort_list for the
-// sort pass (linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
+// sort pass (layered/linked_list_sort.glsl, LL_SORT_LISTED; past sp_sort_cap lists, the sort pass sorts every list).
 //
 // Without a payload the held fragments' nodes are reserved at the end; with LL_AGGREGATE all of a warp's by one
 // atomic, numbered by rank and, within a rank, by lane (as ll_alloc hands them out rank after rank).
@@ -31,11 +31,11 @@
 // reads the set-up of only the triangles whose box meets it (most meet a few of the tiles), from the same
 // arithmetic as their box; a tile sets up the triangles beyond sp_box_cap itself.
 //
-// Defines: as splat_raster.glsl, SPLAT_TILE_X and SPLAT_TILE_Y (texels per tile side) and SP_TILE_N, their
+// Defines: as layered/splat_raster.glsl, SPLAT_TILE_X and SPLAT_TILE_Y (texels per tile side) and SP_TILE_N, their
 // product (a literal: GLSL 4.30 sizes a workgroup by one), SP_TILE_LAYERS (layers a workgroup takes in turn:
 // fewer workgroups to launch), SP_ALL_BOXED (the host's bound on the long triangles is within sp_box_cap:
-// splat.py long_bound), FR_NARROW (fill_rule.glsl; splat.py tiles_narrow).
-#include "layered_write.glsl"
+// splat.py long_bound), FR_NARROW (layered/fill_rule.glsl; splat.py tiles_narrow).
+#include "layered/write.glsl"
 
 layout(local_size_x = SP_TILE_N) in;
 layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float sp_vtx[]; };
@@ -49,9 +49,9 @@ uniform uint sp_box_cap;
 uniform uint sp_layers;      // layers of the structure
 uniform ivec2 ls_size;       // W, H of one layer
 uniform uint ls_capacity;    // nodes / fragments the structure holds
-#include "layered_store.glsl"
-#include "fill_rule.glsl"
-#include "splat_planes.glsl"
+#include "layered/store.glsl"
+#include "layered/fill_rule.glsl"
+#include "layered/splat_planes.glsl"
 
 #if LS_LAYOUT == 1 && !defined(LL_SORTED) && !defined(LS_PASS_COUNT)
 #define SP_OWNED_HEAD 1

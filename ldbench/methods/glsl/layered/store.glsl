@@ -1,6 +1,6 @@
 // Store one fragment in a layered structure: the write side of every build (ldbench/methods/structures/), shared
-// by the per-layer raster (layered_build.glsl) and the one-pass multi-direction raster
-// (layered_build_one_pass.glsl). Include after layered.glsl, with LL_WRITABLE / LA_WRITABLE defined.
+// by the per-layer raster (layered/build.glsl) and the one-pass multi-direction raster
+// (layered/build_one_pass.glsl). Include after layered/layered.glsl, with LL_WRITABLE / LA_WRITABLE defined.
 //
 //   void ls_store(uint list, float depth, vec3 normal, uint material)
 //
@@ -21,7 +21,7 @@ layout(std430, binding = B_LS_ALBEDO) readonly buffer LSAlbedo { vec4 ls_albedo[
 #if defined(LS_EMIT) && LS_LAYOUT == 2
 #define LS_PAIR_WORDS (2 + LS_PAYLOAD)
 layout(std430, binding = B_PAIRS) writeonly buffer LSPairs { uint ls_pairs[]; };
-#include "atomics.glsl"
+#include "common/atomics.glsl"
 uint ls_reserve_pair() {   // next pair slot
     uint n;
     LS_RESERVE(la_counters[LA_C_EMITTED], n)

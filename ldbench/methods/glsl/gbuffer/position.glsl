@@ -1,5 +1,5 @@
-// The G-buffer's world position of triangle t at pixel px, shared by the hardware pass (gbuffer.glsl) and the
-// compute G-buffer's resolve (gbuffer_resolve.glsl), so that both rasters write the same bits: the camera ray
+// The G-buffer's world position of triangle t at pixel px, shared by the hardware pass (gbuffer/gbuffer.glsl) and the
+// compute G-buffer's resolve (gbuffer/resolve.glsl), so that both rasters write the same bits: the camera ray
 // through the pixel centre met with the triangle's plane, the sampling of the references' primary rays
 // (Camera.primary_rays). Barycentrics b with sum(b_i (x, y, w)_i) parallel to (x_ndc, y_ndc, 1), from the
 // unsnapped vertices: the hardware's own perspective-correct interpolation would use the vertices snapped

@@ -1,15 +1,15 @@
 // Depth peeling of every LDI at once (ldbench/methods/structures/peel.py): one instance per LDI, both faces, no depth
-// test; a fragment's key is (depth, triangle id), depth as order-preserving uint bits (ldi_common.glsl).
+// test; a fragment's key is (depth, triangle id), depth as order-preserving uint bits (layered/ldi_common.glsl).
 // Layer m of a texel is the smallest key strictly above layer m - 1's (pl_prev), found in two raster passes:
 //   PEEL_PASS 1  the smallest depth among the fragments above pl_prev        (atomicMin on pl_cand.x)
 //   PEEL_PASS 2  the smallest triangle id among those at exactly that depth  (atomicMin on pl_cand.y)
 // so fragments at equal depth (coincident faces) are peeled one per layer instead of being lost, and
-// every fragment of the one-pass build appears exactly once. The commit pass (layered_peel_commit.glsl) moves the
+// every fragment of the one-pass build appears exactly once. The commit pass (layered/peel_commit.glsl) moves the
 // candidates to pl_prev and appends them to the scratch list; its counter says when a pass found none.
-// The vertex stage computes depth exactly as layered_build.glsl does, so both builds store equal floats.
+// The vertex stage computes depth exactly as layered/build.glsl does, so both builds store equal floats.
 #extension GL_ARB_ES3_1_compatibility : enable
-#include "layered.glsl"
-#include "ldi_common.glsl"
+#include "layered/layered.glsl"
+#include "layered/ldi_common.glsl"
 
 #if defined(VERTEX_SHADER)
 in vec3 in_position;

@@ -2,7 +2,7 @@
 // lists out of order, [LL_C_LINKED] nodes reached from the heads (must equal the nodes stored). Walks are
 // bounded by the pool capacity (a corrupt link shows as LL_C_LINKED != stored).
 #define LL_STATS 1
-#include "linked_list.glsl"
+#include "layered/linked_list.glsl"
 layout(local_size_x = 64) in;
 uniform uint n_lists;
 void main() {

@@ -2,9 +2,9 @@
 // the emit pass appended every fragment as a pair (list, depth bits, payload words...) to ls_pairs and
 // counted it in la_off[list]; after the exclusive scan each pair takes slot = atomicAdd(la_off[list], 1)
 // (a counting sort by list id; afterwards la_off[i] = end of list i, the layout's convention) and is
-// copied there. The per-list depth sort (linear_sort.glsl) follows.
+// copied there. The per-list depth sort (layered/linear_sort.glsl) follows.
 #define LA_WRITABLE 1
-#include "linear_arrays.glsl"
+#include "layered/linear_arrays.glsl"
 #define LS_PAIR_WORDS (2 + LS_PAYLOAD)
 layout(local_size_x = 256) in;
 layout(std430, binding = B_PAIRS) readonly buffer LSPairs { uint ls_pairs[]; };

@@ -30,7 +30,7 @@
 #define LA_C_EMITTED 6u     // sort assembly: fragments appended as pairs, stored or not
 #define LA_C_OVERFLOW 7u    // fill-pass fragments beyond the capacity (never with the "grow" policy)
 #define LA_C_CAPACITY 8u    // fragments the depth buffer holds (host-written)
-#if defined(LA_WRITABLE) || defined(LA_STATS)   // readers: a plain cached load (see linked_list.glsl)
+#if defined(LA_WRITABLE) || defined(LA_STATS)   // readers: a plain cached load (see layered/linked_list.glsl)
 #define LA_COUNTERS_QUAL coherent
 #else
 #define LA_COUNTERS_QUAL readonly

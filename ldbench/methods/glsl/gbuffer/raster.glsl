@@ -1,12 +1,12 @@
 // The compute G-buffer's raster (ldbench/methods/gbuffer.py, raster = "compute"): one invocation per triangle
 // (grid-stride), run twice with vis_pass 0 (depth keys) then 1 (triangle ids) into the visibility buffer
-// (gbuffer_vis.glsl); the resolve (gbuffer_resolve.glsl) turns it into the G-buffer's textures.
+// (gbuffer/vis.glsl); the resolve (gbuffer/resolve.glsl) turns it into the G-buffer's textures.
 //
 // Each triangle is projected with the G-buffer's view_proj. Outside one clip plane with all three
 // vertices: nothing. Crossing the near or far plane (or w <= 0 at a vertex): left to the hardware, which
 // clips it. Otherwise window coordinates (c.xy / c.w, viewport transform) are snapped to the hardware's
 // sub-pixel grid and every pixel centre of the bounding box is tested with the hardware's fill rule
-// (gbuffer_fill_rule.glsl). The window depth z = z_ndc / 2 + 1/2 is affine in window coordinates; it is
+// (gbuffer/fill_rule.glsl). The window depth z = z_ndc / 2 + 1/2 is affine in window coordinates; it is
 // the plane through the three vertices at the pixel centre, through the snapped ones with
 // SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones (llvmpipe), as the hardware interpolates.
 //
@@ -16,15 +16,15 @@
 // Large triangles: a window bounding box wider or taller than 64 pixels (int32 edge functions) or with
 // more than max_pixels pixel centres in the viewport is appended by pass 0 to gb_large, the index list
 // of one indirect draw (gb_cmd, gb_cmd[0] counts the indices) that the hardware rasterizes in both
-// passes (gbuffer_large.glsl).
+// passes (gbuffer/large.glsl).
 //
 // Defines: LS_SUBPIXEL_BITS, SPLAT_TOP / BOTTOM / LEFT / RIGHT, SPLAT_SNAPPED_PLANE (the probe's rule).
 layout(local_size_x = 64) in;
 // geometry.vertices (ldbench/methods/gbuffer.py): per vertex position (3), face normal (3), material (1)
 layout(std430, binding = B_GBUF_VERTICES) readonly buffer GbufVertices { float gb_vtx[]; };
 layout(std430, binding = B_GBUF_LARGE) buffer GbufLarge { uint gb_cmd[8]; uint gb_large[]; };
-#include "gbuffer_fill_rule.glsl"
-#include "gbuffer_vis.glsl"
+#include "gbuffer/fill_rule.glsl"
+#include "gbuffer/vis.glsl"
 uniform mat4 view_proj;
 uniform uint n_triangles;
 uniform int max_pixels;   // pixel centres of the (viewport-clamped) bounding box rasterized here

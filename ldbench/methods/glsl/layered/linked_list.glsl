@@ -33,7 +33,7 @@
 #define LL_MAX_RETRIES 65536
 #endif
 
-#include "atomics.glsl"
+#include "common/atomics.glsl"
 
 #define LL_EOL 0xFFFFFFFFu
 #define LL_PAGE_MASK ((1u << LL_PAGE_SHIFT) - 1u)

@@ -15,10 +15,10 @@
 // its dominant axis leaves holes there, one seen edge-on gets extra fragments (the paper: "up to 25 %"
 // more memory).
 //
-// Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
+// Defines: as layered/build.glsl (LS_LAYOUT, LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE).
 #extension GL_ARB_ES3_1_compatibility : enable
-#include "layered_write.glsl"
+#include "layered/write.glsl"
 
 #if defined(VERTEX_SHADER)
 in vec3 in_position;
@@ -74,7 +74,7 @@ in vec3 g_world;
 flat in vec3 g_normal;
 flat in uint g_material;
 #endif
-#include "layered_store.glsl"
+#include "layered/store.glsl"
 
 void main() {
 #if defined(GL_ARB_ES3_1_compatibility) || __VERSION__ >= 450

@@ -1,7 +1,7 @@
 // Linearised-array statistics: la_counters[LA_C_NONEMPTY] non-empty lists, [LA_C_MAXLEN] longest list,
 // [LA_C_UNSORTED] lists out of depth order.
 #define LA_STATS 1
-#include "linear_arrays.glsl"
+#include "layered/linear_arrays.glsl"
 layout(local_size_x = 64) in;
 uniform uint n_lists;
 void main() {

@@ -1,8 +1,8 @@
 // The layered-structure access interface (ldbench/methods/structures/): one GLSL API for every layout, so a
 // tracer is written once and reads linked lists, linearised arrays and compacted depth-peeled layers.
 //
-//   LS_LAYOUT = 1  linked lists (yang2010; linked_list.glsl)
-//   LS_LAYOUT = 2  linearised arrays (archer2019; linear_arrays.glsl); compacted depth-peeled layers
+//   LS_LAYOUT = 1  linked lists (yang2010; layered/linked_list.glsl)
+//   LS_LAYOUT = 2  linearised arrays (archer2019; layered/linear_arrays.glsl); compacted depth-peeled layers
 //                  (niessner2010) share this layout: a prefix sum over per-pixel counts, contiguous layers
 //
 //   uint  ls_list(layer, px, size)   list index of a texel (px in OpenGL rows: y = 0 at the bottom)
@@ -31,7 +31,7 @@ struct LSLayer {
 layout(std430, binding = B_LAYERS) readonly buffer LSLayers { LSLayer ls_layers[]; };
 
 #if LS_LAYOUT == 1
-#include "linked_list.glsl"
+#include "layered/linked_list.glsl"
 uint ls_list(uint layer, ivec2 px, ivec2 size) { return ll_list_index(layer, px, size); }
 uint ls_first(uint list) { return ll_head[list]; }
 uint ls_next(uint list, uint node) { return ll_next(node); }
@@ -47,7 +47,7 @@ uint ls_count(uint list) {
     return n;
 }
 #elif LS_LAYOUT == 2
-#include "linear_arrays.glsl"
+#include "layered/linear_arrays.glsl"
 uint ls_list(uint layer, ivec2 px, ivec2 size) { return la_list_index(layer, px, size); }
 uint ls_first(uint list) { uint b = la_begin(list); return b < la_end(list) ? b : LS_END; }
 uint ls_next(uint list, uint node) { return node + 1u < la_end(list) ? node + 1u : LS_END; }

@@ -2,7 +2,7 @@
 // it. Lists of up to LA_MAX_LIST fragments: gathered into registers, insertion sort, written back. Longer
 // lists: counted in la_counters[LA_C_SORT_LONG] and insertion-sorted in global memory (exact, O(L^2)).
 #define LA_WRITABLE 1
-#include "linear_arrays.glsl"
+#include "layered/linear_arrays.glsl"
 #ifndef LA_MAX_LIST
 #define LA_MAX_LIST 32
 #endif

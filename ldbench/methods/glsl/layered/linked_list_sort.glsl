@@ -6,7 +6,7 @@
 // sort. Longer lists: counted in ll_counters[LL_C_SORT_LONG] and sorted in place in global memory (selection sort
 // over the chain: O(L^2) but exact), so nothing is truncated. Every walk is bounded by the pool capacity.
 #define LL_WRITABLE 1
-#include "linked_list.glsl"
+#include "layered/linked_list.glsl"
 #ifndef LL_MAX_LIST
 #define LL_MAX_LIST 64
 #endif
@@ -78,7 +78,7 @@ void ll_sort_list(uint list, uint cap) {
 }
 
 #if defined(LL_SORT_LISTED)
-// only the lists a pass left unsorted (splat_tiles.glsl, SP_TILE_SORT); every list when they were more than
+// only the lists a pass left unsorted (layered/splat_tiles.glsl, SP_TILE_SORT); every list when they were more than
 // the buffer holds
 layout(std430, binding = B_SPLAT_SORT) readonly buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
 uniform uint sp_sort_cap;

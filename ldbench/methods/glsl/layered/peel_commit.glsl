@@ -1,7 +1,7 @@
-// After the two raster passes of one peel (layered_peel.glsl): every texel with a candidate makes it its layer m
+// After the two raster passes of one peel (layered/peel.glsl): every texel with a candidate makes it its layer m
 // (pl_prev), counts it (pl_count = layers so far) and appends (texel, m, depth bits, triangle) to the
 // scratch list; pl_counters[0] = fragments of this layer (0: peeling is complete), [1] = all so far.
-#include "ldi_common.glsl"
+#include "layered/ldi_common.glsl"
 layout(local_size_x = 256) in;
 uniform uint n_lists;
 uniform uint capacity;   // scratch entries

@@ -1,12 +1,12 @@
-// Compaction of the peeled layers into the `linear` layout (linear_arrays.glsl):
+// Compaction of the peeled layers into the `linear` layout (layered/linear_arrays.glsl):
 //   COMPACT_ENDS     la_off[i] = exclusive prefix sum of the layer counts + pl_count[i]: the end of list i
 //                    (where list i + 1 begins), the convention of the one-pass build after its fill pass
 //   COMPACT_SCATTER  scratch entry (texel, m, depth bits, triangle) -> slot la_begin(texel) + m: depth and
 //                    payload words; the payload is looked up from the triangle id (face normal, material
-//                    albedo), packed exactly as layered_build.glsl packs it from the vertex attributes.
+//                    albedo), packed exactly as layered/build.glsl packs it from the vertex attributes.
 #define LA_WRITABLE 1
-#include "layered.glsl"
-#include "ldi_common.glsl"
+#include "layered/layered.glsl"
+#include "layered/ldi_common.glsl"
 layout(local_size_x = 256) in;
 uniform uint n;
 

@@ -5,13 +5,13 @@
 //
 // Defines:
 //   LS_LAYOUT 1 (linked lists) | 2 (linearised arrays)
-//   LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD, LS_PL_*: how a fragment is stored (layered_store.glsl)
+//   LS_PASS_COUNT, LL_SORTED, LS_PAYLOAD, LS_PL_*: how a fragment is stored (layered/store.glsl)
 //   LL_AGGREGATE    warp-aggregated node allocation (linked)
 // Helper invocations (quad neighbours outside the triangle) must not write: their atomics have no effect
 // and return undefined values, which would keep the CAS loop of the sorted insert spinning (llvmpipe runs
 // them to its loop limit). gl_HelperInvocation: GLSL 4.50 / ARB_ES3_1_compatibility.
 #extension GL_ARB_ES3_1_compatibility : enable
-#include "layered_write.glsl"
+#include "layered/write.glsl"
 
 #if defined(VERTEX_SHADER)
 uniform int layer_base;
@@ -45,7 +45,7 @@ in float v_depth;
 flat in vec3 v_normal;
 flat in uint v_material;
 #endif
-#include "layered_store.glsl"
+#include "layered/store.glsl"
 
 void main() {
 #if defined(GL_ARB_ES3_1_compatibility) || __VERSION__ >= 450

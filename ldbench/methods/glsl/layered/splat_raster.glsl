@@ -1,6 +1,6 @@
 // Compute-shader rasterizer of small triangles into a layered structure (ldbench/methods/structures/splat.py,
 // build = "splat"): one invocation per (triangle, batch of SPLAT_BATCH layers), every covered texel
-// stored with the same ls_store as the hardware raster (layered_store.glsl).
+// stored with the same ls_store as the hardware raster (layered/store.glsl).
 // SPLAT_QUEUE (structure.splat_queue): a workgroup's invocations first project their triangles into the
 // batch's layers and queue, in shared memory, the pairs whose box may hold a texel centre (a few in a hundred;
 // tested in floats, sp_reaches); then consecutive invocations rasterize the queued pairs, so that the lanes of
@@ -8,7 +8,7 @@
 // in shared memory; then consecutive invocations store them, so that a warp's stores are not spread over its
 // lanes' unequal boxes. The same fragments.
 //
-// Coverage is the hardware's (gbuffer_fill_rule.glsl, shared with the compute G-buffer): window coordinates
+// Coverage is the hardware's (gbuffer/fill_rule.glsl, shared with the compute G-buffer): window coordinates
 // snapped to LS_SUBPIXEL_BITS of fixed point, samples at texel centres, exact integer edge functions, and
 // the edge classes this GPU includes. Zero-area triangles (after snapping) cover nothing.
 // Depth and clip z are the planes through the three vertices evaluated at the texel centre, as the
@@ -18,17 +18,17 @@
 // maps: checked on the host).
 //
 // Large triangles: one whose longest edge, times splat_scale (the most texels per world unit of any
-// layer), exceeds splat_max texels is left to a second pass (splat_tiles.glsl, or the hardware): the
+// layer), exceeds splat_max texels is left to a second pass (layered/splat_tiles.glsl, or the hardware): the
 // invocation of its first layer batch appends its vertex indices to sp_large, the index list of both
 // (sp_cmd holds the hardware's two indirect draw commands, one per pass parity: sp_cmd[5 sp_parity] counts this
 // pass's indices; the first invocation zeroes the other's for the next pass). splat_max <= 64 keeps
 // every edge function within int32 (coordinate differences < 65 * 256 = 2^14.1, products < 2^29.1).
 //
-// Defines: as layered_build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
+// Defines: as layered/build.glsl (LS_LAYOUT, LS_PASS_COUNT, LS_EMIT, LL_SORTED, LS_PAYLOAD / LS_PL_*,
 // LL_AGGREGATE), SPLAT_BATCH (layers per invocation), SPLAT_GROUP (invocations per workgroup), SPLAT_QUEUE,
 // LS_SUBPIXEL_BITS, SPLAT_TOP/BOTTOM/LEFT/RIGHT, SPLAT_SNAPPED_PLANE (0 or 1), SPLAT_WIN_N (layers of a batch whose
 // window rows the queue keeps in shared memory).
-#include "layered_write.glsl"
+#include "layered/write.glsl"
 
 layout(local_size_x = SPLAT_GROUP) in;
 // geometry.vertices (ldbench/methods/gbuffer.py): per vertex position (3), face normal (3), material (1); the positions
@@ -37,7 +37,7 @@ layout(std430, binding = B_SPLAT_VERTICES) readonly buffer SplatVertices { float
 layout(std430, binding = B_SPLAT_POSITIONS) readonly buffer SplatPositions { vec4 sp_pos[]; };
 layout(std430, binding = B_SPLAT_LARGE) buffer SplatLarge { uint sp_cmd[16]; uint sp_large[]; };
 #if defined(SP_ZERO_SORT)
-// the lists the tiles leave to the sort pass (splat_tiles.glsl): emptied here, before the tiles' pass
+// the lists the tiles leave to the sort pass (layered/splat_tiles.glsl): emptied here, before the tiles' pass
 layout(std430, binding = B_SPLAT_SORT) writeonly buffer SplatSortLists { uint sp_sort_n; uint sp_sort_list[]; };
 #endif
 uniform ivec2 ls_size;       // W, H of one layer
@@ -48,9 +48,9 @@ uniform float splat_scale;   // texels per world unit, the largest of any layer
 uniform float splat_max;     // longest edge (texels) rasterized here
 uniform vec3 sp_extent;      // the largest |coordinate| of the scene's vertices per axis (the queue's margin)
 uniform uint sp_parity;      // the pass's draw command (0 or 1)
-#include "layered_store.glsl"
-#include "gbuffer_fill_rule.glsl"
-#include "splat_planes.glsl"
+#include "layered/store.glsl"
+#include "gbuffer/fill_rule.glsl"
+#include "layered/splat_planes.glsl"
 
 // The pair (triangle, layer k) projected and snapped; false when its box holds no texel centre (most pairs)
 struct SpPair { vec2 w0, w1, w2; float z0, z1, z2; ivec2 f0, f1, f2; int area; ivec2 i0, i1; };

@@ -1,8 +1,8 @@
 // G-buffer pass: world position (w = 1 where a surface was hit), geometric normal flipped to face
 // the camera (two-sided surfaces; w = material id), albedo. Rasterized with culling off. The position is
-// gbuffer_position.glsl's (the pixel-centre ray met with the triangle's plane), not the interpolated one:
+// gbuffer/position.glsl's (the pixel-centre ray met with the triangle's plane), not the interpolated one:
 // the compute G-buffer's resolve computes the same.
-#include "common.glsl"
+#include "common/common.glsl"
 
 #if defined(VERTEX_SHADER)
 uniform mat4 view_proj;
@@ -20,7 +20,7 @@ void main() {
 }
 
 #elif defined(FRAGMENT_SHADER)
-#include "gbuffer_position.glsl"
+#include "gbuffer/position.glsl"
 uniform vec3 eye;
 uniform mat4 view_proj;
 uniform ivec2 size;

@@ -1,6 +1,6 @@
 // Omnidirectional shadow map in a 6-face atlas (faces side by side: +X -X +Y -Y +Z -Z), storing the
 // linear distance to the light. Works for spot lights of any cutoff and for point lights.
-#include "common.glsl"
+#include "common/common.glsl"
 
 #if defined(VERTEX_SHADER)
 uniform mat4 view_proj;

@@ -1,5 +1,5 @@
 // The compute G-buffer's visibility buffer (ldbench/methods/gbuffer.py, raster = "compute"), shared by its compute
-// raster (gbuffer_raster.glsl) and the hardware raster of the triangles it leaves (gbuffer_large.glsl).
+// raster (gbuffer/raster.glsl) and the hardware raster of the triangles it leaves (gbuffer/large.glsl).
 // gv_vis[0 .. W*H): per pixel the least depth key, gv_vis[W*H .. 2*W*H): the least triangle id among the
 // fragments of that depth key; both cleared to 0xFFFFFFFF (nothing). Depth keys are the float bits of the
 // window depth in [0, 1] (non-negative floats order as uints; the sign bit is dropped so -0 is 0).

@@ -1,7 +1,7 @@
-// The planes a splat interpolates across a triangle in layer k, as the hardware does (splat_raster.glsl,
-// splat_tiles.glsl): through the snapped vertices (SPLAT_SNAPPED_PLANE, NVIDIA) or the given ones, in the
+// The planes a splat interpolates across a triangle in layer k, as the hardware does (layered/splat_raster.glsl,
+// layered/splat_tiles.glsl): through the snapped vertices (SPLAT_SNAPPED_PLANE, NVIDIA) or the given ones, in the
 // triangle's counter-clockwise order; the stored depth is dot(depth_row, p), clip z that of the clip matrix.
-// Include after gbuffer_fill_rule.glsl and layered.glsl.
+// Include after gbuffer/fill_rule.glsl and layered/layered.glsl.
 #ifndef LDBENCH_SPLAT_PLANES_GLSL
 #define LDBENCH_SPLAT_PLANES_GLSL
 // value at a texel centre c: d0 + dot(dd, c - w0) (depth), z0 + dot(dz, c - w0) (clip z)

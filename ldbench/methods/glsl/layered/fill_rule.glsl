@@ -1,8 +1,8 @@
 // The hardware's coverage of a triangle of any size in window coordinates (the photon splats: up to
-// max_splat_px across, beyond the int32 range of gbuffer_fill_rule.glsl's edge functions): vertices snapped
+// max_splat_px across, beyond the int32 range of gbuffer/fill_rule.glsl's edge functions): vertices snapped
 // to LS_SUBPIXEL_BITS of fixed point, the edge functions evaluated in doubles (exact for any image size; over
-// a tile, stepped from there in int32: fr_tile), the edge classes of gbuffer_fill_rule.glsl's sp_bias, zero area after snapping covering nothing.
-#include "gbuffer_fill_rule.glsl"
+// a tile, stepped from there in int32: fr_tile), the edge classes of gbuffer/fill_rule.glsl's sp_bias, zero area after snapping covering nothing.
+#include "gbuffer/fill_rule.glsl"
 
 // f0..f2 counter-clockwise (1 and 2 swapped when cw); lo..hi: the texel centres of its box
 struct FrTri { ivec2 f0, f1, f2; ivec2 lo, hi; int b0, b1, b2; bool ok, cw; };

@@ -3,8 +3,8 @@
 // order the one-pass build leaves to its atomics and the peel to triangle ids. After it, both builds are
 // bit-identical (tests/test_ldi.py).
 #define LA_WRITABLE 1
-#include "layered.glsl"
-#include "ldi_common.glsl"
+#include "layered/layered.glsl"
+#include "layered/ldi_common.glsl"
 layout(local_size_x = 64) in;
 uniform uint n_lists;
 

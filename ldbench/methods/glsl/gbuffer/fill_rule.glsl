@@ -1,9 +1,9 @@
 // The hardware's fill rule in integer arithmetic, shared by the compute rasterizers: the splat build of
-// the layered structures (splat_raster.glsl) and the compute G-buffer (gbuffer_raster.glsl).
+// the layered structures (layered/splat_raster.glsl) and the compute G-buffer (gbuffer/raster.glsl).
 //
 // Window coordinates are snapped to LS_SUBPIXEL_BITS of fixed point (round to nearest even); samples sit
 // at texel centres; a sample exactly on an edge is covered only when the hardware includes that class of
-// edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1, measured per context by splat_probe.glsl,
+// edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1, measured per context by layered/splat_probe.glsl,
 // ldbench/methods/structures/splat.py fill_rule). With the triangle taken counter-clockwise (GL window
 // coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge going
 // down is a left edge, going up a right edge. Callers keep coordinate differences below 2^14 (edges of at

@@ -1,5 +1,5 @@
 // Tracing rays through orthographic layered depth maps (aalund2015 §3.1), over the layered-structure
-// interface (layered.glsl): the same code reads linked lists and linearised arrays.
+// interface (layered/layered.glsl): the same code reads linked lists and linearised arrays.
 //
 // Map k looks along its axis v_k; (u_k, w_k, v_k) is a right-handed orthonormal basis; the map covers the
 // scene's bounding sphere (centre ol_centre, radius ol_radius): texel coordinates are
@@ -29,8 +29,8 @@
 // the maps facing away from the normal: ao.glsl).
 #ifndef LDBENCH_LDM_TRACE_GLSL
 #define LDBENCH_LDM_TRACE_GLSL
-#include "layered.glsl"
-#include "ortho_layers.glsl"
+#include "layered/layered.glsl"
+#include "layered/ortho_layers.glsl"
 
 uniform float ldm_crease;  // world units (0 = no crease rule)
 #define LDM_FAR 3.0e38
