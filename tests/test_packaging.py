@@ -43,7 +43,7 @@ def _expected_files() -> set:
         for p in (PACKAGE / pkg).rglob("*"):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".glsl", ".toml", ".js", ".css"):
                 out.add(installed_path(p.relative_to(PACKAGE).as_posix()))
-    out |= {installed_path(f"ldbench/harness/suites/{p.name}") for p in (ROOT / "suites").glob("*.toml")}
+    out |= {installed_path(f"harness/suites/{p.name}") for p in (ROOT / "suites").glob("*.toml")}
     return out
 
 
@@ -100,9 +100,9 @@ def test_wheel_holds_every_adapter_glsl_and_suite(installed):
     assert not missing, f"missing from the wheel: {sorted(missing)}"
     assert len(ADAPTER_DIRS) >= 3
     for a in ADAPTER_DIRS:
-        assert installed_path(f"ldbench/methods/{a}/__init__.py") in names
+        assert installed_path(f"methods/{a}/__init__.py") in names
     registry_toml = next(PACKAGE.glob("*/scene_registry.toml")).relative_to(PACKAGE).as_posix()
-    assert installed_path(registry_toml) in names and installed_path("ldbench/harness/suites/default.toml") in names
+    assert installed_path(registry_toml) in names and installed_path("harness/suites/default.toml") in names
     top = {n.split("/")[0] for n in names} - {n.split("/")[0] for n in names if ".dist-info/" in n}
     # nothing generic at the top of site-packages: one import name once the folders are mapped under it
     assert top == ({PREFIX[:-1]} if PREFIX else set(PACKAGES)), sorted(top)
