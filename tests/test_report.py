@@ -1,4 +1,4 @@
-"""The HTML report (ldbench/reports/report.py, ldbench/reports/figures.py) on a small real run and on synthetic rows."""
+"""The HTML report (ldbench/reports/report.py, ldbench/reports/figures/) on a small real run and on synthetic rows."""
 from __future__ import annotations
 
 import html.parser
@@ -212,14 +212,15 @@ def test_synthetic_sweep_figures(tmp_path):
 
 
 def test_swept_parameters_and_pareto():
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.quality import pareto_front
+    from ldbench.reports.figures.table import prepare, swept_parameters
     import pandas as pd
 
-    df = F.prepare(pd.DataFrame(synthetic_rows()))
-    swept = F.swept_parameters(df)
+    df = prepare(pd.DataFrame(synthetic_rows()))
+    swept = swept_parameters(df)
     assert "d_max" in swept and "directions" not in swept  # directions differ only across methods
-    assert F.pareto_front([1, 2, 3, 4], [10, 9, 12, 12], True) == [0, 2]
-    assert F.pareto_front([1, 2, 3], [0.3, 0.1, 0.2], False) == [0, 1]
+    assert pareto_front([1, 2, 3, 4], [10, 9, 12, 12], True) == [0, 2]
+    assert pareto_front([1, 2, 3], [0.3, 0.1, 0.2], False) == [0, 1]
 
 
 def test_report_survives_a_broken_figure(tmp_path, monkeypatch):
@@ -303,14 +304,14 @@ def test_leaderboard_says_who_wins(tmp_path):
     front of PSNR and time, failed rows below the ranking with their status; at the top of both pages."""
     import pandas as pd
 
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.table import prepare
     from ldbench.reports.report import boards
 
     rows = synthetic_rows()
     rows.append(records.make_row(run_id="synthetic", suite="synthetic", scene="atrium", method="gtao", effect="ao",
                                  effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"}, width=32,
                                  height=32, device="nvidia", status="ok", psnr=20.0, total_ms=1.0))
-    df = F.prepare(pd.DataFrame(rows))
+    df = prepare(pd.DataFrame(rows))
     bs = boards(df)
     assert [(b.effect, b.size) for b in bs] == [(e, "64x64") for e in dict.fromkeys(df["effect_text"][:9])] + \
         [("ao (step, d_max = 1)", "32x32")]
@@ -335,7 +336,7 @@ def test_a_method_keeps_its_colour_from_report_to_report():
     """A method's colour depends on its name only (not on which other methods a run holds, nor their order):
     the built-in methods have distinct fixed colours, a plugin's is picked by its name, the oracle is black."""
     from ldbench.methods.base import registry
-    from ldbench.reports.figures import method_colours
+    from ldbench.reports.figures.colours import method_colours
 
     builtin = [m for m in registry() if registry()[m].__module__.startswith("ldbench.")]
     one = method_colours(builtin)
@@ -351,7 +352,7 @@ def test_a_sweep_of_a_choice_parameter_is_named_and_labelled(tmp_path):
     method only is no label part of another's rows."""
     import pandas as pd
 
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.table import prepare
     from ldbench.reports.labels import differing_keys, label_parts
     from ldbench.reports.report import swept_params
 
@@ -360,7 +361,7 @@ def test_a_sweep_of_a_choice_parameter_is_named_and_labelled(tmp_path):
     rows = [records.make_row(method="hbao", params={}, **base),
             records.make_row(method="hbao", params={"sampling": "pixel_step"}, **base),
             records.make_row(method="gtao", params={}, **base)]
-    df = F.prepare(pd.DataFrame(rows))
+    df = prepare(pd.DataFrame(rows))
     assert swept_params(df) == {"hbao": {"sampling"}, "gtao": set()}
     diff = differing_keys([r for _, r in df.iterrows()])
     assert diff == ["sampling"]
@@ -371,3 +372,16 @@ def test_a_sweep_of_a_choice_parameter_is_named_and_labelled(tmp_path):
     html = (tmp_path / "index.html").read_text()
     assert "Swept without a numeric axis: sampling" in html and "No parameter is swept" not in html
     assert "sampling=None" not in html
+
+
+def test_summary_device_line_of_a_scored_answer_and_of_missing_fields():
+    """summary.md's device line never prints None or nan: a scored answer (device external) says it was
+    rendered outside ldbench; a machine field the table lacks reads "–"."""
+    from ldbench.reports.report import _device_line
+
+    ext = _device_line({"device": "external", "gl_renderer": None, "gl_version": None, "driver": None,
+                        "cpu": float("nan"), "gpu_name": None})
+    assert "outside ldbench" in ext and "None" not in ext and "nan" not in ext, ext
+    gpu = _device_line({"device": "nvidia", "gl_renderer": "NVIDIA H200", "gl_version": "4.3", "driver": "580",
+                        "cpu": "x86", "gpu_name": float("nan")})
+    assert "**nvidia** — NVIDIA H200 (4.3); driver 580; CPU x86; GPU –" in gpu and "nan" not in gpu, gpu

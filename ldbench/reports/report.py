@@ -16,7 +16,7 @@
 * ``summary.md`` — the leaderboards and the results table in Markdown with links to the figures.
 
 Tables list only the parameters that differ from the adapter's defaults (:func:`shown_params`); the
-results files keep the full set. docs/reports.md describes the page and the viewer.
+results files keep the full set. docs/reference/reports.md describes the page and the viewer.
 
 A figure that fails is listed on the page (and on stderr) instead of aborting the report, so a long GPU
 run is never lost to a plotting problem.
@@ -30,7 +30,10 @@ import sys
 import urllib.parse
 from pathlib import Path
 
-from . import figures as F
+from .figures import write_figures
+from .figures.grids import grid_groups, make_grid
+from .figures.table import as_dict, prepare
+from .figures.viewer_values import VALUES_BUDGET_BYTES
 from . import labels
 from .leaderboard import leaderboards
 from ldbench.core.device import MACHINE_FIELDS
@@ -42,7 +45,7 @@ from ldbench.core.files import atomic_write_text
 
 
 def _fmt(v, nd=2):
-    v2 = F.as_number(v) if not isinstance(v, str) else v
+    v2 = labels.as_number(v) if not isinstance(v, str) else v
     if v2 is None:
         return "–"
     if isinstance(v2, str):
@@ -58,7 +61,7 @@ def shown_params(method, p, keep=()) -> list:
     the ungrouped ones first under group ``""``. A dotted name ("structure.source") belongs to the group
     before its first dot; old flat names are read through ``Params.renamed``. The results files keep
     the full set."""
-    p = p if isinstance(p, dict) else F.as_dict(p)
+    p = p if isinstance(p, dict) else as_dict(p)
     defaults, renamed = labels.defaults(str(method))
     groups: dict = {}
     for k, v in p.items():
@@ -73,7 +76,7 @@ def shown_params(method, p, keep=()) -> list:
 def swept_params(df) -> dict:
     """{method: names of the parameters that take more than one value among its rows}: a table shows
     them in every row of the method, even where a row has the default value."""
-    return labels.swept_params([{"method": m, "params": p if isinstance(p, dict) else F.as_dict(p)}
+    return labels.swept_params([{"method": m, "params": p if isinstance(p, dict) else as_dict(p)}
                                 for m, p in zip(df["method"], df["params"])])
 
 
@@ -81,7 +84,7 @@ def _params_str(p, method=None, sep=" · ", keep=()) -> str:
     """Non-default parameters as text: ``directions=64 · structure: source=peel, depth=4``."""
     parts = []
     for group, items in shown_params(method, p, keep):
-        txt = ", ".join(f"{k}={F.fmt_value(v)}" for k, v in items)
+        txt = ", ".join(f"{k}={labels.fmt_value(v)}" for k, v in items)
         parts.append(f"{group}: {txt}" if group else txt)
     return sep.join(parts) if parts else "defaults"
 
@@ -154,12 +157,27 @@ def _board_md(b) -> list:
     return lines + [""]
 
 
+def _device_line(m: dict) -> str:
+    """The machine a run's rows were measured on; a scored answer (``device = external``) was rendered
+    outside ldbench, so no GL renderer, driver or CPU of ldbench's is known for it."""
+    known = {k: _known(m.get(k)) for k in ("device", "gl_renderer", "gl_version", "driver", "cpu", "gpu_name")}
+    if known["device"] == "external":
+        return ("- device: **external**: the answer was rendered outside ldbench (`ldbench score`); its time "
+                "and memory are those the answer states")
+    return (f"- device: **{known['device'] or '–'}** — {known['gl_renderer'] or '–'} ({known['gl_version'] or '–'}); "
+            f"driver {known['driver'] or '–'}; CPU {known['cpu'] or '–'}; GPU {known['gpu_name'] or '–'}")
+
+
+def _known(v):
+    """``v``, or None where the table holds no value (None, NaN, an empty string)."""
+    return None if v is None or (isinstance(v, float) and math.isnan(v)) or v == "" else v
+
+
 def write_summary(run_dir: Path, df, figs=(), grids=()) -> Path:
     lines = ["# ldbench run", ""]
     for m in machines(df):
         lines += [f"- run: `{m['run id']}`, suite `{m['suite']}`, commit `{m['commit']}`, {m['time (UTC)']}",
-                  f"- device: **{m['device']}** — {m['gl_renderer']} ({m['gl_version']}); driver "
-                  f"{m['driver']}; CPU {m['cpu']}; GPU {m['gpu_name'] or '–'}"]
+                  _device_line(m)]
     lines.append("")
     if (df["device"] == "cpu-software").any():
         lines += ["> Times are wall clock on a software rasterizer (llvmpipe), not GPU times.", ""]
@@ -288,7 +306,7 @@ def metric_tables(df) -> list:
 
 
 def _metric(r, c) -> str:
-    v = F.as_number(r.get(c))
+    v = labels.as_number(r.get(c))
     if v is None:
         return "–"
     if c.endswith("per_s"):
@@ -306,7 +324,7 @@ def terminal_table(df) -> str:
 
     if not len(df):
         return "(no rows)"
-    d = F.prepare(df)
+    d = prepare(df)
     reg = registry()
     swept = swept_params(d)
     blocks = []
@@ -314,7 +332,7 @@ def terminal_table(df) -> str:
         rows = d[d["effect"] == eff]
         spec = reg.get(eff)
         cols = [c for c in (spec.metrics if spec is not None else ("psnr", "ssim"))
-                if c in rows.columns and any(F.as_number(v) is not None for v in rows[c])]
+                if c in rows.columns and any(labels.as_number(v) is not None for v in rows[c])]
         table = pd.DataFrame([{"scene": r["scene"], "method": r["method"], "effect": r["effect_text"],
                                "size": r["size"], "params": _row_params(r, swept, "; "),
                                "total ms": _fmt(r["total_ms"]), "memory MB": _fmt(r["memory_mb"], 1),
@@ -614,15 +632,17 @@ def write_html(run_dir: Path, df, figs, grids, problems) -> Path:
 # entry points
 
 
-def write_grids(run_dir: Path, df, problems: list | None = None) -> list:
-    """Image grids of a prepared table (one per scene content × effect × size)."""
+def write_grids(run_dir: Path, df, problems: list | None = None, damaged: list | None = None) -> list:
+    """Image grids of a prepared table (one per scene content × effect × size). A grid whose image files are
+    damaged (:func:`damaged_images`) is left out: one line in ``problems`` per file, also kept in ``damaged``."""
     problems = [] if problems is None else problems
+    damaged = [] if damaged is None else damaged
     grids = []
     # The same image file claimed by several rows means one job overwrote another's image (the runner's
     # file names do not include every job attribute, e.g. the image size or scene parameters).
     users: dict = {}
     for _, r in df[df["status"] == "ok"].iterrows():
-        for k in ("image", "reference", "error"):
+        for k in ("image", "reference", "error_exr"):
             rel = r["images"].get(k)
             if rel:
                 users.setdefault(rel, set()).add((r["scene_hash"], r["effect_text"], r["size"],
@@ -630,42 +650,84 @@ def write_grids(run_dir: Path, df, problems: list | None = None) -> list:
                                                   json.dumps(r["params"], sort_keys=True, default=str)
                                                   if k != "reference" else ""))
     shared = {rel for rel, u in users.items() if len(u) > 1}
-    budget = {"bytes": F.VALUES_BUDGET_BYTES}  # the viewer's value files, for all grids together
-    for key, rows in F.grid_groups(df).items():
+    budget = {"bytes": VALUES_BUDGET_BYTES}  # the viewer's value files, for all grids together
+    for key, rows in grid_groups(df).items():
+        bad = damaged_images(run_dir, rows)
+        if bad:  # one line per file; the grid is left out, the rest of the report is written
+            damaged.extend(f"image file {rel}: {why}" for rel, why in bad)
+            problems.extend(damaged[-len(bad):])
+            continue
         try:
-            g = F.make_grid(run_dir, key, rows, values_budget=budget)
+            g = make_grid(run_dir, key, rows, values_budget=budget)
             clash = sorted({rel for r in rows for rel in (r["images"].get("image"), r["images"].get("reference"),
-                                                           r["images"].get("error")) if rel in shared})
+                                                           r["images"].get("error_exr")) if rel in shared})
             if clash:
                 g.problems.append("these image files are shared with other rows of a different configuration, "
                                   "so they may show another job's image (overwritten during the run): "
                                   + ", ".join(clash))
             grids.append(g)
         except Exception as e:  # noqa: BLE001 - report, do not lose the run
-            import traceback
+            import logging
 
-            traceback.print_exc()
-            problems.append(f"image grid {key[0]} {key[2]} {key[3]}: {type(e).__name__}: {e}")
+            logging.getLogger(__name__).debug("image grid failed", exc_info=True)  # the traceback with -v
+            first = (str(e).strip().splitlines() or [""])[0][:300]
+            problems.append(f"image grid {key[0]} {key[2]} {key[3]}: {type(e).__name__}: {first}")
     return grids
+
+
+#: The first bytes of the image files a run holds (the report reads them back into its grids).
+IMAGE_MAGIC = {".png": b"\x89PNG\r\n\x1a\n", ".exr": b"\x76\x2f\x31\x01"}
+
+
+def damaged_images(run_dir: Path, rows) -> list[tuple[str, str]]:
+    """(file, why) of every PNG/EXR of the run that the ``rows`` name and that is empty, unreadable or not that
+    format (a copy cut short, a full disk): the report says so in one line each instead of failing on it. A
+    missing file is the grid's own note (:func:`~ldbench.reports.figures.grids.make_grid`); files outside the
+    run (a scored answer's source) are not the report's."""
+    out, seen = [], set()
+    for r in rows:
+        images = r["images"] if isinstance(r["images"], dict) else {}
+        for rel in images.values():
+            if (not isinstance(rel, str) or rel in seen or Path(rel).is_absolute()
+                    or Path(rel).suffix.lower() not in IMAGE_MAGIC):
+                continue
+            seen.add(rel)
+            p = Path(run_dir) / rel
+            try:
+                with open(p, "rb") as f:
+                    head = f.read(8)
+            except FileNotFoundError:
+                continue
+            except OSError as e:
+                out.append((rel, e.strerror or type(e).__name__))
+                continue
+            if not head:
+                out.append((rel, "empty (0 bytes)"))
+            elif not head.startswith(IMAGE_MAGIC[p.suffix.lower()]):
+                out.append((rel, f"not a {p.suffix[1:].upper()} file"))
+    return out
 
 
 def build_report(run_dir, df=None) -> dict:
     """Write every report file; returns ``{"index": Path, "summary": Path, "figures": [...],
-    "grids": [...], "problems": [...]}``. ``df`` defaults to the run directory's results."""
+    "grids": [...], "problems": [...], "damaged": [...]}`` (``damaged``: the problems that are image files of
+    the run that cannot be read, :func:`damaged_images`). ``df`` defaults to the run directory's results."""
     from ldbench.harness.records import read_results
 
     run_dir = Path(run_dir)
     raw = read_results(run_dir) if df is None else df
-    df = F.prepare(raw)
+    df = prepare(raw)
     (run_dir / "figures").mkdir(exist_ok=True)
     problems: list[str] = []
-    figs = F.write_figures(run_dir, df, problems)
-    grids = write_grids(run_dir, df, problems)
+    damaged: list[str] = []
+    figs = write_figures(run_dir, df, problems)
+    grids = write_grids(run_dir, df, problems, damaged)
     for p in problems:
-        print(f"ldbench report: warning: {p}", file=sys.stderr)
+        print(f"ldbench: warning: report: {p}", file=sys.stderr)
     summary = write_summary(run_dir, df, figs, grids)
     index = write_html(run_dir, df, figs, grids, problems)
-    return {"index": index, "summary": summary, "figures": figs, "grids": grids, "problems": problems}
+    return {"index": index, "summary": summary, "figures": figs, "grids": grids, "problems": problems,
+            "damaged": damaged}
 
 
 def write_report(run_dir) -> Path:
