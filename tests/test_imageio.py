@@ -4,7 +4,7 @@ import pytest
 
 from ldbench.core import imageio
 from ldbench.core.exr import read_exr
-from ldbench.core.metrics import colorize, to_srgb8
+from ldbench.core.metrics import to_srgb8
 
 
 def _read_png(path):
@@ -29,13 +29,15 @@ def test_save_image_writes_the_srgb_preview_and_the_exr(tmp_path, channels):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.exr", "a.png"]  # no temporary left
 
 
-def test_save_map_colours_by_the_99th_percentile(tmp_path):
+def test_save_map_writes_the_exr_alone_and_returns_its_99th_percentile(tmp_path):
+    """The report colours a grid's maps on one scale from the EXRs: a PNG per map would be seen by no one."""
     e = np.linspace(0.0, 1.0, 100, dtype=np.float32).reshape(10, 10)
     mask = np.ones((10, 10), bool)
     mask[0] = False
     vmax = imageio.save_map(tmp_path / "e", e, mask)
     assert vmax == pytest.approx(np.percentile(e[mask], 99))
-    assert np.array_equal(_read_png(tmp_path / "e.png"), colorize(e, vmax=vmax))
+    assert np.array_equal(read_exr(tmp_path / "e.exr")["Y"], e)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["e.exr"]
 
 
 def test_write_png_refuses_floats_and_keeps_the_old_file(tmp_path, monkeypatch):

@@ -1,5 +1,5 @@
-"""Methods and effects from outside ldbench (ldbench/core/plugins.py): entry points, ``package.module:Class``
-names, one error for two classes with one name, provenance columns, and the example plugin of
+"""Methods, effects and scenes from outside ldbench (ldbench/core/plugins.py): entry points,
+``package.module:Class`` names, one error for two classes with one name, provenance columns, and the example plugin of
 examples/example-ao installed into a fresh virtual environment and run from outside the source tree,
 under the local and the Ray executor. Nothing here is marked slow: `make test` (CI) runs all of it
 (about 40 s on llvmpipe, the installed-plugin test about 25 s of that).
@@ -131,6 +131,98 @@ def test_entry_point_method_and_effect_are_registered(tmp_path, monkeypatch, cle
     assert type(effects()["ao2"]).__name__ == "NewAO"
     prov = plugins.provenance(registry()["new-hbao"])
     assert (prov["module"], prov["dist"], prov["dist_version"]) == ("newmod", "new-plugin", "1.0")
+
+
+ROOM_SCENE = '''
+    """A new scene is this one module (and an entry point naming its class)."""
+    from dataclasses import dataclass
+
+    from ldbench.core.meshio import box_parts, merge
+    from ldbench.core.params import param
+    from ldbench.core.scene import Camera, Scene, SpotLight
+    from ldbench.core.scenes.base import SceneBuilder, SceneParams, part_mesh, rgb
+
+
+    @dataclass(frozen=True)
+    class RoomParams(SceneParams):
+        side: float = param(2.0, "side of the room (m)", lo=0.5, hi=100.0)
+        cells: int = param(1, "cells along every side of a wall", lo=1, hi=64)
+        albedo: tuple = rgb((0.7, 0.7, 0.7), "the walls' albedo")
+
+
+    class Room(SceneBuilder):
+        """An open cubic room lit from its ceiling.
+
+        For the plugin test only."""
+
+        name = "test-room"
+        Params = RoomParams
+
+        def build(self, p):
+            s = p.side
+            room = box_parts((-s / 2, 0, -s / 2), (s / 2, s, s / 2), p.cells, skip=("+z",), inward=True)
+            walls = merge(room.values())
+            cam = Camera(origin=(0.0, s / 2, 2 * s), target=(0.0, s / 2, 0.0), fov_y=45.0)
+            light = SpotLight(position=(0.0, 0.95 * s, 0.0), target=(0.0, 0.0, 0.0), intensity=(10.0,) * 3,
+                              cutoff_angle=70.0)
+            return Scene("test-room", [part_mesh("walls", walls, p.albedo)], cam, [light])
+'''
+
+
+def test_a_new_scene_is_one_module(tmp_path, monkeypatch, capsys, clean_plugins):
+    """A scene module outside ldbench, declared by an entry point of group ``ldbench.scenes``: discovered, its
+    parameters validated like a built-in scene's (one line naming scene and parameter), listed by
+    ``ldbench scenes``, and run through the command line like any scene."""
+    from ldbench.core.errors import LdbenchError
+    from ldbench.core.scenes import builders, load_scene
+    from ldbench.harness import records
+
+    src = _module(tmp_path / "site", "roomscene", ROOM_SCENE)
+    _fake_dist(src, "room-scene", "0.3", "[ldbench.scenes]\nroom = roomscene:Room\n")
+    assert "test-room" not in builders()
+    monkeypatch.syspath_prepend(str(src))
+    assert builders()["test-room"].__module__ == "roomscene"
+
+    sc = load_scene("test-room:side=3,cells=2e0", albedo="0.5")  # the spellings of a built-in scene's values
+    assert sc.params == {"side": 3.0, "cells": 2, "albedo": [0.5, 0.5, 0.5]} and sc.triangle_count == 5 * 2 * 4
+    assert load_scene(sc.name, **sc.params).content_hash() == sc.content_hash()
+    for params, words in (({"side": 0.1}, "side=0.1 below its minimum 0.5"), ({"cells": 1.5}, "cells=1.5"),
+                          ({"albedo": "1, 2, 3"}, "albedo=(1.0, 2.0, 3.0) outside [0, 1]"),
+                          ({"colour": 1}, "unknown parameter 'colour'")):
+        with pytest.raises(LdbenchError) as e:
+            load_scene("test-room", **params)
+        assert "\n" not in str(e.value) and "'test-room'" in str(e.value) and words in str(e.value), e.value
+
+    assert main(["scenes"]) == 0
+    assert "test-room" in capsys.readouterr().out
+    out = tmp_path / "r"
+    rc = main(["run", "--scene", "test-room", "--scene-set", "side=0.1", "--method", "direct-raster", "--effect",
+               "direct", "--out", str(out), *TINY])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and "scene 'test-room'" in err and "side" in err, err
+    assert not out.exists()
+    rc = main(["run", "--scene", "test-room", "--scene-set", "side=3", "--method", "direct-raster", "--effect",
+               "direct", "--out", str(out), *TINY])
+    assert rc == 0, capsys.readouterr().err
+    row = records.read_results(out).iloc[0]
+    assert (row["scene"], row["status"], row["triangles"]) == ("test-room", "ok", 5 * 2)
+    assert row["psnr"] > 10, row["psnr"]  # the room is lit and the method sees it as the reference does
+
+
+@pytest.mark.parametrize("name,words", [("cornell", "two scenes are named 'cornell'"),
+                                        ("dragon", "the registered real scene")])
+def test_a_scene_plugin_may_not_take_a_name_in_use(tmp_path, monkeypatch, clean_plugins, name, words):
+    from ldbench.core.errors import LdbenchError
+    from ldbench.core.scenes import builders
+
+    module = f"dupscene_{name}"  # one module per case: a module imported once stays imported
+    src = _module(tmp_path / "site", module, ROOM_SCENE.replace('name = "test-room"', f'name = "{name}"'))
+    _fake_dist(src, "dup-scene", "1.0", f"[ldbench.scenes]\ndup = {module}:Room\n")
+    monkeypatch.syspath_prepend(str(src))
+    with pytest.raises(LdbenchError) as e:
+        builders()
+    msg = str(e.value)
+    assert "\n" not in msg and words in msg and f"{module}.Room (distribution dup-scene 1.0, entry point dup)" in msg
 
 
 def test_broken_references_are_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
@@ -454,6 +546,22 @@ BAD_OUTPUT = """
     class NegHuge(Huge):
         name = "neg-huge-memory"
         memory = -1e30
+
+    class ExitZero(HBAO):
+        name = "exit-zero"
+
+        def frame(self, view, effect, inputs=None):
+            raise SystemExit(0)
+
+    class ExitThree(HBAO):
+        name = "exit-three"
+
+        def frame(self, view, effect, inputs=None):
+            import sys
+
+            r = super().frame(view, effect, inputs)
+            r.image = lambda: sys.exit(3)  # when the runner reads the image back
+            return r
 """
 
 
@@ -461,8 +569,26 @@ BAD_OUTPUT = """
 def test_non_finite_images_masks_and_memory_of_a_method_never_ok(tmp_path, monkeypatch, clean_plugins):
     """``run`` (local executor; tests/test_executor_ray.py runs the same on Ray): a method's NaN/inf pixels are
     failed pixels (``degraded: 4 non-finite pixels``, counted in ``nonfinite``, finite metrics), a NaN mask is no
-    coverage, and ``memory_bytes`` of ±1e30 is that row's error while every other row is written."""
+    coverage, and ``memory_bytes`` of ±1e30 or a ``sys.exit()`` in its frame is that row's error while every
+    other row is written."""
     check_bad_output_rows(tmp_path, monkeypatch)
+
+
+def test_sigterm_during_a_job_still_ends_the_run(tmp_path, monkeypatch):
+    """SIGTERM (``Terminated``, what ldbench's handler raises) is not a plugin's ``sys.exit()``: it ends the run,
+    exit status 15, and the partial run directory is deleted."""
+    from ldbench.core.errors import Terminated, exit_on_sigterm
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
+    from ldbench.methods.hbao import HBAO
+
+    monkeypatch.setattr(HBAO, "frame", lambda self, *a, **k: exit_on_sigterm(15, None))
+    suite = suite_from_dict({"suite": {"name": "t", "size": "8x8", "spp": 1, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "methods": ["hbao"]}]},
+                            name="t")
+    with pytest.raises(Terminated) as e:
+        run_jobs(suite, tmp_path / "run", progress=False, report=False)
+    assert e.value.code == 15 and isinstance(e.value, SystemExit) and list(tmp_path.iterdir()) == []
 
 
 def check_bad_output_rows(tmp_path, monkeypatch, executor=None):
@@ -473,12 +599,14 @@ def check_bad_output_rows(tmp_path, monkeypatch, executor=None):
     from ldbench.harness.suite import suite_from_dict
 
     monkeypatch.syspath_prepend(str(_module(tmp_path / "src", "badout", BAD_OUTPUT)))
-    methods = ["hbao", "badout:NanImage", "badout:NanMask", "badout:Huge", "badout:NegHuge"]
+    methods = ["hbao", "badout:NanImage", "badout:NanMask", "badout:Huge", "badout:NegHuge", "badout:ExitZero",
+               "badout:ExitThree"]
     suite = suite_from_dict({"suite": {"name": "bad", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1},
                              "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "methods": methods}]},
                             name="bad")
     df = run_jobs(suite, tmp_path / "run", progress=False, report=False, executor=executor).set_index("method")
-    assert list(df.index) == ["hbao", "nan-image", "nan-mask", "huge-memory", "neg-huge-memory"]
+    assert list(df.index) == ["hbao", "nan-image", "nan-mask", "huge-memory", "neg-huge-memory", "exit-zero",
+                              "exit-three"]
     assert df.loc["hbao", "status"] == "ok" and df.loc["hbao", "nonfinite"] == 0
     nan = df.loc["nan-image"]
     assert nan["status"] == "degraded: 4 non-finite pixels" and nan["nonfinite"] == 4
@@ -488,3 +616,5 @@ def check_bad_output_rows(tmp_path, monkeypatch, executor=None):
     assert mask["coverage"] == 0.0 and mask["nonfinite"] == 256 and mask["status"].startswith("degraded: ")
     for m in ("huge-memory", "neg-huge-memory"):
         assert df.loc[m, "status"].startswith("error: ") and "'huge'" in df.loc[m, "status"], df.loc[m, "status"]
+    for m, code in (("exit-zero", 0), ("exit-three", 3)):  # a plugin's sys.exit() ends its job, not the run
+        assert df.loc[m, "status"].startswith(f"error: sys.exit({code}) called inside the job"), df.loc[m, "status"]

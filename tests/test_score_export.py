@@ -302,7 +302,7 @@ def test_a_second_answer_to_one_question_keeps_the_first_rows_images(tmp_path, c
     rows = records.read_results(run)
     assert len(rows) == 2
     a, b = rows.iloc[0]["images"], rows.iloc[1]["images"]
-    assert a["exr"] != b["exr"] and a["image"] != b["image"] and a["error"] != b["error"]
+    assert a["exr"] != b["exr"] and a["image"] != b["image"] and a["error_exr"] != b["error_exr"]
     assert (run / a["exr"]).read_bytes() == kept and (run / b["exr"]).is_file()
 
 

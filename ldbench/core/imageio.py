@@ -1,5 +1,5 @@
-"""Images a run writes: linear OpenEXR plus an sRGB PNG preview, scalar error maps, and float values
-for the report's image viewer."""
+"""Images a run writes: linear OpenEXR plus an sRGB PNG preview, scalar error maps (OpenEXR only: the
+report colours them on one scale per grid), and float values for the report's image viewer."""
 from __future__ import annotations
 
 import json
@@ -10,7 +10,7 @@ import numpy as np
 from ldbench.core.files import atomic_write, atomic_write_text
 
 
-#: zlib level of the PNG previews (docs/reports.md, "Images": the time it saves)
+#: zlib level of the PNG previews (docs/reference/reports.md, "Images": the time it saves)
 PNG_COMPRESS_LEVEL = 1
 
 
@@ -45,7 +45,10 @@ def read_png(path: Path) -> np.ndarray:
         raise ValueError("not a PNG file")
     depth, colour_type = head[24], head[25]
     if depth == 16 and colour_type in _PNG_16BIT_LOSSY:
-        import mitsuba as mi
+        from .signals import deferred_interrupt
+
+        with deferred_interrupt():  # Mitsuba's start-up is not safe to interrupt (ldbench/core/signals.py)
+            import mitsuba as mi
 
         try:
             a = np.array(mi.Bitmap(str(path)))
@@ -74,16 +77,14 @@ def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = N
 
 
 def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
-    """A scalar H×W map as EXR + colourised PNG (magma, white = its 99th percentile over ``mask``).
-    Returns that scale."""
+    """A scalar H×W map as EXR; returns its 99th percentile over ``mask``, the scale a colourised view
+    shows as white. No PNG: the report colours the maps of a grid on one scale
+    (:func:`ldbench.reports.figures.make_grid`), so a PNG per map on its own scale would be seen by no one."""
     from ldbench.core.exr import write_exr
-
-    from .metrics import colorize
 
     path_noext = Path(path_noext)
     vmax = float(np.percentile(emap[mask], 99)) if mask.any() else 1.0
     write_exr(str(path_noext) + ".exr", {"Y": np.asarray(emap, np.float32)})
-    write_png(Path(str(path_noext) + ".png"), colorize(emap, vmax=max(vmax, 1e-6)))
     return vmax
 
 

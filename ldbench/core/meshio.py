@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 
 import numpy as np
 
@@ -33,13 +34,20 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     path = str(path)
     if not os.path.isfile(path):
         raise LdbenchError(f"cannot read mesh {path}: no such file")
+    obj = path.lower().endswith(".obj")
+    if obj:
+        _check_obj_indices(path)
     try:
         m = trimesh.load(path, force="mesh", process=False)
+        if not isinstance(m, trimesh.Trimesh):  # force="mesh" merges a scene into one; anything else has no faces
+            raise LdbenchError(f"cannot read mesh {path}: not a triangle mesh")
         v = np.asarray(m.vertices, np.float64).reshape(-1, 3)
         f = np.asarray(m.faces, np.int64).reshape(-1, 3)
     except LdbenchError:
         raise
     except Exception as e:  # trimesh raises many types for bad files
+        if obj:
+            _check_obj_indices(path, full=True)  # an index out of range: name its line
         msg = " ".join(str(e).split()) or type(e).__name__
         raise LdbenchError(f"cannot read mesh {path}: {msg}") from None
     if len(f) == 0:
@@ -47,9 +55,67 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray]:
     if not np.all(np.isfinite(v)):
         raise LdbenchError(f"cannot read mesh {path}: non-finite vertex coordinates")
     if f.min() < 0 or f.max() >= len(v):
+        if obj:
+            _check_obj_indices(path, full=True)
         raise LdbenchError(f"cannot read mesh {path}: face index out of range")
     used, f = np.unique(f, return_inverse=True)  # drop vertices no face uses (scans often have them)
     return v[used], f.reshape(-1, 3)
+
+
+#: An OBJ face line with an index 0 in any slot (``f 0 1 2``, ``f 1/0 2/1 3/1``): OBJ counts from 1 (negative
+#: indices count back from the latest vertex), and trimesh reads 0 as -1, the last vertex, without a word.
+_OBJ_ZERO = re.compile(rb"^[ \t]*f[ \t][^\n#]*?(?<=[ \t/])[+-]?0+(?=[ \t/\r\n#]|$)", re.M)
+#: The face lines (comments cut) and a zero index among them: two C-speed passes (a line-by-line search is 3x
+#: slower on a 66k-face OBJ); the line is found with :data:`_OBJ_ZERO` only when there is one.
+_OBJ_FACES = re.compile(rb"^[ \t]*f[ \t][^\n#]*", re.M)
+_ZERO_INDEX = re.compile(rb"[ \t/][+-]?0+(?=[ \t/\r\n]|$)", re.M)
+#: A negative (relative) vertex index: OBJ counts it back from the latest vertex, trimesh from the file's last.
+_NEGATIVE_INDEX = re.compile(rb"[ \t]-\d")
+
+
+def _check_obj_indices(path: str, full: bool = False) -> None:
+    """Refuse an OBJ face that names vertex 0 (one regular-expression pass, run on every OBJ), a relative
+    (negative) index where vertices follow it (trimesh counts it from the end of the file, not from the
+    latest vertex: other triangles, without a word) and, with ``full`` (a file trimesh could not index), a
+    vertex before the first or after the last: ``LdbenchError`` naming ``path:line``. Returns when nothing
+    is wrong (then the caller says why it failed)."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except OSError as e:
+        raise LdbenchError(f"cannot read mesh {path}: {e.strerror or e}") from None
+    faces = b"\n".join(_OBJ_FACES.findall(data))
+    m = _ZERO_INDEX.search(faces) and _OBJ_ZERO.search(data)
+    if m:
+        line = data.count(b"\n", 0, m.start()) + 1
+        raise LdbenchError(f"cannot read mesh {path}:{line}: face index 0 (OBJ indices start at 1; negative ones "
+                           f"count back from the latest vertex)")
+    if not (full or _NEGATIVE_INDEX.search(faces)):
+        return
+    total = len(re.findall(rb"(?m)^[ \t]*v[ \t]", data))
+    seen, relative = 0, 0  # vertices so far; the line of the first face with a relative index
+    for n, raw in enumerate(data.splitlines(), 1):
+        parts = raw.split(b"#", 1)[0].split()
+        if not parts:
+            continue
+        if parts[0] == b"v":
+            seen += 1
+            if relative:
+                raise LdbenchError(f"cannot read mesh {path}:{relative}: a relative (negative) face index with "
+                                   f"vertices after it (line {n}), which ldbench's OBJ reader would count from "
+                                   "the file's last vertex: write positive indices")
+        elif parts[0] == b"f":
+            for tok in parts[1:]:
+                try:
+                    i = int(tok.split(b"/")[0])
+                except ValueError:
+                    raise LdbenchError(f"cannot read mesh {path}:{n}: face vertex {tok.decode(errors='replace')!r} "
+                                       f"is not an index") from None
+                if not (1 <= i <= total or -seen <= i <= -1):
+                    raise LdbenchError(f"cannot read mesh {path}:{n}: face index {i} out of range (the file has "
+                                       f"{total} vertices{f', {seen} before this line' if i < 0 else ''})")
+                if i < 0 and not relative:
+                    relative = n
 
 
 def read_mtl(path) -> dict[str, tuple]:

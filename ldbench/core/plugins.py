@@ -1,9 +1,10 @@
-"""Methods and effects from outside ldbench: entry points, ``package.module:Class`` references, provenance.
+"""Methods, effects and scenes from outside ldbench: entry points, ``package.module:Class`` references, provenance.
 
 =======================  ===========================================================================
 entry points             an installed distribution declares ``[project.entry-points."ldbench.methods"]``
                          ``my-ao = "my_pkg.method:MyAO"`` (a :class:`~ldbench.methods.base.Method` subclass) or
-                         ``"ldbench.effects"`` (an :class:`~ldbench.core.effects.base.EffectSpec` subclass);
+                         ``"ldbench.effects"`` (an :class:`~ldbench.core.effects.base.EffectSpec` subclass)
+                         or ``"ldbench.scenes"`` (a :class:`~ldbench.core.scenes.base.SceneBuilder` subclass);
                          :func:`entry_point_classes` loads them (importlib.metadata).
 ``module:Class``         ``ldbench run --method my_pkg.method:MyAO`` (or ``methods = ["my_pkg.method:MyAO"]``
                          in a suite) imports the class during development, without installing anything.
@@ -34,6 +35,7 @@ from ldbench.core.errors import LdbenchError
 
 METHOD_GROUP = "ldbench.methods"
 EFFECT_GROUP = "ldbench.effects"
+SCENE_GROUP = "ldbench.scenes"  # entry points only: a scene has no ``package.module:Class`` form
 ENV = {METHOD_GROUP: "LDBENCH_PLUGIN_METHODS", EFFECT_GROUP: "LDBENCH_PLUGIN_EFFECTS"}
 
 
@@ -128,7 +130,7 @@ def discovery_key(group: str) -> tuple:
             return os.stat(p or ".").st_mtime_ns
         except OSError:
             return None
-    return group, tuple((p, mtime(p)) for p in sys.path), os.environ.get(ENV[group])
+    return group, tuple((p, mtime(p)) for p in sys.path), os.environ.get(ENV[group]) if group in ENV else None
 
 
 _EP_CACHE: dict = {}
@@ -151,12 +153,13 @@ def _entry_point_classes(group: str, base: type) -> list:
         except (Exception, SystemExit) as e:  # a plugin's own import error: name the plugin, not a traceback
             raise LdbenchError(f"entry point {ep.name!r} ({ep.value}, group {group}) failed to load: "
                                f"{type(e).__name__}: {e}") from None
-        if not (isinstance(obj, type) and issubclass(obj, base) and getattr(obj, "name", "")):
+        if not (isinstance(obj, type) and issubclass(obj, base) and getattr(obj, "name", None)):
             raise LdbenchError(f"entry point {ep.name!r} ({ep.value}, group {group}) is not a named "
                                f"{base.__name__} subclass")
         dist = _dist_of_entry_point(ep)
-        if getattr(ep, "dist", None) is not None:
-            _EP_DIST.setdefault(obj, (ep.dist.metadata["Name"], ep.dist.version))
+        ep_dist = getattr(ep, "dist", None)
+        if ep_dist is not None:
+            _EP_DIST.setdefault(obj, (ep_dist.metadata["Name"], ep_dist.version))
         out.append((obj, f"{obj.__module__}.{obj.__qualname__} (distribution {dist}, entry point {ep.name})"
                     if dist else f"{obj.__module__}.{obj.__qualname__} (entry point {ep.name})"))
     return out

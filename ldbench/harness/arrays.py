@@ -12,9 +12,9 @@ method's and the oracle's, written beside the row's images as one ``.npz`` (``nu
 =============  ==============================================================================================
 
 How the random numbers of these batches are drawn (seed → directions) is ldbench's ray convention
-(docs/rays.md and the ray-conventions module); the arrays make each ray checkable without re-deriving it.
+(docs/reference/rays.md and the ray-conventions module); the arrays make each ray checkable without re-deriving it.
 Cost: about 60 bytes per ray (rays) or 150 bytes per VPL (vpl_range), uncompressed: 25 MB for 256² pixels
-× 4 rays, 0.5 GB at 1080p × 4 rays. It is off by default for that reason (docs/adapters.md).
+× 4 rays, 0.5 GB at 1080p × 4 rays. It is off by default for that reason (docs/reference/adapters.md).
 """
 from __future__ import annotations
 

@@ -7,9 +7,12 @@ Files written into the output folder:
 ``question.json``  scene (and builder parameters), effect with its parameters, width, height, spp, seed,
                    ldbench's version and commit, the scene's content hash, what each file is
 ``scene.ply``      every triangle of the scene in one mesh (trimesh), world space, with a face property
-                   ``material`` (index into ``materials`` of question.json: the albedo of each mesh)
+                   ``material`` (index into ``materials`` of question.json: the albedo and opacity of each
+                   mesh)
 ``meshes/*.ply``   the same triangles, one file per mesh (what ``scene.xml`` loads)
-``scene.xml``      Mitsuba 3 scene: the meshes with twosided diffuse BSDFs, the light(s), the camera, the
+``scene.xml``      Mitsuba 3 scene: the meshes with twosided diffuse BSDFs (for ``oit``, inside a ``mask`` BSDF
+                   carrying the mesh's opacity, so that ``ldbench`` reading the file back has the same
+                   question), the light(s), the camera, the
                    film and an integrator, such that ``mitsuba scene.xml`` renders the effect's reference
                    where Mitsuba's own integrators can express it (``xml_renders`` in question.json):
                    ``direct`` (integrator ``direct``: delta lights, exact at any spp) and ``ao`` with
@@ -107,12 +110,16 @@ def mitsuba_xml(scene, effect, width: int, height: int, spp: int, seed: int) -> 
         if len(m.faces) == 0:
             continue
         albedo = (1.0, 1.0, 1.0) if ao else m.albedo
+        bsdf = ['    <bsdf type="twosided"><bsdf type="diffuse">',
+                f'      <rgb name="reflectance" value="{_v(albedo)}"/>',
+                "    </bsdf></bsdf>"]
+        if effect.name == "oit" and m.opacity < 1.0:  # the one effect that reads it (ldbench/core/effects/oit.py)
+            bsdf = ['    <bsdf type="mask">', f'    <float name="opacity" value="{m.opacity:.17g}"/>', *bsdf,
+                    "    </bsdf>"]
         lines += [f'  <shape type="ply" id={quoteattr(f"mesh{i}")}>',
                   f'    <string name="filename" value="meshes/mesh{i}.ply"/>',
                   '    <boolean name="face_normals" value="true"/>',
-                  '    <bsdf type="twosided"><bsdf type="diffuse">',
-                  f'      <rgb name="reflectance" value="{_v(albedo)}"/>',
-                  "    </bsdf></bsdf>",
+                  *bsdf,
                   "  </shape>"]
     if ao:
         lines += ['  <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>']
@@ -232,7 +239,8 @@ def _write_question(question, scene, out: Path) -> None:
     q = {"scene": question.scene, "scene_params": question.scene_params, "scene_name": scene.name,
          "scene_hash": scene.content_hash(), "effect": effect.key(), "width": w, "height": h,
          "spp": question.spp, "seed": question.seed,
-         "materials": [{"mesh": i, "albedo": [float(a) for a in m.albedo]} for i, m in enumerate(scene.meshes)],
+         "materials": [{"mesh": i, "albedo": [float(a) for a in m.albedo], "opacity": float(m.opacity)}
+                       for i, m in enumerate(scene.meshes)],
          "xml_renders": xml_renders(effect), "ldbench_version": info["version"], "ldbench_commit": info["commit"],
          "files": files,
          "answer": {"image": "answer.exr (linear) or answer.png (+ transfer in answer.json), H x W, row 0 at top",

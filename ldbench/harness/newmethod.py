@@ -11,11 +11,13 @@ ldbench's own ``methods/`` folder.
 =====================  ====================================================================================
 
 The adapter computes a normal-oriented hemisphere screen-space AO on the shared G-buffer (the ``ao``
-effect), the smallest complete example of the contract in docs/adapters.md. Nothing is overwritten.
+effect), the smallest complete example of the contract in docs/reference/adapters.md. Nothing is overwritten.
 """
 from __future__ import annotations
 
+import contextlib
 import keyword
+import os
 import re
 from pathlib import Path
 
@@ -42,7 +44,7 @@ packages = ["{module}"]
 {module} = ["*.glsl"]
 '''
 
-INIT = '''"""``{name}``: (describe the method: paper, what it computes, its stages). docs/adapters.md is the contract.
+INIT = '''"""``{name}``: (describe the method: paper, what it computes, its stages). docs/reference/adapters.md is the contract.
 
 Stages: ``gbuffer`` (the shared G-buffer), ``{module}`` (``{module}.glsl``, one compute pass).
 """
@@ -103,7 +105,7 @@ class {cls}(Method):
                       counters={{"samples_per_pixel": self.params.samples}})
 '''
 
-GLSL = '''// {name}: normal-oriented hemisphere SSAO on ldbench's G-buffer (docs/adapters.md, "G-buffer").
+GLSL = '''// {name}: normal-oriented hemisphere SSAO on ldbench's G-buffer (docs/reference/adapters.md, "G-buffer").
 #include "common/common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -158,28 +160,73 @@ def names(name: str) -> dict:
     return {"name": name, "module": module, "cls": cls, "dist": f"ldbench-{name}"}
 
 
-def _write_new(path: Path, text: str) -> None:
-    if path.exists():
-        raise LdbenchError(f"{path} exists; ldbench new-method never overwrites a file")
-    path.write_text(text)
+def check_free(n: dict, in_tree: bool) -> None:
+    """Refuse a name that an existing method (built-in, installed or registered, by name or alias) already
+    has, and a module name that would shadow one (an in-tree module of ``ldbench/methods/``, or an importable
+    top-level module such as ``json`` for a package of its own): the template would never be the method
+    that name runs, or would break the one it hides."""
+    import importlib.util
+
+    import ldbench.methods
+    from ldbench.methods.base import aliases, registry
+
+    reg = registry()
+    taken = n["name"] if n["name"] in reg else aliases().get(n["name"])
+    if taken:
+        raise LdbenchError(f"method name {n['name']!r} is taken by the existing method {taken!r} "
+                           f"({reg[taken].__module__}); choose another name")
+    if in_tree:
+        here = Path(ldbench.methods.__path__[0])
+        for p in (here / n["module"], here / f"{n['module']}.py"):
+            if os.path.lexists(p):
+                raise LdbenchError(f"method name {n['name']!r}: {p} exists (module {n['module']!r} of ldbench.methods); "
+                                   "choose another name")
+        return
+    try:
+        spec = importlib.util.find_spec(n["module"])
+    except (ImportError, ValueError):
+        spec = None
+    if spec is not None:
+        where = spec.origin or ", ".join(spec.submodule_search_locations or []) or "built in"
+        raise LdbenchError(f"method name {n['name']!r}: a module {n['module']!r} is already importable ({where}); "
+                           "the plugin's package would shadow it or be shadowed: choose another name")
 
 
 def write_template(name: str, *, out=None, in_tree: bool = False) -> list:
-    """Write the template (module docstring); returns the files written."""
+    """Write the template (module docstring); returns the files written. Everything is checked first (the
+    name, the output folder, that no file exists); a write that fails midway removes what it wrote, so a
+    failure leaves nothing behind."""
+    from ldbench.core.files import check_output_path
+
     n = names(name)
+    check_free(n, in_tree)
     if in_tree:
         import ldbench.methods
 
         pkg = Path(ldbench.methods.__path__[0]) / n["module"]
         files = [(pkg / "__init__.py", INIT), (pkg / f"{n['module']}.glsl", GLSL)]
+        check_output_path(pkg, into=True, flag="--in-tree")
     else:
         root = Path(out) if out else Path(n["name"])
         pkg = root / n["module"]
         files = [(root / "pyproject.toml", PYPROJECT), (pkg / "__init__.py", INIT), (pkg / f"{n['module']}.glsl", GLSL)]
+        check_output_path(pkg, into=True)  # the deepest folder written: every name on the way, and the disk
     for path, _ in files:
-        if path.exists():
+        if os.path.lexists(path):
             raise LdbenchError(f"{path} exists; ldbench new-method never overwrites a file")
-    pkg.mkdir(parents=True, exist_ok=True)
-    for path, text in files:
-        _write_new(path, text.format(**n))
+    made: list[Path] = []  # what this call created, removed again when a write fails
+    try:
+        missing = [d for d in (pkg, *pkg.parents) if not os.path.lexists(d)]
+        for d in reversed(missing):
+            d.mkdir()
+            made.append(d)
+        for path, text in files:
+            with open(path, "x", encoding="utf-8") as fh:  # "x": never replaces a file created meanwhile
+                made.append(path)
+                fh.write(text.format(**n))
+    except BaseException:
+        for p in reversed(made):
+            with contextlib.suppress(OSError):
+                p.rmdir() if p.is_dir() and not p.is_symlink() else p.unlink()
+        raise
     return [p for p, _ in files]

@@ -54,6 +54,11 @@ RUN_ENTRIES = frozenset(RUN_FILES + ("results.csv", "summary.md", "index.html", 
                                      "compare.md", "images", "figures"))
 
 
+#: The name of what a :class:`RunDir` keeps beside DIR while it writes or commits (``.DIR.partial-PID``,
+#: ``.DIR.old-PID``): never a run or a question of its own, whatever step a kill left it at.
+STALE_NAME = re.compile(r"^\..+\.(partial|old)-\d+$")
+
+
 def foreign_entries(path, entries=RUN_ENTRIES) -> list[str]:
     """Top-level entries of the folder ``path`` that ldbench does not write into it (sorted)."""
     return sorted(e.name for e in Path(path).iterdir() if e.name not in entries)
@@ -163,15 +168,19 @@ class RunDir:
         self.partial = self.parent / f".{name}.partial-{self.pid}"
         self.old = self.parent / f".{name}.old-{self.pid}"
         self._stale = re.compile(rf"^\.{re.escape(name)}\.(partial|old)-(\d+)$")
-        self._lock_fd = None
+        self._lock_fd: int | None = None
         self._opened = False
 
     # ---- checks -----------------------------------------------------------------------------
     def check(self) -> None:
-        """Refuse an ``--out`` that is not ours to replace (raises LdbenchError). Creates nothing."""
+        """Refuse an ``--out`` that is not ours to replace, or where nothing can be written (raises
+        LdbenchError). Creates nothing (what :func:`~ldbench.core.files.check_output_path` probes is removed)."""
+        from ldbench.core.files import check_output_path
+
         out = self.out
         if not out.name or out.name in (".", ".."):
             raise LdbenchError(f"--out {out}: not a usable run directory name")
+        check_output_path(out, extra=len(self.partial.name) - len(out.name))  # under a file, /proc, too long
         cwd = Path(os.path.abspath(os.getcwd()))
         if out == cwd or out in cwd.parents:
             raise LdbenchError(f"--out {out} is the current directory or contains it; give a new folder")
@@ -248,7 +257,9 @@ class RunDir:
             if pid != self.pid and _pid_alive(pid):
                 continue
             if kind == "partial":
-                if (p / MARKER).is_file():
+                # with its marker; or complete, the marker already gone: its commit was killed before the
+                # rename in (the old run, moved aside, is put back below)
+                if (p / MARKER).is_file() or (self.kind.is_ours(p) and not foreign_entries(p, self.kind.entries)):
                     shutil.rmtree(p, ignore_errors=True)
             elif _replaceable(p, self.kind):  # an old run moved aside by a commit that was killed
                 if self.out.exists() or self.out.is_symlink():

@@ -49,6 +49,8 @@ import numpy as np
 
 from ldbench.core.errors import LdbenchError
 
+from . import defaults
+
 TRANSFERS = ("srgb", "linear")
 ANSWER_NAMES = ("answer.exr", "answer.png", "answer.npy", "answer.npz", "answer.csv")
 MASK_NAMES = ("mask.png", "mask.exr", "mask.npy")
@@ -63,20 +65,35 @@ class Question:
     effect: object  # ldbench.core.effects.Effect
     width: int
     height: int
-    spp: int = 64
-    seed: int = 0
+    spp: int = defaults.SPP
+    seed: int = defaults.SEED
     scene_params: dict = field(default_factory=dict)
 
     @classmethod
     def from_json(cls, d: dict, where: str = "question.json") -> "Question":
+        """The question of a ``question.json`` object, its values checked as the command line's are (sizes,
+        spp and seed whole numbers in range: ``256.5``, ``"256"`` or ``true`` is no size) and its size within
+        this machine's budget (:func:`~ldbench.harness.suite.check_budget`), before any work: one line naming
+        ``where``."""
         from ldbench.core.effects.base import effect_from_key
+        from .suite import MAX_SEED, MAX_SPP, check_budget, checked_int, parse_size
 
+        if not isinstance(d, dict):
+            raise LdbenchError(f"{where}: not an ldbench question (a JSON object with scene, effect, width, height)")
         try:
-            return cls(scene=str(d["scene"]), effect=effect_from_key(d["effect"]), width=int(d["width"]),
-                       height=int(d["height"]), spp=int(d.get("spp", 64)), seed=int(d.get("seed", 0)),
-                       scene_params=dict(d.get("scene_params") or {}))
+            scene, scene_params = d["scene"], d.get("scene_params") or {}
+            if not isinstance(scene, str) or not isinstance(scene_params, dict):
+                raise TypeError("scene must be a string, scene_params an object")
+            effect = effect_from_key(d["effect"])
+            w, h = parse_size([checked_int(d["width"], "width", 1), checked_int(d["height"], "height", 1)])
+            spp = checked_int(d.get("spp", defaults.SPP), "spp", 1, MAX_SPP)
+            seed = checked_int(d.get("seed", defaults.SEED), "seed", 0, MAX_SEED)
+            check_budget(w, h, spp, effect)
+        except LdbenchError as e:
+            raise LdbenchError(f"{where}: {e}") from None
         except (KeyError, TypeError, ValueError) as e:
             raise LdbenchError(f"{where}: not an ldbench question ({type(e).__name__}: {e})") from None
+        return cls(scene=scene, effect=effect, width=w, height=h, spp=spp, seed=seed, scene_params=dict(scene_params))
 
 
 @dataclass
@@ -319,11 +336,12 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
     from .rundir import RunDir, is_run_dir
 
     run_dir = Path(run_dir)
-    joining = is_run_dir(run_dir)
     rd = RunDir(run_dir)
+    rd.check()  # a path no write can succeed at (too long, under a file) before reading it
+    joining = is_run_dir(run_dir)
     tmp = rd.open()
     try:
-        old_rows, suite_name = [], "score"
+        old_rows, suite_name, version = [], "score", None
         if joining:
             for p in run_dir.iterdir():  # the run's files as they are (images, report, suite.json)
                 dst = tmp / p.name
@@ -332,14 +350,14 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
                 else:
                     shutil.copy2(p, dst, follow_symlinks=False)
             old = records.read_results(run_dir)
-            old_rows = old.to_dict("records")
+            old_rows, version = old.to_dict("records"), old.attrs.get("schema_version")
             try:
                 suite_name = json.loads((run_dir / "suite.json").read_text()).get("name") or suite_name
             except (OSError, ValueError):
                 pass
         run_id = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + "-score-" + uuid.uuid4().hex[:6]
         rows = score_rows(items, tmp, run_id=run_id, suite_name=suite_name, progress=progress)
-        records.write_results(old_rows + rows, tmp)
+        records.write_results(old_rows + rows, tmp, schema_version=version)  # a 1.7 run stays 1.7
         if not joining:
             (tmp / "suite.json").write_text(json.dumps({"name": suite_name, "source": "ldbench score",
                                                         "jobs": len(rows)}, indent=1))
@@ -396,9 +414,16 @@ def items_from_folder(root) -> list:
     root = Path(root)
     if not root.is_dir():
         raise LdbenchError(f"not a folder: {root}")
+    from .rundir import MARKER, STALE_NAME
+
     out = []
     for qf in sorted(root.rglob("question.json")):
         folder = qf.parent
+        if (folder / MARKER).exists() or any(STALE_NAME.match(p) for p in folder.relative_to(root).parts):
+            # an export killed or still writing (.Q.partial-PID), or the previous one it moved aside
+            # (.Q.old-PID): never a question of its own
+            print(f"ldbench: warning: {folder}: an unfinished or replaced export, skipped", file=sys.stderr)
+            continue
         try:
             q = Question.from_json(json.loads(qf.read_text()), str(qf))
         except ValueError as e:

@@ -1,6 +1,6 @@
 """``example-ao``: normal-oriented hemisphere screen-space ambient occlusion, an ldbench plugin.
 
-A complete, small adapter living outside ldbench (docs/adapters.md walks through it). Per pixel, the
+A complete, small adapter living outside ldbench (docs/reference/adapters.md walks through it). Per pixel, the
 G-buffer's world position P and normal n; ``samples`` directions of a cosine-weighted hemisphere about n
 (a Fibonacci spiral rotated per pixel by a hash of the pixel and the seed), each at a distance
 ``u · d_max`` (u a second hashed number); the sample point S is projected into the G-buffer and counts as

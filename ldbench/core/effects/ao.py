@@ -8,12 +8,7 @@ Reference: cosine-sampled rays from Mitsuba's exact primary hit, ``ray_test``/``
 with maxt = d_max (:mod:`ldbench.references.integrators`). PSNR/SSIM data range 1: AO lives in [0, 1], so one
 error gives one PSNR on every scene.
 
-==========  =======  ==============================================
-Parameter   Default  Meaning
-==========  =======  ==============================================
-``d_max``   inf      maximum distance (world units), > 0
-``falloff`` step     ``step`` or ``quadratic``
-==========  =======  ==============================================
+Parameters: docs/reference/parameters.md.
 """
 from __future__ import annotations
 
@@ -32,8 +27,9 @@ FALLOFFS = ("step", "quadratic")
 
 @dataclass(frozen=True)
 class AOParams(ParamsBase):
-    d_max: float = param(math.inf, "maximum distance (world units, or inf)")
-    falloff: str = param("step", "obscurance fall-off", choices=FALLOFFS)
+    d_max: float = param(math.inf, "maximum distance of an occluder (world units, > 0; inf: classic AO)")
+    falloff: str = param("step", "obscurance fall-off rho(t): step (1 within d_max) or quadratic "
+                         "(1 - (t/d_max)^2 within d_max)", choices=FALLOFFS)
 
     def __post_init__(self):
         super().__post_init__()

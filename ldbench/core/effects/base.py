@@ -20,8 +20,10 @@ An effect spec declares, as data and a few hooks:
 ``inputs()``           arrays the harness builds deterministically from (scene, view, seed) and hands
                        identically to the method and to the reference (None for pure image effects),
                        from the exact geometry the harness passes in (``exact``, below)
+``input_bytes()``      the peak host memory of those inputs for a size, checked before any work
 ``score()``            the metric columns of one method result against the reference
 ``save()``             images of the result, the reference and the error, for reports
+``noise()``            the reference's own noise (``rms_std_of_mean``, ``spp``), for the nightly gate
 =====================  ===========================================================================
 
 :class:`ImageEffect` implements the image effects (``ao``, ``direct``, ``indirect``): Mitsuba 3 reference
@@ -44,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.params import ParamsBase
 
 #: Image metrics (columns of the records).
 IMAGE_METRICS = ("psnr", "ssim", "flip", "relmse", "coverage")
@@ -53,7 +56,7 @@ class EffectSpec:
     """Base class of an effect specification (see the module docstring)."""
 
     name: str = ""
-    Params: type = None
+    Params: type[ParamsBase]  # every spec sets its own
     output: str = "image"
     needs_light: bool = False
     reference_key: str = ""
@@ -101,11 +104,21 @@ class EffectSpec:
         the exact geometry they are built from (module docstring)."""
         return None
 
+    def input_bytes(self, params, width: int, height: int) -> int:
+        """Host memory the inputs of this size may take at their peak (building, scoring, exporting them), an
+        upper bound known before any work: every command checks it with the image's own against the memory
+        available (:func:`ldbench.harness.suite.check_budget`). 0: no inputs."""
+        return 0
+
     # ---- metrics, artefacts -------------------------------------------------------------------------
     def score(self, result, reference, *, scene, inputs, stage_ms: dict) -> dict:
         raise NotImplementedError
 
     def save(self, result, reference, inputs, folder, label: str, ref_label: str) -> dict:
+        raise NotImplementedError
+
+    def noise(self, reference) -> dict:
+        """The reference's own noise, for the nightly gate's quality threshold."""
         raise NotImplementedError
 
     def problems(self, scores: dict) -> list:
@@ -127,7 +140,7 @@ class ImageEffect(EffectSpec):
     output = "image"
     channels = 3
     background = 0.0
-    data_range = None
+    data_range: float | None = None
     reference_key = "image"
     reference_backend = "Mitsuba 3, ldbench.references.render_reference"
     metrics = IMAGE_METRICS
@@ -200,8 +213,8 @@ class ImageEffect(EffectSpec):
         save_image(folder / label, img, png_scale=scale)
         emap = metrics.error_map(img, reference.mean, mask=reference.mask)
         vmax = save_map(folder / f"{label}-error", emap, reference.mask)
-        return {"image": f"{label}.png", "exr": f"{label}.exr", "error": f"{label}-error.png",
-                "error_exr": f"{label}-error.exr", "reference": f"{ref_label}.png", "error_vmax": vmax}
+        return {"image": f"{label}.png", "exr": f"{label}.exr", "error_exr": f"{label}-error.exr",
+                "reference": f"{ref_label}.png", "error_vmax": vmax}
 
     def noise(self, reference) -> dict:
         """The reference's own noise, for the nightly gate's quality threshold."""
@@ -224,7 +237,8 @@ def registry() -> dict:
         from ldbench.core import plugins
 
         package = __name__.rpartition(".")[0]  # this package, whatever it is installed as
-        found, sources = {}, {}
+        found: dict[str, type[EffectSpec]] = {}
+        sources: dict[str, str] = {}
         for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
             if mod.name.startswith("_") or mod.name == "base":
                 continue

@@ -11,11 +11,7 @@ Both sides estimate it the same way: ω from the lobe (e + 1)/(2π) cos^e α abo
 φ = 2π u₁), weight a₁ (e + 2)/(e + 1) (ω·n₁), 0 below the surface (``ldbench/methods/ldi/gather.glsl``,
 :mod:`ldbench.references.glossy_indirect`). niessner2010 §5 casts 16 such rays per pixel (no filtering).
 
-============  =======  ==========================================
-Parameter     Default  Meaning
-============  =======  ==========================================
-``exponent``  32       Phong exponent e (≥ 0; 0 = a cosine lobe)
-============  =======  ==========================================
+Parameters: docs/reference/parameters.md.
 """
 from __future__ import annotations
 
@@ -28,7 +24,8 @@ from .base import ImageEffect
 
 @dataclass(frozen=True)
 class GlossyIndirectParams(ParamsBase):
-    exponent: float = param(32.0, "normalized Phong exponent e", lo=0.0, hi=1e6)
+    exponent: float = param(32.0, "normalized Phong exponent e of the lobe about the mirror direction (0: a cosine "
+                               "lobe)", lo=0.0, hi=1e6)
 
 
 class GlossyIndirect(ImageEffect):

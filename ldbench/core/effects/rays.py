@@ -57,15 +57,7 @@ the row ``degraded``), optionally ``arrays["normal"]``.
 Images for the report: per pixel the fraction of rays that hit (method and oracle) and, as the error
 map, the fraction of the pixel's rays on which they disagree.
 
-=================  ========  ========================================================
-Parameter          Default   Meaning
-=================  ========  ========================================================
-``ray_kind``       diffuse   diffuse | glossy | shadow | ao
-``rays_per_pixel`` 4         rays per hit pixel (1 … 1024)
-``exponent``       32        glossy: Phong exponent e
-``light_radius``   0.1       shadow: radius of the spherical light (world units)
-``d_max``          inf       ao: t_max of every ray (world units)
-=================  ========  ========================================================
+Parameters: docs/reference/parameters.md.
 """
 from __future__ import annotations
 
@@ -82,17 +74,24 @@ from .base import EffectSpec
 
 KINDS = ("diffuse", "glossy", "shadow", "ao")
 SELF_HIT_FRACTION = 0.005  # of the scene diagonal
+#: Peak host memory per ray of a batch: 209 B measured (maximum RSS of ``ldbench export``, cornell at 128², 16
+#: against 128 rays per pixel: float64 directions and frames while it is built, the saved arrays), 170 B in
+#: ``run``; rounded up, for every pixel (an upper bound: only the pixels that hit get rays).
+RAY_BYTES = 256
 RAY_METRICS = ("hit_agreement", "false_hit_rate", "false_miss_rate", "dist_err_p50", "dist_err_p95",
                "dist_err_p99", "self_hit_rate", "coverage", "rays", "rays_per_s", "oracle_rays_per_s")
 
 
 @dataclass(frozen=True)
 class RaysParams(ParamsBase):
-    ray_kind: str = param("diffuse", "ray kind", choices=KINDS)
-    rays_per_pixel: int = param(4, "rays per hit pixel", lo=1, hi=1024)
-    exponent: float = param(32.0, "glossy: normalized Phong exponent", lo=0.0, hi=1e6)
-    light_radius: float = param(0.1, "shadow: spherical light radius (world units)", lo=0.0, hi=1e6)
-    d_max: float = param(math.inf, "ao: t_max of every ray (world units, or inf)")
+    ray_kind: str = param("diffuse", "the kind of every ray: diffuse (cosine about the normal), glossy (Phong "
+                          "lobe about the mirror direction), shadow (towards a point of the spherical light) or ao "
+                          "(cosine, t_max = d_max)", choices=KINDS)
+    rays_per_pixel: int = param(4, "rays per hit pixel of the batch", lo=1, hi=1024)
+    exponent: float = param(32.0, "glossy rays: normalized Phong exponent e", lo=0.0, hi=1e6)
+    light_radius: float = param(0.1, "shadow rays: radius of the spherical light around the scene's first light "
+                                "(world units)", lo=0.0, hi=1e6)
+    d_max: float = param(math.inf, "ao rays: t_max of every ray (world units; inf: unbounded)")
 
     def __post_init__(self):
         super().__post_init__()
@@ -137,6 +136,11 @@ class RayBatch:
         for b in self._gpu.values():
             b.release()
         self._gpu.clear()
+
+    def __getstate__(self) -> dict:
+        """The arrays without the GPU buffers, which belong to the context that made them: a batch pickled to
+        another process (a ``run --writers`` writer) scores there and is uploaded again where needed."""
+        return {**self.__dict__, "_gpu": {}}
 
 
 def build_batch(hits: dict, cam_dirs: np.ndarray, params: RaysParams, seed: int, *, light=None,
@@ -289,6 +293,9 @@ class Rays(EffectSpec):
     def inputs(self, scene, width, height, params, seed, exact=None):
         return make_batch(scene, width, height, params, seed, exact)
 
+    def input_bytes(self, params, width, height):
+        return width * height * params.rays_per_pixel * RAY_BYTES
+
     def _t(self, result, batch, count=False):
         """The answers, a -inf (no meaning: inf is a miss, NaN no answer) made NaN, i.e. unanswered;
         with ``count``, (answers, how many were -inf)."""
@@ -331,8 +338,8 @@ class Rays(EffectSpec):
         save_image(folder / label, per_pixel(hit, batch.pixel, W, H))
         emap = per_pixel(disagree, batch.pixel, W, H)[..., 0]
         vmax = save_map(folder / f"{label}-error", emap, reference.mask)
-        return {"image": f"{label}.png", "exr": f"{label}.exr", "error": f"{label}-error.png",
-                "error_exr": f"{label}-error.exr", "reference": f"{ref_label}.png", "error_vmax": vmax,
+        return {"image": f"{label}.png", "exr": f"{label}.exr", "error_exr": f"{label}-error.exr",
+                "reference": f"{ref_label}.png", "error_vmax": vmax,
                 "image_meaning": "per pixel: fraction of rays that hit; error: fraction that disagree"}
 
     def noise(self, reference) -> dict:

@@ -12,11 +12,7 @@ the sphere (z = 1 − 2u₀, φ = 2π u₁) and a shadow ray each with t_max = |
 first light of the scene is the one that becomes spherical, other lights are ignored.
 niessner2010 §7 (Fig. 8): 16 shadow rays per pixel.
 
-================  =======  ==================================================
-Parameter         Default  Meaning
-================  =======  ==================================================
-``light_radius``  0.1      radius of the spherical light (world units, ≥ 0)
-================  =======  ==================================================
+Parameters: docs/reference/parameters.md.
 """
 from __future__ import annotations
 

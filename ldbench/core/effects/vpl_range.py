@@ -34,15 +34,7 @@ the row ``degraded``).
 within the miss range, distance errors ÷ diagonal, self hits); ``rays_per_s`` = 6N / the median of the
 method's ``raycast`` stage, ``oracle_rays_per_s``.
 
-=================  ========  =================================================================
-Parameter          Default   Meaning
-=================  ========  =================================================================
-``rsm``            256       RSM side R (R² texels; the paper's Table 3: 256 … 2048)
-``primary``        normal    primary ray: the VPL's normal or the reflected light direction
-``cone_angle``     45        angle (degrees) between the primary ray and the five around it
-``range_mode``     mean      range = mean or max of the six clamped distances
-``miss_range``     0.25      distance given to a miss (and clamp), × the scene diagonal
-=================  ========  =================================================================
+Parameters: docs/reference/parameters.md.
 """
 from __future__ import annotations
 
@@ -59,6 +51,9 @@ from ldbench.core.params import ParamsBase, param
 from .base import EffectSpec
 
 RAYS_PER_VPL = 5 + 1
+#: Peak host memory per RSM texel (one VPL and its six rays): 700 B measured (maximum RSS of ``ldbench export``,
+#: cornell, rsm 64 against 512), rounded up, for every texel (an upper bound: only lit texels are VPLs).
+VPL_BYTES = 768
 VPL_METRICS = ("range_err_p50", "range_err_p95", "range_within_5pct", "vpls", "hit_agreement",
                "false_hit_rate", "false_miss_rate", "dist_err_p50", "dist_err_p95", "dist_err_p99",
                "self_hit_rate", "coverage", "rays", "rays_per_s", "oracle_rays_per_s")
@@ -121,7 +116,7 @@ def rsm_up(light) -> tuple:
     """The light's up vector, or a world axis when it is parallel to the spot axis."""
     d = np.asarray(light.direction(), np.float64)
     u = np.asarray(light.up, np.float64)
-    if np.linalg.norm(np.cross(d, u)) > 1e-6 * max(np.linalg.norm(u), 1e-30):
+    if np.linalg.norm(np.cross(d, u)) > 1e-6 * max(float(np.linalg.norm(u)), 1e-30):
         return tuple(u)
     return tuple(np.eye(3)[int(np.argmin(np.abs(d)))])
 
@@ -273,6 +268,9 @@ class VplRange(EffectSpec):
     def inputs(self, scene, width, height, params, seed, exact=None):
         return make_vpls(scene, params, seed, exact)
 
+    def input_bytes(self, params, width, height):
+        return params.rsm * params.rsm * VPL_BYTES
+
     def _arrays(self, result, batch, count=False):
         """(ranges, distances), the values with no meaning (a range of ±inf, a distance of -inf) made NaN,
         i.e. unanswered; with ``count``, also how many there were."""
@@ -326,8 +324,8 @@ class VplRange(EffectSpec):
             e = np.abs(img - ref_img) / np.maximum(ref_img, 1e-30)
         valid = ~np.isnan(ref_img[..., 0])
         vmax = save_map(folder / f"{label}-error", sub(e)[..., 0], valid[::step, ::step])
-        return {"image": f"{label}.png", "exr": f"{label}.exr", "error": f"{label}-error.png",
-                "error_exr": f"{label}-error.exr", "reference": f"{ref_label}.png", "error_vmax": vmax,
+        return {"image": f"{label}.png", "exr": f"{label}.exr", "error_exr": f"{label}-error.exr",
+                "reference": f"{ref_label}.png", "error_vmax": vmax,
                 "image_meaning": "per RSM texel: VPL range (white = the reference's 99th percentile); "
                                  "error: relative range error"}
 
