@@ -2,7 +2,8 @@
 //
 // One invocation per pixel. `slices` planes through the eye, P and a screen direction phi in [0, pi)
 // (rotated per pixel by a spatial R2 sequence along a 64x64 Hilbert curve); in each, a horizon search
-// of `steps` samples on each side out to the projected radius of d_max, samples spaced by the power
+// of `steps` samples on each side out to the projected radius of d_max (clamped to max_radius_px and to
+// the image border on that side, so that every sample lands on screen), samples spaced by the power
 // `distribution` of their index (denser near P). Angles are measured from the view vector v towards the
 // slice direction o; the normal projected into the slice has length nlen and angle gamma. A side's
 // horizon is the largest cosine dot(normalize(S - P), v) of its samples, each first pulled towards the
@@ -14,7 +15,20 @@
 //     V = nlen / 4 * sum_{h in h0, h1} (-cos(2h - gamma) + cos(gamma) + 2 h sin(gamma))
 // and AO = (mean over slices of V) ^ final_power.
 // FALLOFF_MODE 0 = step, 1 = quadratic, 2 = unbounded (d_max = inf: rho = 1, radius = max_radius_px).
+// PREFILTER 0: a sample reads the G-buffer's world position and normal at its pixel and is moved along
+//   its tangent plane onto the ray through the exact sample point. PREFILTER 1 (XeGTAO's structure): a
+//   sample reads the view-space depth that prefilter.glsl wrote, from MIP level
+//   round(log2(offset in px) - mip_offset) clamped to [0, 4] (far samples read the coarser, filtered
+//   levels), and its point is the ray through its pixel's centre at that depth. DEPTH16 1: levels 1..4
+//   are 16-bit floats (a separate texture, depth_mips16, its level 0 = level 1); level 0 stays 32-bit.
 #include "common/common.glsl"
+
+#ifndef PREFILTER
+#define PREFILTER 0
+#endif
+#ifndef DEPTH16
+#define DEPTH16 0
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_ao;
@@ -33,6 +47,13 @@ uniform float falloff_range;    // fraction of d_max over which GTAO's fade goes
 uniform float thin_occluder;
 uniform float final_power;
 uniform uint noise_offset;
+#if PREFILTER
+uniform sampler2D depth_mips;   // view-space depth (> 0; 0 = background), levels 0..4 (0..0 with DEPTH16)
+#if DEPTH16
+uniform sampler2D depth_mips16; // levels 1..4 as its levels 0..3, 16-bit
+#endif
+uniform float mip_offset;       // XeGTAO's DepthMIPSamplingOffset
+#endif
 
 uint hilbert_index(uint x, uint y) {      // position along the 64x64 Hilbert curve
     uint index = 0u;
@@ -92,12 +113,26 @@ void main() {
             float sgn = side == 0 ? 1.0 : -1.0;
             float low = side == 0 ? low_pos : low_neg;
             float hc = low;
-            for (int k = 0; k < steps; ++k) {
+            // march no farther than the image border on this side: every sample lands on screen
+            vec2 sd = sgn * dir;
+            vec2 room = mix(pc, vec2(size) - pc, step(0.0, sd)) / max(abs(sd), vec2(1e-6));
+            float radius_side = min(radius, min(room.x, room.y));
+            for (int k = 0; k < steps && radius_side >= 1.0; ++k) {
                 float t = pow((float(k) + rnd.y) / float(steps), distribution);
-                vec2 q = pc + sgn * dir * mix(1.0, radius, t);
-                ivec2 qi = ivec2(floor(q));
-                if (any(lessThan(qi, ivec2(0))) || any(greaterThanEqual(qi, size))) break;
+                float offset = mix(1.0, radius_side, t);
+                vec2 q = pc + sd * offset;
+                ivec2 qi = clamp(ivec2(floor(q)), ivec2(0), size - 1);
                 if (qi == p) continue;
+#if PREFILTER
+                int lod = int(clamp(floor(log2(offset) - mip_offset + 0.5), 0.0, 4.0));
+#if DEPTH16
+                float z = lod == 0 ? texelFetch(depth_mips, qi, 0).r : texelFetch(depth_mips16, qi >> lod, lod - 1).r;
+#else
+                float z = texelFetch(depth_mips, qi >> lod, lod).r;
+#endif
+                if (z <= 0.0) continue;
+                vec3 S = vec3((vec2(qi) + 0.5 - half_size) / focal_px * z, -z);
+#else
                 vec4 sp = texelFetch(g_position, qi, 0);
                 if (sp.w < 0.5) continue;
                 vec3 S = (view * vec4(sp.xyz, 1.0)).xyz;
@@ -110,6 +145,7 @@ void main() {
                     vec3 S2 = ray * (dot(S, n_s) / denom);
                     if (abs(S2.z - S.z) < 0.05 * -S.z) S = S2;
                 }
+#endif
                 vec3 D = S - P;
                 float len = length(D);
                 if (len <= 0.0) continue;

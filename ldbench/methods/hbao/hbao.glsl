@@ -31,7 +31,13 @@
 // the radius, min(steps, radius / step_px) of them (NVIDIA's HBAO sample: the cost grows with the
 // projected radius of d_max).
 // Output: r = AO (1 = unoccluded; 1 on background); with COUNT_STEPS, r = the samples marched per pixel
-// (sum over directions), 0 where none.
+// (sum over directions), 0 where none; with GROUP_IDS, r = the index of the workgroup that ran the pixel.
+// DEINTERLEAVED 1 (`access = "deinterleaved"`): the same arithmetic on the same values in another order.
+//   deinterleave.glsl has copied the view-space positions and normals into 4x4 layers of a quarter of the
+//   image each, layer (q & 3) holding pixel q at q >> 2, and invocation g here is pixel
+//   4 (g mod quarter) + g / quarter: every workgroup lies in one layer, so its pixels share p & 3 and thus
+//   the rotation and jitter, and a sample offset that is the same for all of them reads neighbouring texels
+//   of one layer (rather than 16 rotations scattering the group's reads over a circle of the radius).
 #include "common/common.glsl"
 
 #ifndef INTEGRAL
@@ -42,6 +48,12 @@
 #endif
 #ifndef COUNT_STEPS
 #define COUNT_STEPS 0
+#endif
+#ifndef DEINTERLEAVED
+#define DEINTERLEAVED 0
+#endif
+#ifndef GROUP_IDS
+#define GROUP_IDS 0
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -60,6 +72,29 @@ uniform int steps;              // samples per direction (fixed) or their cap (p
 uniform int sampling;           // 0 fixed, 1 pixel_step
 uniform float step_px;          // pixel_step: pixels between samples
 uniform float angle_bias;       // radians
+#if DEINTERLEAVED
+uniform sampler2D l_position;   // deinterleaved view-space position, w = 1 where hit
+uniform sampler2D l_normal;     // deinterleaved view-space normal (mat3(view) * the G-buffer's)
+uniform ivec2 quarter;          // the size of one layer (a multiple of the workgroup's 8 x 8)
+
+ivec2 layer_texel(ivec2 q) { return (q & 3) * quarter + (q >> 2); }
+
+bool view_position(ivec2 q, out vec3 S) {
+    vec4 s = texelFetch(l_position, layer_texel(q), 0);
+    S = s.xyz;
+    return s.w >= 0.5;
+}
+
+vec3 view_normal(ivec2 q) { return texelFetch(l_normal, layer_texel(q), 0).xyz; }
+#else
+bool view_position(ivec2 q, out vec3 S) {   // false where no surface (background)
+    vec4 s = texelFetch(g_position, q, 0);
+    S = (view * vec4(s.xyz, 1.0)).xyz;
+    return s.w >= 0.5;
+}
+
+vec3 view_normal(ivec2 q) { return mat3(view) * texelFetch(g_normal, q, 0).xyz; }
+#endif
 
 float rho(float r) {            // obscurance weight of an occluder at distance r (< d_max)
     if (falloff_mode == 1) return 1.0 - (r * r) / (d_max * d_max);
@@ -71,14 +106,23 @@ float F(float theta, float gamma) {
 }
 
 void main() {
+#if DEINTERLEAVED
+    ivec2 g = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 cell = g / quarter;
+    ivec2 p = 4 * (g - cell * quarter) + cell;
+    if (any(greaterThanEqual(cell, ivec2(4)))) return;
+#else
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+#endif
     ivec2 size = imageSize(out_ao);
     if (any(greaterThanEqual(p, size))) return;
-    vec4 pos = texelFetch(g_position, p, 0);
-    if (pos.w < 0.5) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
-
-    vec3 P = (view * vec4(pos.xyz, 1.0)).xyz;
-    vec3 n = normalize(mat3(view) * texelFetch(g_normal, p, 0).xyz);
+#if GROUP_IDS   // tests: the workgroup that computes pixel p (the access pattern)
+    imageStore(out_ao, p, vec4(float(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x)));
+    return;
+#endif
+    vec3 P;
+    if (!view_position(p, P)) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
+    vec3 n = normalize(view_normal(p));
     float depth = -P.z;
     float radius = (falloff_mode == 2) ? max_radius_px : min(d_max * focal_px / depth, max_radius_px);
     if (radius < 1.0) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
@@ -124,14 +168,13 @@ void main() {
             vec2 q = pc + dir * (dq * (float(k) + rnd.y) + dq);
             ivec2 qi = ivec2(floor(q));
             if (any(lessThan(qi, ivec2(0))) || any(greaterThanEqual(qi, size))) break;
-            vec4 s = texelFetch(g_position, qi, 0);
-            if (s.w < 0.5 || qi == p) continue;
-            vec3 S = (view * vec4(s.xyz, 1.0)).xyz;
+            vec3 S;
+            if (!view_position(qi, S) || qi == p) continue;
 #if PLANE_FIT
             // The pixel's surface point lies on the ray through its centre, up to 0.7 px off the
             // marching line, hence off the slice; on sloped surfaces that reads as false occlusion.
             // Move it along its own tangent plane to the view ray through the exact sample point q.
-            vec3 n_s = mat3(view) * texelFetch(g_normal, qi, 0).xyz;
+            vec3 n_s = view_normal(qi);
             vec3 ray = vec3((q - half_size) / focal_px, -1.0);
             float denom = dot(ray, n_s);
             if (denom < -1e-4 * length(ray)) {        // not grazing
