@@ -48,7 +48,7 @@ def _assert_same_run(a_dir, a, b_dir, b):
     assert len(a) == len(b) == 2 and (a["status"] == "ok").all() and (b["status"] == "ok").all()
     assert np.isfinite(a["psnr"]).all() and np.isfinite(b["psnr"]).all()
     assert differences(a_dir, b_dir) == []  # every column but times, every image byte for byte
-    assert len(image_files(b_dir)) == 2 * 4 + 2  # per job: image and error map (png + exr); the reference
+    assert len(image_files(b_dir)) == 2 * 3 + 2  # per job: image (png + exr), error map (exr); the reference
     assert not list(b_dir.glob(".*")), "staging folders must not reach the committed run"
 
 
@@ -190,7 +190,7 @@ def test_dead_worker_marks_its_rows_and_the_run_completes(cluster, serial, tmp_p
     assert st["hbao"].startswith("error: worker died: its process ended") and "task failed 1 time" in st["hbao"], st
     assert (out / "results.parquet").is_file() and not list(tmp_path.glob(".run.*"))
     got, want = image_files(out), image_files(serial[0])
-    assert sorted(got) == sorted(k for k in want if "/hbao-" not in k) and len(got) == 4 + 2
+    assert sorted(got) == sorted(k for k in want if "/hbao-" not in k) and len(got) == 3 + 2
     assert all(got[k] == want[k] for k in got)
     ldm = df["method"] == "ldm"
     assert differences(serial[0], out, ignore=TIMED | {"status"}) != []  # hbao's row lost its metrics
@@ -404,3 +404,38 @@ def test_non_finite_answers_and_huge_memory_on_ray_as_locally(cluster, tmp_path,
     monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
     monkeypatch.setattr(effects_base, "_REGISTRY", None)
     check_bad_output_rows(tmp_path, monkeypatch, executor=RayExecutor(group_size=1))
+
+
+def test_a_job_past_its_time_limit_on_ray_is_one_row_and_the_run_goes_on(cluster, tmp_path, monkeypatch):
+    """A plugin whose frame never returns, on a Ray worker: the suite's job_timeout stops it there (the worker
+    runs its jobs on its main thread, where the limit's alarm is delivered), its row says so, the other rows
+    are kept and the run completes (tests/test_cli.py checks the same on the local executor)."""
+    from ldbench.core import plugins
+    from ldbench.core.effects import base as effects_base
+    from test_plugins import _module
+
+    monkeypatch.setenv(plugins.ENV[plugins.METHOD_GROUP], "")
+    monkeypatch.setattr(effects_base, "_REGISTRY", None)
+    src = _module(tmp_path / "src", "forever", """
+        import time
+        from ldbench.methods.hbao import HBAO
+
+        class Forever(HBAO):
+            name = "forever"
+
+            def frame(self, view, effect, inputs=None):  # 20 s at most: unstopped, the test fails, not hangs
+                t = time.perf_counter()
+                while time.perf_counter() - t < 20:
+                    time.sleep(0.01)
+                raise AssertionError("not stopped by the time limit")
+    """)
+    monkeypatch.syspath_prepend(str(src))
+    suite = suite_from_dict({"suite": {"name": "t", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1,
+                                       "job_timeout": 3},  # hbao's set-up fits it on a busy machine
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5,
+                                      "methods": ["forever:Forever", "hbao"]}]}, name="t")
+    t0 = time.perf_counter()
+    df = run_jobs(suite, tmp_path / "run", progress=False, report=False, executor=RayExecutor(group_size=1))
+    st = dict(zip(df["method"], df["status"]))
+    assert st["forever"].startswith("error: the job ran past its time limit of 3 s"), st
+    assert st["hbao"] == "ok" and time.perf_counter() - t0 < 60

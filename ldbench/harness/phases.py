@@ -1,8 +1,12 @@
 """Where a process's run time goes: seconds (and calls) per phase of its work, summed over the references
 and jobs it made, for the one line per process that ``ldbench run`` logs at the end (``local:`` for the
-serial run, ``ray:`` for the Ray driver and each worker; docs/ray.md). Both executors time the same phases
+serial run, ``ray:`` for the Ray driver and each worker; docs/how-to/run-on-ray.md). Both executors time the same phases
 of :func:`~ldbench.harness.runner.prepare` and :func:`~ldbench.harness.runner.run_job`, so a worker slower
 than the serial process shows which phase grew.
+
+With ``--writers N`` (ldbench/harness/writers.py) the local line has two parts: the main thread's phases,
+then, after a ``;``, the writer processes' own (``score``, ``save``, ``row``), summed over the writers and
+overlapping the main thread's: the main thread's share of them is its ``handoff`` and ``wait``.
 
 =====================  =========================================================================
 ``inputs``             the effect's harness inputs (``EffectSpec.inputs``)
@@ -14,7 +18,11 @@ than the serial process shows which phase grew.
 ``frames``             the warm-up and measured frames and the result's read-back
 ``release``            ``method.release``
 ``score``              the effect's metrics (PSNR, SSIM, FLIP, ...)
-``save``               the images (EXR, PNG, error maps) and ``--save-arrays``
+``save``               the images (EXR, PNG previews, error maps) and ``--save-arrays``
+``handoff``            (``--writers N``) a job's result, and once per writer and reference its inputs and
+                       reference, pickled and sent to a writer process
+``wait``               (``--writers N``) the main thread waiting for a writer: all N busy when a job is
+                       ready, and the jobs still in flight at the end
 ``row``                the rest of a job: the method object, the row's columns
 ``files``              (Ray worker) a group's staging folder, and its files read back when the driver
                        cannot see it
@@ -28,7 +36,7 @@ import time
 from contextlib import contextmanager
 
 ORDER = ("inputs", "reference render", "reference cache", "checks", "receive", "setup", "frames", "release",
-         "score", "save", "row", "files", "put", "merge")
+         "score", "save", "handoff", "wait", "row", "files", "put", "merge")
 
 
 class Phases:
@@ -50,6 +58,11 @@ class Phases:
             yield
         finally:
             self.add(name, time.perf_counter() - t0)
+
+    def merge(self, split: dict) -> None:
+        """Add a ``{name: [seconds, calls]}`` split (:meth:`as_dict` of another process's phases)."""
+        for k, (seconds, calls) in split.items():
+            self.add(k, seconds, calls)
 
     def total(self) -> float:
         return sum(self.seconds.values())

@@ -23,15 +23,22 @@ import logging
 import sys
 import time
 import uuid
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ldbench.core.errors import LdbenchError
+from ldbench.core.errors import LdbenchError, Terminated
 from .naming import slug as _slug
 from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .phases import Phases
 from .suite import Job, Suite, resolve_sizes
+
+if TYPE_CHECKING:
+    from ldbench.core.effects.base import EffectSpec
+    from ldbench.core.gpu import Gpu
+    from ldbench.core.scene import Scene
+    from ldbench.methods.base import Result
 
 
 
@@ -71,7 +78,7 @@ def progress_bar(iterable, total, desc, enabled):
 class RunContext:
     """What every job of one run shares (in one process: each Ray task builds its own)."""
 
-    gpu: object
+    gpu: Gpu
     machine: dict
     git: dict
     run_id: str
@@ -86,7 +93,7 @@ class RunContext:
 class Prepared:
     """One (scene, effect, size, spp, seed): the effect's inputs and reference, the same for every method."""
 
-    scene: object
+    scene: Scene
     inputs: object
     reference: object
 
@@ -186,22 +193,93 @@ def run_job(ctx: RunContext, job: Job, prep: Prepared) -> dict:
 
     Whatever the job raises (bad input, a driver fault, a bug in an adapter, in scoring or in saving
     its images) becomes that row's ``error: ...`` status, so one job never loses the others' rows: the
-    run completes, as it does on the Ray executor. Only KeyboardInterrupt and SystemExit pass."""
+    run completes, as it does on the Ray executor; so does a plugin's ``sys.exit()``. Only KeyboardInterrupt
+    and SIGTERM (:class:`~ldbench.core.errors.Terminated`) pass.
+
+    :func:`start_job` and :func:`finish_job` one after the other, in this process (the local executor
+    with ``--writers N`` hands the second to a writer process instead: ldbench/harness/writers.py)."""
+    out = start_job(ctx, job, prep)
+    if isinstance(out, Finish):
+        out = finish_job(out, prep, ctx.phases, row_calls=0)  # the same row as start_job's: counted once
+    return out
+
+
+@dataclass
+class Finish:
+    """A job whose frames are done: what :func:`finish_job` needs to score it and save its images, on CPU
+    arrays only (no GL object), so that another process can do it (ldbench/harness/writers.py)."""
+
+    spec: EffectSpec  # the effect's spec
+    result: Result  # the method's resolved Result of the last frame
+    fields: dict  # the job's columns (:func:`_job_fields`): all that its row has when finishing fails
+    timing: dict  # the timing columns (:func:`~ldbench.harness.records.timing_fields`)
+    memory: dict  # the method's checked ``memory_bytes``
+    folder: Path  # the row's images folder
+    label: str  # the image file stem (:func:`job_label`)
+    ref_label: str  # the reference's (:func:`reference_label`)
+    save_arrays: bool = False
+    test: str | None = None  # the suite's test ("unbiased") or None
+    seconds_left: float = 0.0  # of the job's time limit (0: no limit)
+
+
+def start_job(ctx: RunContext, job: Job, prep: Prepared) -> dict | Finish:
+    """The part of a job that needs the GL context: set up, time the frames, read the last one back,
+    release. Returns the job's row when it ends there (an error), else its :class:`Finish`. Errors become
+    the row's status, as in :func:`run_job`; the time limit covers this part, and what is left of it goes
+    to :func:`finish_job` (``Finish.seconds_left``)."""
     from . import records
 
     ph = ctx.phases if ctx.phases is not None else Phases()
     t0, before = time.perf_counter(), ph.total()
     try:
         with time_limit(ctx.job_timeout):
-            return _run_job(ctx, job, prep, ph)
+            out = _start_job(ctx, job, prep, ph)
+        if isinstance(out, Finish) and ctx.job_timeout:  # > 0 even when spent: 0 would mean no limit
+            out.seconds_left = max(ctx.job_timeout - (time.perf_counter() - t0), 1e-3)
+        return out
     except LdbenchError as e:
         status = f"error: {e}"
     except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
         status = f"error: {error_text(e)}"
+    except SystemExit as e:  # a plugin's sys.exit() ends its job, never the run
+        if isinstance(e, Terminated):
+            raise
+        status = f"error: {exit_text(e)}"
     finally:  # what the phases inside did not time
         ph.add("row", time.perf_counter() - t0 - (ph.total() - before))
     return records.make_row(**_job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, prep.scene,
                                           getattr(prep.reference, "meta", {}), status))
+
+
+def finish_job(task: Finish, prep: Prepared, phases: Phases | None = None, *, row_calls: int = 1) -> dict:
+    """The rest of a job, CPU work only: score the result against the reference, save the images (and
+    ``--save-arrays``), make the row. Whatever it raises becomes the row's ``error: ...`` status (the
+    columns of :func:`_job_fields`, as :func:`run_job` has always written them), within
+    ``task.seconds_left`` (when this runs on its process's main thread: :func:`time_limit`).
+    ``row_calls``: the calls to count under ``row`` (0 when the job's :func:`start_job` counted it)."""
+    ph = phases if phases is not None else Phases()
+    t0, before = time.perf_counter(), ph.total()
+    try:
+        with time_limit(task.seconds_left):
+            return _finish_job(task, prep, ph)
+    except LdbenchError as e:
+        status = f"error: {e}"
+    except Exception as e:  # noqa: BLE001 - recorded in the row, not lost
+        status = f"error: {error_text(e)}"
+    except SystemExit as e:  # a plugin's sys.exit() (e.g. in its result's image callable)
+        if isinstance(e, Terminated):
+            raise
+        status = f"error: {exit_text(e)}"
+    finally:
+        ph.add("row", time.perf_counter() - t0 - (ph.total() - before), calls=row_calls)
+    return error_row(task, status)
+
+
+def error_row(task: Finish, status: str) -> dict:
+    """The row of a job whose :func:`finish_job` failed: the job's columns and ``status``, no metrics."""
+    from . import records
+
+    return records.make_row(**{**task.fields, "status": status})
 
 
 class JobTimeout(LdbenchError):
@@ -233,13 +311,18 @@ def time_limit(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
+def exit_text(e: SystemExit) -> str:
+    """A plugin's ``sys.exit(code)`` inside a job or a reference, in words (its row's error; the run goes on)."""
+    return f"sys.exit({e.code!r}) called inside the job (SystemExit): plugin code must raise an exception, not exit"
+
+
 def error_text(e: BaseException) -> str:
     """One line naming an unexpected exception: its type and the first line of its message."""
     lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
     return f"{type(e).__name__}: {lines[0] if lines else ''}".rstrip(": ")[:300]
 
 
-def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
+def _start_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict | Finish:
     from ldbench.methods.base import View, get_method
     from ldbench.references import EXACT, trace
 
@@ -251,11 +334,13 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
     method.oracle = trace  # the exact baselines some adapters offer (never timed)
     method.exact = EXACT   # the exact primary hits and epsilons, as effects get them (mc-ao builds rays)
     method.run_seed = int(job.seed)  # before setup: a method may draw its random tables there
-    scene, spec, ref = prep.scene, job.effect.spec, prep.reference
+    scene = prep.scene
+    assert job.width is not None and job.height is not None  # plan_run resolved every job's size
     view = View(scene.camera, job.width, job.height, seed=int(job.seed))
     samples: dict = {}
     totals, walls = [], []
-    status, result = "ok", None
+    status = "ok"
+    result: Result | None = None  # the last frame's
     try:
         with ph("setup"):
             method.setup(ctx.gpu, scene)
@@ -272,46 +357,62 @@ def _run_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict:
                         samples.setdefault(k, []).append(v)
                     totals.append(sum(stages.values()))
                     walls.append(wall)
+            assert result is not None  # frames >= 1 (the suite checks it)
             result.resolve()
     except LdbenchError as e:
         status = f"error: {e}"
-    finally:
-        with ph("release"):
+    except BaseException:  # Ctrl-C, a bug: what stopped the job, not a release that fails after a half set-up
+        with ph("release"), suppress(Exception):
             method.release()
+        raise
+    with ph("release"):
+        method.release()
 
-    row = _job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, scene, getattr(ref, "meta", {}),
-                      status)
+    row = _job_fields(ctx.run_id, ctx.suite_name, ctx.git, ctx.machine, job, scene,
+                      getattr(prep.reference, "meta", {}), status)
     if status != "ok":
         return records.make_row(**row)
+    assert result is not None  # status "ok": the frames ran
     timing = records.timing_fields({**samples, "total": totals, "wall": walls})
     mem = records.checked_memory(result.memory_bytes, "the method's memory_bytes")
+    return Finish(spec=job.effect.spec, result=result, fields=row, timing=timing, memory=mem,
+                  folder=ctx.out / "images" / scene_dir(scene), label=job_label(job, scene),
+                  ref_label=reference_label(job, scene), save_arrays=ctx.save_arrays,
+                  test=getattr(job, "test", None))
+
+
+def _finish_job(task: Finish, prep: Prepared, ph: Phases) -> dict:
+    from . import records
+
+    spec, result, ref, folder = task.spec, task.result, prep.reference, task.folder
+    row = dict(task.fields)
     with ph("score"):
-        scores = spec.score(result, ref, scene=scene, inputs=prep.inputs, stage_ms=timing["stage_ms"])
+        scores = spec.score(result, ref, scene=prep.scene, inputs=prep.inputs, stage_ms=task.timing["stage_ms"])
     problems = list(result.invariants) + spec.problems(scores)  # e.g. non-finite pixels: never ok
     if problems:
         row["status"] = "degraded: " + "; ".join(problems)
-    folder = ctx.out / "images" / scene_dir(scene)
     with ph("save"):
-        images = spec.save(result, ref, prep.inputs, folder, job_label(job, scene), reference_label(job, scene))
-        rel = f"images/{scene_dir(scene)}/"
+        images = spec.save(result, ref, prep.inputs, folder, task.label, task.ref_label)
+        rel = f"images/{folder.name}/"
         images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
                   for k, v in images.items()}
-        if ctx.save_arrays:
+        if task.save_arrays:
             from .arrays import answer_arrays, save_arrays
 
             arrays = answer_arrays(spec, result, ref, prep.inputs)
             if arrays is not None:
-                name = f"{job_label(job, scene)}-arrays.npz"
+                name = f"{task.label}-arrays.npz"
                 save_arrays(folder / name, arrays)
                 images["arrays"] = rel + name
-    row.update(**timing, memory_bytes=int(sum(mem.values())), memory=mem,
+    mem = task.memory
+    row.update(**task.timing, memory_bytes=int(sum(mem.values())), memory=mem,
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},
                ref_noise=spec.noise(ref), images=images, **scores)
-    if getattr(job, "test", None):  # a suite's test = "unbiased" (ldbench/harness/unbiased_score.py)
+    if task.test:  # a suite's test = "unbiased" (ldbench/harness/unbiased_score.py)
         from .unbiased_score import method_test
 
         with ph("score"):
-            cols, maps = method_test(job.test, result, ref, spec, folder, job_label(job, scene))
+            cols, maps = method_test(task.test, result, ref, spec, folder, task.label)
         row.update(cols)
         images.update({k: rel + v for k, v in maps.items()})
     return records.make_row(**row)

@@ -6,9 +6,10 @@ entry, in that order; images written under ``out``). The run directory itself (l
 results files, commit or abort) stays with :func:`run_jobs`, whatever the executor.
 
 ================  ==================================================================================
-``local``         this process, one job after the other (the default; :mod:`.local`)
+``local``         this process, one job after the other (the default; :mod:`.local`); ``writers=N``: N
+                  writer processes score and save while it renders (:mod:`ldbench.harness.writers`)
 ``ray``           one Ray task per job group on a local or remote Ray cluster (:mod:`.ray`,
-                  ``pip install 'ldbench[ray]'``; docs/ray.md)
+                  ``pip install 'ldbench[ray]'``; docs/how-to/run-on-ray.md)
 ================  ==================================================================================
 """
 from __future__ import annotations
@@ -29,11 +30,15 @@ EXECUTORS = ("local", "ray")
 def get_executor(executor=None, **options):
     """An executor object from a name (None = ``local``) and its options, or ``executor`` itself."""
     if executor is None or executor == "local":
+        writers = options.pop("writers", None)
         if options:
             raise LdbenchError(f"--executor local takes no {', '.join('--' + k for k in options)}")
         from .local import LocalExecutor
-        return LocalExecutor()
+        return LocalExecutor(writers=writers)
     if executor == "ray":
+        if options.get("writers") is not None:
+            raise LdbenchError("--writers goes with the local executor; Ray workers score and save their own jobs")
+        options.pop("writers", None)
         from .ray import RayExecutor
         return RayExecutor(**options)
     if isinstance(executor, str):

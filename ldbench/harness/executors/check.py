@@ -1,5 +1,4 @@
-"""Do two runs of the same suite agree? (A Ray run against a serial one: tests/test_executor_ray.py and
-scripts/gpu/ray-executor-speedup.sh.)
+"""Do two runs of the same suite agree? (A Ray run against a serial one: tests/test_executor_ray.py.)
 
 Everything must be equal except :data:`TIMED` (the run's identity, times and timing-derived rates, the
 machine dict with its clocks, and the device a job ran on): every other column, row by row in suite

@@ -1,4 +1,4 @@
-"""The Ray executor (``ldbench run SUITE --executor ray [--address ADDR] [--retries N]``; docs/ray.md).
+"""The Ray executor (``ldbench run SUITE --executor ray [--address ADDR] [--retries N]``; docs/how-to/run-on-ray.md).
 
 =====================  ==========================================================================
 cluster                ``--address ADDR`` joins a running cluster (``auto``, ``HOST:6379``,
@@ -70,8 +70,10 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
+from types import FrameType
+from typing import Any, Callable
 
-from ldbench.core.errors import LdbenchError
+from ldbench.core.errors import LdbenchError, exit_on_sigterm
 from ldbench.core.files import atomic_write
 from ..phases import Phases
 
@@ -347,7 +349,8 @@ class _LocalCluster:
         self.up = threading.Event()
         self.error: BaseException | None = None
         self._stop = threading.Event()
-        self._sigterm = None  # the handler start() replaced, given back by stop()
+        # the handler start() replaced, given back by stop()
+        self._sigterm: Callable[[int, FrameType | None], Any] | int | None = None
         self._thread = threading.Thread(target=self._main, args=(ray, init_kw), name="ldbench-ray-cluster",
                                         daemon=True)
 
@@ -355,7 +358,7 @@ class _LocalCluster:
         if threading.current_thread() is threading.main_thread():
             # what ray.init does on the main thread (it cannot on this one): SIGTERM -> SystemExit, so
             # that a terminated run still deletes its partial run directory
-            self._sigterm = signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(signum))
+            self._sigterm = signal.signal(signal.SIGTERM, exit_on_sigterm)
         self._thread.start()
         return self
 
