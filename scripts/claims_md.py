@@ -1,4 +1,4 @@
-"""Rewrite the generated part of docs/claims.md (between its claims:begin / claims:end markers) from the
+"""Rewrite the generated part of docs/reference/claims.md (between its claims:begin / claims:end markers) from the
 reproduction registry: `python scripts/claims_md.py` after adding or changing a claim;
 tests/test_reproduce_claims.py checks that the page is in step."""
 from __future__ import annotations
@@ -13,7 +13,7 @@ sys.path.insert(0, str(ROOT))
 
 from ldbench.reports.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown  # noqa: E402
 
-page = ROOT / "docs" / "claims.md"
+page = ROOT / "docs" / "reference" / "claims.md"
 text = page.read_text(encoding="utf-8")
 head, rest = text.split(CLAIMS_BEGIN, 1)
 _, tail = rest.split(CLAIMS_END, 1)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from ldbench.harness import records
-from ldbench.reports.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, _MATCH_ROW_KEYS, evaluate,
+from ldbench.reports.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, PREMISE, _MATCH_ROW_KEYS, evaluate,
                                        format_text, get_entry, registry, scale_match)
 
 
@@ -28,6 +28,14 @@ def _verdict(tmp_path, key, text, rows, scale="paper"):
     return next(c["verdict"] for c in res["claims"] if c["text"] == text)
 
 
+def _premise(tmp_path, key, text, rows, scale="paper"):
+    """The evaluated premise ``text`` of entry ``key``; asserts it is no claim (no verdict)."""
+    records.write_results(rows, tmp_path)
+    res = evaluate(get_entry(key), records.read_results(tmp_path), scale)
+    assert not [c for c in res["claims"] if c["text"] == text], f"{text!r} is judged as a claim"
+    return next(p for p in res["premises"] if p["text"] == text)
+
+
 # ---------------------------------------------------------------- aalund2015 Fig. 8: the pixel-step HBAO
 
 FIG8 = get_entry("aalund2015-fig8")
@@ -42,14 +50,17 @@ def test_fig8_faster_than_the_pixel_step_hbao_can_fail(tmp_path, ldm, hbao_px, v
 
 
 def test_fig8_claims_use_the_pixel_step_rows(tmp_path):
-    """The fixed 8 × 8 HBAO row (2.55 ms) cannot decide the paper's claim; the pixel-step rows do."""
-    rows = [_row(FIG8, "hbao-px", t=40.0), _row(FIG8, "hbao-px-small", t=3.0), _row(FIG8, "hbao", t=2.55),
-            _row(FIG8, "hbao-small", t=2.32)]
-    assert _verdict(tmp_path, "aalund2015-fig8", GROWS, rows) == HOLDS
-    rows[0] = _row(FIG8, "hbao-px", t=2.0)
-    assert _verdict(tmp_path / "b", "aalund2015-fig8", GROWS, rows) == FAILS
+    """The fixed 8 × 8 HBAO row (2.55 ms) cannot decide the paper's claim; the pixel-step rows do. 'HBAO gets
+    slower as d_max grows' is a premise (the pixel-step HBAO's steps follow d_max by construction): printed
+    with our two times, never a verdict, whatever they are."""
+    for i, t in enumerate((40.0, 2.0)):
+        rows = [_row(FIG8, "hbao-px", t=t), _row(FIG8, "hbao-px-small", t=3.0), _row(FIG8, "hbao", t=2.55),
+                _row(FIG8, "hbao-small", t=2.32)]
+        p = _premise(tmp_path / str(i), "aalund2015-fig8", GROWS, rows)
+        assert p["verdict"] == PREMISE and p["ours"] == f"{t:.2f} ms vs 3.00 ms" and "by construction" in p["why"]
     c = {c.text: c for c in FIG8.claims}
-    assert (c[FASTER].b, c[GROWS].a, c[GROWS].b) == ("hbao-px", "hbao-px", "hbao-px-small")
+    g = next(c for c in FIG8.premises if c.text == GROWS)
+    assert (c[FASTER].b, g.a, g.b) == ("hbao-px", "hbao-px", "hbao-px-small")
     px = next(r for r in FIG8.rows if r["id"] == "hbao-px")
     assert px["match"]["params"]["sampling"] == "pixel_step" and px["time_ms"] == 903.6
 
@@ -66,15 +77,17 @@ def _ldm_memory(total):
             - 64 - 40960, "ldm.axes": 12288, "ldm.map_table": 1 << 20, **FIXED}
 
 
-@pytest.mark.parametrize("mb200, mb50, verdict", [(805.5, 204.1, HOLDS), (342.7 - 60, 77.2 - 60, FAILS),
-                                                   (16 * 20.0, 20.0, FAILS), (20.0, 20.0, FAILS)])
-def test_fig9_memory_ratio_is_judged_on_the_structure_alone(tmp_path, mb200, mb50, verdict):
-    """structure_bytes only: the fixed ~60 MB of geometry and G-buffers, the axes and lookup tables do not
-    count. The H200's totals (342.7 vs 77.2 MB = 4.44×) were LDMs of ~16×: fails."""
+@pytest.mark.parametrize("mb200, mb50, shown", [(805.5, 204.1, "3.95×"), (16 * 20.0, 20.0, "16.00×")])
+def test_fig9_memory_ratio_is_a_premise_on_the_structure_alone(tmp_path, mb200, mb50, shown):
+    """Our LDMs are proportional to their texels, so 200² against 50² is 16× by construction: the paper's
+    3.95× is a premise, printed with our ratio (structure_bytes only: the fixed ~60 MB of geometry and
+    G-buffers, the axes and lookup tables do not count; the H200's totals, 342.7 vs 77.2 MB = 4.44×,
+    were LDMs of ~16×), never a verdict."""
     rows = [_row(FIG9, "sponza-200", t=1.0, memory=_ldm_memory(int(mb200 * 2**20))),
             _row(FIG9, "sponza-50", t=1.0, memory=_ldm_memory(int(mb50 * 2**20)))]
     assert records.structure_bytes(_ldm_memory(1000)) == 1000
-    assert _verdict(tmp_path, "aalund2015-fig9", MEM_RATIO, rows) == verdict
+    p = _premise(tmp_path, "aalund2015-fig9", MEM_RATIO, rows)
+    assert p["verdict"] == PREMISE and p["ours"].endswith(f"= {shown}") and "16×" in p["why"]
 
 
 def test_fig9_hairball_claims_only_at_paper_scale(tmp_path):
@@ -179,14 +192,14 @@ def test_every_claim_prints_its_rule_and_window_derivation(tmp_path):
 
 
 def test_docs_claims_page_is_in_step():
-    """docs/claims.md lists every entry's claims with their rules as the registry has them (regenerate with
+    """docs/reference/claims.md lists every entry's claims with their rules as the registry has them (regenerate with
     `python scripts/claims_md.py`)."""
     from pathlib import Path
 
     from ldbench.reports.reproduce import CLAIMS_BEGIN, CLAIMS_END, claims_markdown
 
-    page = (Path(__file__).resolve().parents[1] / "docs" / "claims.md").read_text(encoding="utf-8")
+    page = (Path(__file__).resolve().parents[1] / "docs" / "reference" / "claims.md").read_text(encoding="utf-8")
     generated = page.split(CLAIMS_BEGIN, 1)[1].split(CLAIMS_END, 1)[0].strip()
-    assert generated == claims_markdown().strip(), "docs/claims.md is out of step: run python scripts/claims_md.py"
+    assert generated == claims_markdown().strip(), "docs/reference/claims.md is out of step: run python scripts/claims_md.py"
     for e in registry().values():
         assert f"`{e.key}`" in page

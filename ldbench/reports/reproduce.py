@@ -13,15 +13,15 @@ module per paper, collected by :func:`registry`. An entry is data:
 * ``claims``: the paper's statements as comparisons between rows (:class:`Claim`), each with a verdict
   on our numbers: ``holds`` / ``does not hold on this machine`` / ``not measured`` (a row is missing or
   failed) / ``inconclusive`` (the noise straddles the bound) / for times on a CPU, ``not measurable
-  here`` (docs/reports.md, "Timing verdicts"); each claim's verdict rule and the derivation of its
-  window from the paper's words (``Claim.why``) are printed with the table (docs/claims.md),
+  here`` (docs/reference/reports.md, "Timing verdicts"); each claim's verdict rule and the derivation of its
+  window from the paper's words (``Claim.why``) are printed with the table (docs/reference/claims.md),
 * ``scales``: suite overrides for ``--scale ci`` (tiny, for CI on llvmpipe) and ``--scale paper`` (the
   suite as written). A scale's parameter overrides are applied to the rows' ``match`` too, so the same
   rows find their counterparts at every scale.
 
 Adding a paper is a data addition (a suite and a module in :mod:`ldbench.reports.reproductions`, found by
 :func:`registry`; no engine change). The steps, the quantities a row may give and the timing verdict
-rules (and the measurements behind them) are in docs/reports.md, "Reproducing a paper table".
+rules (and the measurements behind them) are in docs/reference/reports.md, "Reproducing a paper table".
 """
 from __future__ import annotations
 
@@ -76,6 +76,7 @@ NOT_MEASURED = "not measured"
 INCONCLUSIVE = "inconclusive (difference within the timing noise)"
 NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software (wall clock on shared cores)
 NOT_AT_SCALE = "not comparable at scale {scale}"  # a claim whose rows only mean something at other scales
+PREMISE = "premise (no verdict)"  # a statement our set-up decides by construction: printed, never judged
 
 CPU_SOFTWARE = "cpu-software"
 TIME_QUANTITIES = ("time_ms", "rays_per_s")  # with every stage:NAME: the quantities that get the timing rules
@@ -100,6 +101,13 @@ class Claim:
     alone is the claim; printed with the verdict rule beside the table. ``scales``: the scales at which
     the claim's rows are comparable (empty: all); at another scale the verdict is
     :data:`NOT_AT_SCALE`, e.g. when the ci scale's scene sizes invert the paper's ratio.
+
+    ``ours``: a claim that is not the paper's (the paper's comparison made against a baseline of ours, or a
+    control of ours beside a paper claim); printed apart from the paper's claims, labelled.
+
+    As a *premise* (:attr:`Reproduction.premises`) the same record states what our set-up decides by
+    construction: our numbers are printed beside the published ones, ``why`` says why they cannot
+    contradict the paper, and no verdict is given.
     """
 
     text: str
@@ -116,6 +124,7 @@ class Claim:
     why: str = ""
     scales: tuple = ()
     reason: str = ""  # why it fails or is inconclusive on the machine measured (printed beside such a verdict)
+    ours: bool = False  # not the paper's statement (e.g. the paper's comparison against our own baseline)
 
 
 @dataclass(frozen=True)
@@ -132,6 +141,9 @@ class Reproduction:
     claims: tuple = ()
     scales: dict = field(default_factory=dict)
     notes: tuple = ()
+    #: statements of the paper that our set-up decides by construction (:class:`Claim` records whose ``why``
+    #: says why): printed apart from the claims with our numbers, never a verdict
+    premises: tuple = ()
 
 
 def registry() -> dict[str, Reproduction]:
@@ -261,7 +273,8 @@ _MATCH_ROW_KEYS = ("scene", "method", "effect", "size", "params", "scene_params"
 def _with_defaults(r: dict, match: dict) -> dict:
     """``r`` with the method's defaults for the parameters ``match`` names that ``r`` lacks (a run older
     than the parameter ran with its default, e.g. hbao's ``sampling``)."""
-    have = r.get("params") if isinstance(r.get("params"), dict) else {}
+    params = r.get("params")
+    have = params if isinstance(params, dict) else {}
     defaults = _defaults(r.get("method"))
     missing = {k: defaults[k] for k in (match.get("params") or {}) if k not in have and k in defaults}
     return {**r, "params": {**have, **missing}} if missing else r
@@ -376,7 +389,7 @@ def time_verdict(ra, rb, va: float, vb: float, kind: str = "less", qa: str = "ti
     A row with no ``device``: :data:`NOT_MEASURED` (where its times came from is unknown, so neither
     rule below applies). cpu-software (either row): always :data:`NOT_MEASURABLE`. Frames there are wall
     clock on shared cores: the spread within one job (its frames) misses the spread between jobs, which was
-    up to 2.1× between back-to-back runs (6× with two runs at once; docs/reports.md, "Timing verdicts"), so
+    up to 2.1× between back-to-back runs (6× with two runs at once; docs/reference/reports.md, "Timing verdicts"), so
     no within-run test can tell a difference from the load. GPU (timer queries): :data:`INCONCLUSIVE` when
     ``|va − vb|`` is within the larger noise of the two sides, each side's noise that of its own quantity
     (``qa`` for a, ``qb`` for b, default ``qa``; :func:`_noise`: a stage's own IQR for ``stage:NAME``)
@@ -424,7 +437,7 @@ def our_value(r, q: str):
 
         v = structure_bytes(r["memory"])
     if q.startswith(FAMILIES):
-        from .figures import as_dict
+        from .figures.table import as_dict
 
         d = as_dict(v) or {}
         names = q.split(":", 1)[1].split("+")
@@ -457,10 +470,18 @@ def _fmt(v, q=None) -> str:
     return f"{s} {unit}".strip()
 
 
-def _ratio(a, b) -> str:
-    if a is None or b is None or b == 0:
+def _versus(ours, pub, q) -> str:
+    """Ours beside a published value. A time or a rate (measured on another GPU generation) reads as the
+    speed-up, "N× faster" or "N× slower" (a ratio such as 0.00217× says the same less plainly); any other
+    quantity as ours / published."""
+    if ours is None or pub is None or pub == 0:
         return "–"
-    return f"{a / b:.3g}×"
+    if _timed(q) or q == "oracle_rays_per_s":
+        if ours <= 0:
+            return "–"
+        s = ours / pub if quantity(q)[2] else pub / ours  # > 1: ours is faster
+        return f"{s:.3g}× faster" if s >= 1 else f"{1 / s:.3g}× slower"
+    return f"{ours / pub:.3g}×"
 
 
 # --------------------------------------------------------------------------------------------------
@@ -493,13 +514,17 @@ def _side(kind, q, va, vb, ratio=None) -> str:
 
 
 def _bounds(c: Claim) -> str:
+    assert c.ratio is not None  # only claims with a window are given
     lo, hi = c.ratio
+    q = c.quantities[0]
+    if c.kind == "within" and quantity(q)[1] == "rays/s":  # rates in M or G rays/s
+        return f"{_fmt(lo, q)} – {'∞' if math.isinf(hi) else _fmt(hi, q)}"
     unit = "×" if c.kind == "ratio" else f" {quantity(c.quantities[0])[1]}".rstrip()
     hi_s = "∞" if math.isinf(hi) else f"{hi:.3g}"
     return f"{lo:.3g}–{hi_s}{unit}"
 
 
-#: The verdict rule of each claim kind (printed with every claim; docs/claims.md, "Verdict rules").
+#: The verdict rule of each claim kind (printed with every claim; docs/reference/claims.md, "Verdict rules").
 KIND_RULES = {
     "less": "holds if a < b",
     "greater": "holds if a > b",
@@ -533,13 +558,106 @@ def rule_text(c: Claim) -> str:
     return out
 
 
+def _judge(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
+    """One claim on our rows (``found``: row id → our row or None): its published and measured sides,
+    verdict, rule and reason."""
+    ra, rb = found.get(c.a), found.get(c.a if c.kind == "within" else c.b)
+    parts, pub_parts, timing = [], [], set()
+    verdicts: list[bool | None] = []  # per quantity; None: not measured
+    window = c.ratio
+    for q in c.quantities:
+        qb = c.b_quantity or q
+        va, vb = our_value(ra, q), our_value(rb, qb)
+        pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(qb)
+        timed = [(ra, rb, va, vb)]
+        gap_sides = None
+        if c.kind == "gap":  # compare a/b with c/d: the sides become the two ratios
+            rc, rd = found.get(c.c), found.get(c.d)
+            vc, vd = our_value(rc, q), our_value(rd, q)
+            timed.append((rc, rd, vc, vd))
+            gap_sides = ((ra, rb, va, vb), (rc, rd, vc, vd))
+            va = va / vb if None not in (va, vb) and vb else None
+            vb = vc / vd if None not in (vc, vd) and vd else None
+            pc, pd = pub_rows.get(c.c, {}).get(q), pub_rows.get(c.d, {}).get(q)
+            pa = pa / pb if None not in (pa, pb) and pb else None
+            pb = pc / pd if None not in (pc, pd) and pd else None
+        if c.kind == "within":
+            vb, pb = (va if va is not None else None), pa
+            parts.append(_fmt(va, q))
+        else:
+            parts.append(_side(c.kind, q, va, vb, c.ratio))
+        timed_q = _timed(q) or _timed(qb)
+        if va is None or vb is None:
+            verdicts.append(None)
+        elif c.kind in ("ratio", "within"):
+            assert ra is not None and rb is not None  # our_value of a missing row is None
+            na = _noise(ra, q) if _timed(q) and ra.get("device") != CPU_SOFTWARE else 0.0
+            nb = _noise(rb, qb) if _timed(qb) and rb.get("device") != CPU_SOFTWARE else 0.0
+            lo, hi = _interval(c.kind, va, vb, na, nb)
+            bv = _bound_verdict(window, lo, hi)
+            verdicts.append(bv is not False and (bv if bv is not None else True))
+            if bv is None:
+                timing.add(INCONCLUSIVE)
+            if (na or nb) and bv is not None:
+                parts[-1] += f" (within the noise {lo:.3g}–{hi:.3g}" + ("×)" if c.kind == "ratio" else ")")
+        elif c.kind == "gap" and timed_q:  # each ratio within its rows' noise: a/b must exceed c/d throughout
+            assert gap_sides is not None  # set above for kind "gap"
+            (lo1, hi1), (lo2, hi2) = (
+                _interval("ratio", v1, v2, *(_noise(r, q) if _device(r) not in (None, CPU_SOFTWARE) else 0.0
+                                             for r in (r1, r2)))
+                for r1, r2, v1, v2 in gap_sides)
+            bv = True if lo1 > hi2 else (False if hi1 <= lo2 else None)
+            verdicts.append(bv is not False)
+            if bv is None:
+                timing.add(INCONCLUSIVE)
+            if (lo1, hi1, lo2, hi2) != (va, va, vb, vb):
+                parts[-1] += f" (within the noise {lo1:.3g}–{hi1:.3g}× vs {lo2:.3g}–{hi2:.3g}×)"
+        else:
+            verdicts.append(_compare(c.kind, q, va, vb, c.ratio))
+        if timed_q:
+            for i, (r1, r2, v1, v2) in enumerate(timed):  # a gap's second pair (c, d) is of quantity q
+                if None not in (r1, r2, v1, v2):
+                    timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind,
+                                            q, qb if i == 0 else q))
+        if c.kind == "within":
+            if pa is not None:
+                pub_parts.append(_fmt(pa, q))
+        elif pa is not None and pb is not None:
+            pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
+    if any(v is None for v in verdicts) or NOT_MEASURED in timing:  # a missing row, or times of no device
+        verdict = NOT_MEASURED
+    elif c.scales and scale_name not in c.scales:
+        verdict = NOT_AT_SCALE.format(scale=scale_name)
+    elif NOT_MEASURABLE in timing or INCONCLUSIVE in timing:
+        verdict = NOT_MEASURABLE if NOT_MEASURABLE in timing else INCONCLUSIVE
+    else:
+        verdict = HOLDS if all(verdicts) else FAILS
+    published = c.published or "; ".join(pub_parts) or "stated in the paper"
+    if c.kind in ("ratio", "within") and c.ratio:
+        published += f" (holds if within {_bounds(c)})"
+    reason = ""
+    if verdict in (FAILS, INCONCLUSIVE):
+        reason = c.reason or ("the difference lies within the rows' timing noise (IQR)" if verdict == INCONCLUSIVE
+                              else "not explained yet")
+    return {"text": c.text, "where": c.where, "published": published, "ours": "; ".join(parts),
+            "verdict": verdict, "rule": rule_text(c), "reason": reason, "paper": not c.ours}
+
+
+def _premise(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
+    """A premise: the published and measured sides as for a claim, ``why`` in place of a verdict."""
+    j = _judge(c, found, pub_rows, scale_name)
+    return {"text": c.text, "where": c.where, "published": j["published"], "ours": j["ours"],
+            "verdict": PREMISE, "why": c.why}
+
+
 def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     """Published vs ours for every row and claim of ``entry`` on a results table ``df``.
 
     Returns a JSON-able dict (also written as ``reproduce.json``): ``rows`` (one line per row ×
-    quantity), ``claims`` (with verdicts), setup strings and notes.
+    quantity), ``claims`` (with verdicts; ``paper`` false for a claim of ours), ``premises`` (no verdict),
+    setup strings and notes.
     """
-    from .figures import as_dict
+    from .figures.table import as_dict
 
     scale = entry.scales.get(scale_name, {})
     recs = []
@@ -556,7 +674,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
         found[pr["id"]] = ours
         cfg = "no matching row in this run"
         if ours is not None:
-            from .figures import fmt_value
+            from .labels import fmt_value
 
             d = effect_d_max(ours)
             shown = _shown_params(ours, m)
@@ -573,91 +691,14 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
             rows_out.append({"id": pr["id"], "label": pr["label"], "paper_setup": pr.get("paper_setup", ""),
                              "ours_config": cfg, "quantity": f"{quantity(q)[3]}" + (f" ({quantity(q)[1]})" if quantity(q)[1] else ""),
                              "published": _fmt(pub, q) if pub is not None else "not published",
-                             "ours": _fmt(ov, q), "ratio": _ratio(ov, pub),
+                             "ours": _fmt(ov, q), "ratio": _versus(ov, pub, q),
                              "published_value": pub, "ours_value": ov,
                              "frames": _int_or_dash(ours, "frames"), "ref_spp": _int_or_dash(ours, "ref_spp"),
                              "iqr": (_fmt(_noise(ours, q), "rays_per_s" if q == "rays_per_s" else "time_ms")
                                      if ours is not None and _timed(q) else "–")})
-    claims_out = []
     pub_rows = {pr["id"]: pr for pr in entry.rows}
-    for c in entry.claims:
-        ra, rb = found.get(c.a), found.get(c.a if c.kind == "within" else c.b)
-        parts, verdicts, pub_parts, timing = [], [], [], set()
-        window = c.ratio
-        for q in c.quantities:
-            qb = c.b_quantity or q
-            va, vb = our_value(ra, q), our_value(rb, qb)
-            pa, pb = pub_rows.get(c.a, {}).get(q), pub_rows.get(c.b, {}).get(qb)
-            timed = [(ra, rb, va, vb)]
-            gap_sides = None
-            if c.kind == "gap":  # compare a/b with c/d: the sides become the two ratios
-                rc, rd = found.get(c.c), found.get(c.d)
-                vc, vd = our_value(rc, q), our_value(rd, q)
-                timed.append((rc, rd, vc, vd))
-                gap_sides = ((ra, rb, va, vb), (rc, rd, vc, vd))
-                va = va / vb if None not in (va, vb) and vb else None
-                vb = vc / vd if None not in (vc, vd) and vd else None
-                pc, pd = pub_rows.get(c.c, {}).get(q), pub_rows.get(c.d, {}).get(q)
-                pa = pa / pb if None not in (pa, pb) and pb else None
-                pb = pc / pd if None not in (pc, pd) and pd else None
-            if c.kind == "within":
-                vb, pb = (va if va is not None else None), pa
-                parts.append(_fmt(va, q))
-            else:
-                parts.append(_side(c.kind, q, va, vb, c.ratio))
-            timed_q = _timed(q) or _timed(qb)
-            if va is None or vb is None:
-                verdicts.append(None)
-            elif c.kind in ("ratio", "within"):
-                na = _noise(ra, q) if _timed(q) and ra.get("device") != CPU_SOFTWARE else 0.0
-                nb = _noise(rb, qb) if _timed(qb) and rb.get("device") != CPU_SOFTWARE else 0.0
-                lo, hi = _interval(c.kind, va, vb, na, nb)
-                bv = _bound_verdict(window, lo, hi)
-                verdicts.append(bv is not False and (bv if bv is not None else True))
-                if bv is None:
-                    timing.add(INCONCLUSIVE)
-                if (na or nb) and bv is not None:
-                    parts[-1] += f" (within the noise {lo:.3g}–{hi:.3g}" + ("×)" if c.kind == "ratio" else ")")
-            elif c.kind == "gap" and timed_q:  # each ratio within its rows' noise: a/b must exceed c/d throughout
-                (lo1, hi1), (lo2, hi2) = (
-                    _interval("ratio", v1, v2, *(_noise(r, q) if _device(r) not in (None, CPU_SOFTWARE) else 0.0
-                                                 for r in (r1, r2)))
-                    for r1, r2, v1, v2 in gap_sides)
-                bv = True if lo1 > hi2 else (False if hi1 <= lo2 else None)
-                verdicts.append(bv is not False)
-                if bv is None:
-                    timing.add(INCONCLUSIVE)
-                if (lo1, hi1, lo2, hi2) != (va, va, vb, vb):
-                    parts[-1] += f" (within the noise {lo1:.3g}–{hi1:.3g}× vs {lo2:.3g}–{hi2:.3g}×)"
-            else:
-                verdicts.append(_compare(c.kind, q, va, vb, c.ratio))
-            if timed_q:
-                for i, (r1, r2, v1, v2) in enumerate(timed):  # a gap's second pair (c, d) is of quantity q
-                    if None not in (r1, r2, v1, v2):
-                        timing.add(time_verdict(r1, r2, v1, v2, "ratio" if c.kind == "gap" else c.kind,
-                                                q, qb if i == 0 else q))
-            if c.kind == "within":
-                if pa is not None:
-                    pub_parts.append(_fmt(pa, q))
-            elif pa is not None and pb is not None:
-                pub_parts.append(_side(c.kind, q, pa, pb, c.ratio))
-        if any(v is None for v in verdicts) or NOT_MEASURED in timing:  # a missing row, or times of no device
-            verdict = NOT_MEASURED
-        elif c.scales and scale_name not in c.scales:
-            verdict = NOT_AT_SCALE.format(scale=scale_name)
-        elif NOT_MEASURABLE in timing or INCONCLUSIVE in timing:
-            verdict = NOT_MEASURABLE if NOT_MEASURABLE in timing else INCONCLUSIVE
-        else:
-            verdict = HOLDS if all(verdicts) else FAILS
-        published = c.published or "; ".join(pub_parts) or "stated in the paper"
-        if c.kind in ("ratio", "within") and c.ratio:
-            published += f" (holds if within {_bounds(c)})"
-        reason = ""
-        if verdict in (FAILS, INCONCLUSIVE):
-            reason = c.reason or ("the difference lies within the rows' timing noise (IQR)" if verdict == INCONCLUSIVE
-                                  else "not explained yet")
-        claims_out.append({"text": c.text, "where": c.where, "published": published,
-                           "ours": "; ".join(parts), "verdict": verdict, "rule": rule_text(c), "reason": reason})
+    claims_out = [_judge(c, found, pub_rows, scale_name) for c in entry.claims]
+    premises_out = [_premise(c, found, pub_rows, scale_name) for c in entry.premises]
     ok = df[df["status"] == "ok"] if "status" in df else df
     r0 = ok.iloc[0] if len(ok) else (df.iloc[0] if len(df) else None)
     if r0 is not None:
@@ -671,7 +712,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
             "published_setup": f"{entry.hardware}, {entry.resolution.replace('x', '×')}, {entry.paper_scene}",
             "our_setup": our_setup, "scale": scale_name, "device": None if r0 is None else r0.get("device"),
             "run": _run_line(ok if len(ok) else df),
-            "rows": rows_out, "claims": claims_out, "notes": list(entry.notes),
+            "rows": rows_out, "claims": claims_out, "premises": premises_out, "notes": list(entry.notes),
             "errors": [f"{r.get('scene')} {r.get('method')}: {r.get('status')}" for _, r in df.iterrows()
                        if r.get("status") != "ok"]}
 
@@ -714,19 +755,41 @@ def format_text(res: dict) -> str:
     if res.get("device") == "cpu-software":
         out.append("  note: device = cpu-software, our times are wall clock on a software rasterizer shared with "
                    "other work: every time claim is 'not measurable here'")
+    out += [f"  not run:   {n}" for n in res.get("not_run", ())]
     out.append("")
-    out += _table(["row", "quantity", "published", "ours", "ours/published", "our configuration"],
+    out += _table(["row", "quantity", "published", "ours", "ours vs published", "our configuration"],
                   [[r["label"], r["quantity"], r["published"], r["ours"], r["ratio"], r["ours_config"]]
                    for r in res["rows"]])
-    out.append("")
-    out += _table(["#", "claim", "published", "ours", "verdict"],
-                  [[i + 1, c["text"], c["published"], c["ours"], c["verdict"]] for i, c in enumerate(res["claims"])])
+    for title, group in _claim_groups(res):
+        out += ["", title]
+        out += _table(["#", "claim", "published", "ours", "verdict"],
+                      [[i + 1, c["text"], c["published"], c["ours"], c["verdict"]] for i, c in group])
     out += ["", "verdict rules and windows:"] + [f"  [{i + 1}] {c.get('rule', '')}" for i, c in enumerate(res["claims"])]
     out.append(f"  {TIMING_RULE}")
+    if res.get("premises"):
+        out += ["", PREMISES_TITLE]
+        out += _table(["#", "premise", "published", "ours"],
+                      [[f"P{i + 1}", p["text"], p["published"], p["ours"]] for i, p in enumerate(res["premises"])])
+        out += ["", "why each premise cannot fail:"] + [f"  [P{i + 1}] {p['why']}" for i, p in enumerate(res["premises"])]
     if res.get("errors"):
         out += ["", "failed rows:"] + [f"  {e}" for e in res["errors"]]
     out += [""] + [f"note: {n}" for n in res["notes"]]
     return "\n".join(out)
+
+
+PAPER_CLAIMS = "the paper's claims (verdicts):"
+OUR_CLAIMS = "claims of ours, not the paper's (verdicts on our own comparisons, kept apart):"
+PREMISES_TITLE = ("premises (the paper's statements that our set-up decides by construction: our numbers beside "
+                  "them, no verdict; never counted as holding or failing):")
+
+
+def _claim_groups(res: dict) -> list:
+    """[(title, [(index, claim), ...]), ...]: the paper's claims, then ours (``paper`` false), each group
+    only when it has claims; indices are the claims' positions (their numbers in the rules)."""
+    claims = list(enumerate(res["claims"]))
+    groups = [(PAPER_CLAIMS, [(i, c) for i, c in claims if c.get("paper", True)]),
+              (OUR_CLAIMS, [(i, c) for i, c in claims if not c.get("paper", True)])]
+    return [(t, g) for t, g in groups if g]
 
 
 def _md(s) -> str:
@@ -742,19 +805,28 @@ def format_markdown(res: dict) -> str:
     if res.get("device") == "cpu-software":
         out.append("- **device = cpu-software: our times are wall clock on a software rasterizer** shared with "
                    "other work: every time claim is *not measurable here*")
+    out += [f"- not run: {_md(n)}" for n in res.get("not_run", ())]
     out += ["", "| row | paper setup | our configuration | quantity | published | ours | IQR | frames | reference spp "
-                "| ours / published |", "|---|---|---|---|---|---|---|---|---|---|"]
+                "| ours vs published |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in res["rows"]:
         out.append("| " + " | ".join(_md(x) for x in (r["label"], r["paper_setup"], r["ours_config"], r["quantity"],
                                                      r["published"], r["ours"], r.get("iqr", "–"),
                                                      r.get("frames", "–"), r.get("ref_spp", "–"), r["ratio"])) + " |")
-    out += ["", "| claim | where | published | ours | verdict | reason | rule and window |",
-            "|---|---|---|---|---|---|---|"]
-    for c in res["claims"]:
-        out.append("| " + " | ".join(_md(x) for x in (c["text"], c["where"], c["published"], c["ours"],
-                                                     f"**{c['verdict']}**", c.get("reason", ""),
-                                                     c.get("rule", ""))) + " |")
+    for title, group in _claim_groups(res):
+        out += ["", _md(title[0].upper() + title[1:]), "",
+                "| # | claim | where | published | ours | verdict | reason | rule and window |",
+                "|---|---|---|---|---|---|---|---|"]
+        for i, c in group:
+            out.append("| " + " | ".join(_md(x) for x in (i + 1, c["text"], c["where"], c["published"], c["ours"],
+                                                         f"**{c['verdict']}**", c.get("reason", ""),
+                                                         c.get("rule", ""))) + " |")
     out += ["", _md(TIMING_RULE)]
+    if res.get("premises"):
+        out += ["", _md(PREMISES_TITLE[0].upper() + PREMISES_TITLE[1:]), "",
+                "| # | premise | where | published | ours | why it cannot fail |", "|---|---|---|---|---|---|"]
+        for i, p in enumerate(res["premises"]):
+            out.append("| " + " | ".join(_md(x) for x in (f"P{i + 1}", p["text"], p["where"], p["published"],
+                                                         p["ours"], p["why"])) + " |")
     if res.get("errors"):
         out += ["", "Failed rows:", ""] + [f"- {_md(e)}" for e in res["errors"]]
     out += ["", "Notes:", ""] + [f"- {_md(n)}" for n in res["notes"]]
@@ -778,6 +850,30 @@ def get_entry(key: str) -> Reproduction:
     if key not in reg:
         raise LdbenchError(f"unknown table {key!r} (known: {', '.join(reg)}; see ldbench reproduce --list)")
     return reg[key]
+
+
+def without_unfetched_scenes(suite, key: str = "") -> tuple:
+    """(the suite without the jobs whose scene reads a registered scene that is not fetched, one line per
+    such scene saying which jobs did not run and how to fetch it). The other jobs run: their rows and
+    claims are shown, the missing rows read 'not measured'. When no job is left: one
+    :class:`LdbenchError` line naming what to fetch."""
+    from ldbench.core import scene_registry
+    from ldbench.core.scenes import registered_needed
+
+    missing: dict = {}
+    for i, j in enumerate(suite.jobs):
+        name = registered_needed(j.scene)
+        if name and scene_registry.status(scene_registry.get(name)) != "fetched":
+            missing.setdefault(name, []).append(i)
+    if not missing:
+        return suite, []
+    dropped = {i for ids in missing.values() for i in ids}
+    lines = [f"{len(ids)} job{'s' if len(ids) > 1 else ''} on "
+             f"{', '.join(sorted({suite.jobs[i].scene for i in ids}))} (scene {name!r} is not fetched: run "
+             f"{scene_registry.fetch_hint(name)})" for name, ids in missing.items()]
+    if len(dropped) == len(suite.jobs):
+        raise LdbenchError(f"{key or suite.name}: nothing to run: " + "; ".join(lines))
+    return dataclasses.replace(suite, jobs=[j for i, j in enumerate(suite.jobs) if i not in dropped]), lines
 
 
 def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=None, from_run=None,
@@ -813,6 +909,7 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         if not path.is_file():
             raise LdbenchError(f"the suite of {key} is missing: {entry.suite}")
         suite = scale_suite(load_suite(path), entry.scales[scale], size)
+        suite, not_run = without_unfetched_scenes(suite, key)
         run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
@@ -821,6 +918,8 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
 
     try:
         res = evaluate(entry, df, scale)
+        if from_run is None:
+            res["not_run"] = not_run
         atomic_write_text(run_dir / "reproduce.json", json.dumps(res, indent=1, default=str))
         atomic_write_text(run_dir / "reproduce.md", format_markdown(res))
         if report:
@@ -833,12 +932,14 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
     return res, run_dir
 
 
+OURS_LABEL = "*ours, not the paper's:* "
 CLAIMS_BEGIN, CLAIMS_END = "<!-- claims:begin (scripts/claims_md.py writes this part) -->", "<!-- claims:end -->"
 
 
 def claims_markdown() -> str:
-    """The generated part of docs/claims.md: for every entry (grouped by paper), its source, the command that
-    tests it, and each claim with where the paper says it, its kind and its verdict rule and window."""
+    """The generated part of docs/reference/claims.md: for every entry (grouped by paper), its source, the command that
+    tests it, each claim with where the paper says it, its kind and its verdict rule and window (a claim of
+    ours labelled), and its premises with why each cannot fail."""
     out, paper = [f"Timing rule {_md(TIMING_RULE)}.", ""], None
     for e in registry().values():
         if e.paper != paper:
@@ -848,7 +949,12 @@ def claims_markdown() -> str:
                 f"{_md(e.source)}; the paper's {_md(e.hardware)}, {e.resolution.replace('x', '×')}. "
                 f"`ldbench reproduce {e.key}` (GPU, paper scale; `--scale ci` on llvmpipe).", "",
                 "| # | claim | where | verdict rule and window |", "|---|---|---|---|"]
-        out += [f"| {i + 1} | {_md(c.text)} | {_md(c.where)} | {_md(rule_text(c))} |" for i, c in enumerate(e.claims)]
+        out += [f"| {i + 1} | {OURS_LABEL if c.ours else ''}{_md(c.text)} | {_md(c.where)} | {_md(rule_text(c))} |"
+                for i, c in enumerate(e.claims)]
+        if e.premises:
+            out += ["", "Premises (our set-up decides them: printed with our numbers, no verdict):", "",
+                    "| # | premise | where | why it cannot fail |", "|---|---|---|---|"]
+            out += [f"| P{i + 1} | {_md(c.text)} | {_md(c.where)} | {_md(c.why)} |" for i, c in enumerate(e.premises)]
         out.append("")
     return "\n".join(out)
 
