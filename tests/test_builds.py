@@ -1,4 +1,4 @@
-"""Build variants of the layered structures (ldbench/methods/structures/, docs/fast_builds.md): every variant
+"""Build variants of the layered structures (ldbench/methods/structures/, docs/reference/methods/fast_builds.md): every variant
 stores, per list, the same multiset of depths as the hardware raster, on a scene of edge cases (edges and
 vertices exactly on texel centres, vertices a fraction of a sub-pixel step off them, triangles under a texel
 with a vertex on a texel centre, zero-area and sliver triangles, triangles larger than the map, triangles
@@ -677,7 +677,7 @@ def test_ldm_ao_is_the_same_image_with_every_build(gpu):
 
 
 def test_ldm_one_pass_build_runs_and_adds_fragments(gpu):
-    """``ldm`` with ``structure.source = "one_pass"``: documented as not usable for LDMs (docs/fast_builds.md: a map sees a
+    """``ldm`` with ``structure.source = "one_pass"``: documented as not usable for LDMs (docs/reference/methods/fast_builds.md: a map sees a
     triangle's dominant-axis samples at density 1/cos θ, ~2× the raster's fragments, at the raster's sample
     positions). Through the adapter: every invariant holds, the lists hold at least the raster's fragments
     (measured 116,976 vs 58,520: 2.0×) and the AO image is darker (0.170 vs 0.269 mean)."""

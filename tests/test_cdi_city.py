@@ -1,4 +1,4 @@
-"""The ``city`` scene (ldbench/core/scenes.py build_city): archer2019's Rungholt stand-in, a procedural town of
+"""The ``city`` scene (ldbench/core/scenes/city.py): archer2019's Rungholt stand-in, a procedural town of
 gabled houses whose size follows ``triangles``."""
 from __future__ import annotations
 

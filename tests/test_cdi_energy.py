@@ -1,4 +1,4 @@
-"""cdi-vpl's indirect energy on a spot-lit coloured wall beside a floor (docs/cdi_vpl.md, "Energy budget"):
+"""cdi-vpl's indirect energy on a spot-lit coloured wall beside a floor (docs/reference/methods/cdi_vpl.md, "Energy budget"):
 mean radiance over the image and the floor against Mitsuba's one-bounce reference, each loss switched off
 in turn (scripts/cdi_vpl_energy.py prints the whole budget).
 

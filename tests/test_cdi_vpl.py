@@ -99,7 +99,7 @@ def test_rays_against_the_oracle(gpu, cornell, rays_case):
 def test_fast_builds_answer_as_the_raster(gpu, cornell, rays_case):
     """build = splat (the compute splat: the instanced raster's fragments) and assembly = sort (pairs sorted
     by list) answer every ray as the instanced raster does, depths to float rounding on llvmpipe (the
-    splat's tiles evaluate a long triangle's depth plane: docs/fast_builds.md, "The long triangles")."""
+    splat's tiles evaluate a long triangle's depth plane: docs/reference/methods/fast_builds.md, "The long triangles")."""
     e, batch, _ = rays_case
     kw = dict(directions=48, resolution=32)
     ref = run(gpu, cornell, e, batch, build="instanced", **kw).arrays["t"]

@@ -42,7 +42,7 @@ def test_help_pages_point_to_the_exit_codes(argv, capsys):
         main([*argv, "--help"])
     assert e.value.code == 0
     out = " ".join(capsys.readouterr().out.split())
-    assert "docs/cli.md" in out and "Exit status: 0" in out
+    assert "docs/reference/cli.md" in out and "Exit status: 0" in out
     if argv == ["run"]:
         assert "bundled suite by name" in out and "default" in out and "nightly" in out
         assert "5% of the scene's largest bounding-box extent" in out  # the ad-hoc ao default

@@ -5,7 +5,11 @@ import zlib
 import numpy as np
 import pytest
 
-from ldbench.harness import compare as C
+from ldbench.harness.compare.gate import compare_frames, compare_paths
+from ldbench.harness.compare.match import canonical_params, effect_label, parse_match
+from ldbench.harness.compare.render import to_markdown
+from ldbench.harness.compare.stats import min_p_value, mse_from_psnr, noise_bound, time_check
+from ldbench.harness.compare.verdicts import Thresholds
 from ldbench.harness import records as R
 from ldbench.harness.cli import main
 
@@ -81,14 +85,14 @@ def test_2x_slowdown_fails_3pct_jitter_does_not(tmp_path, capsys):
     rc, out, _ = _cli(capsys, base, slow)
     assert rc == 1
     assert "REGRESSION" in out and "ldm-ao" in out and "[time]" in out
-    comp = C.compare_paths(base, slow)
+    comp = compare_paths(base, slow)
     (reg,) = comp.regressions
     assert reg.metric == "time" and reg.benchmark.startswith("cornell · ldm-ao")
     assert "+100" in reg.change or "+9" in reg.change  # about +100 %
     rc, out, _ = _cli(capsys, base, jitter)
     assert rc == 0, out
     # the 3 % shift may well be significant, but it is below the 10 % minimum effect
-    comp = C.compare_paths(base, jitter)
+    comp = compare_paths(base, jitter)
     assert all(c.verdict in ("ok", "improved") for c in comp.checks if c.metric == "time")
     # ... and with --min-effect 0.01 it is caught
     rc, _, _ = _cli(capsys, base, jitter, "--min-effect", "0.01")
@@ -99,16 +103,16 @@ def test_pure_timing_noise_never_fails(tmp_path):
     base = _run(tmp_path, "base", jitter=0.05)
     for i in range(5):
         run = _run(tmp_path, f"noise{i}", jitter=0.05)
-        assert C.compare_paths(base, run).exit_code == 0
+        assert compare_paths(base, run).exit_code == 0
 
 
 def test_too_few_frames_is_inconclusive_not_a_failure(tmp_path):
     base = _run(tmp_path, "base", frames=3)
     slow = _run(tmp_path, "slow", frames=3, ms=30.0)
-    comp = C.compare_paths(base, slow)
+    comp = compare_paths(base, slow)
     assert comp.exit_code == 0
     assert {c.verdict for c in comp.checks if c.metric == "time"} == {"inconclusive"}
-    assert C.min_p_value(5, 5) < 0.01 < C.min_p_value(4, 4)
+    assert min_p_value(5, 5) < 0.01 < min_p_value(4, 4)
 
 
 def test_psnr_drop_of_3db_fails(tmp_path, capsys):
@@ -116,7 +120,7 @@ def test_psnr_drop_of_3db_fails(tmp_path, capsys):
     run = _run(tmp_path, "run", {("cornell", "hbao", "ao"): {"psnr": 27.0}}, psnr=30.0)
     rc, out, _ = _cli(capsys, base, run)
     assert rc == 1
-    (reg,) = C.compare_paths(base, run).regressions
+    (reg,) = compare_paths(base, run).regressions
     assert reg.metric == "psnr" and "hbao" in reg.benchmark and "-3.00 dB" in reg.change
 
 
@@ -126,18 +130,18 @@ def test_drop_inside_reference_noise_does_not_fail(tmp_path):
     noisy = dict(sigma=0.08, psnr=30.0)
     base = _run(tmp_path, "base", **noisy)
     run = _run(tmp_path, "run", {("cornell", "ldm-ao", "ao"): {"psnr": 28.5}}, **noisy)
-    comp = C.compare_paths(base, run)
-    assert comp.exit_code == 0, C.to_markdown(comp)
+    comp = compare_paths(base, run)
+    assert comp.exit_code == 0, to_markdown(comp)
     chk = next(c for c in comp.checks if c.metric == "psnr" and "ldm-ao" in c.benchmark)
     assert chk.verdict == "ok" and "-1.50 dB" in chk.change
     # the same drop with a clean reference fails
     clean = dict(sigma=0.001, psnr=30.0)
     base = _run(tmp_path, "base-clean", **clean)
     run = _run(tmp_path, "run-clean", {("cornell", "ldm-ao", "ao"): {"psnr": 28.5}}, **clean)
-    assert C.compare_paths(base, run).exit_code == 1
+    assert compare_paths(base, run).exit_code == 1
     # a small drop (0.3 dB) is inside the fixed tolerance
     run = _run(tmp_path, "run-small", {("cornell", "ldm-ao", "ao"): {"psnr": 29.7, "ssim": 0.945}}, **clean)
-    assert C.compare_paths(base, run).exit_code == 0
+    assert compare_paths(base, run).exit_code == 0
 
 
 def test_noisier_reference_in_run_explains_the_drop(tmp_path):
@@ -146,30 +150,30 @@ def test_noisier_reference_in_run_explains_the_drop(tmp_path):
     base = _run(tmp_path, "base", sigma=0.01, psnr=30.0)
     run = _run(tmp_path, "run", {("cornell", "ldm-ao", "ao"): {"psnr": 27.6, "sigma": 0.03, "ref_key": "other"}},
                sigma=0.01, psnr=30.0)
-    comp = C.compare_paths(base, run)
-    assert comp.exit_code == 0, C.to_markdown(comp)
+    comp = compare_paths(base, run)
+    assert comp.exit_code == 0, to_markdown(comp)
     chk = next(c for c in comp.checks if c.metric == "psnr" and "ldm-ao" in c.benchmark)
     assert "references differ" in chk.note
 
 
 def test_noise_bound_formulas():
     # same reference: 2 z sigma (rmse_b + rmse_r) / sqrt(N)
-    B = C.noise_bound(sigma_b=0.02, sigma_r=0.02, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=True, z=3)
+    B = noise_bound(sigma_b=0.02, sigma_r=0.02, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=True, z=3)
     assert B == pytest.approx(2 * 3 * 0.02 * 0.07 / 64)
     # different references add the floor difference and its fluctuation
-    B2 = C.noise_bound(sigma_b=0.01, sigma_r=0.03, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
+    B2 = noise_bound(sigma_b=0.01, sigma_r=0.03, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
     assert B2 == pytest.approx(0.03 ** 2 - 0.01 ** 2 + 6 * (0.01 * 0.03 + 0.03 * 0.04) / 64
                                + 3 * math.sqrt(2 / 4096) * (0.01 ** 2 + 0.03 ** 2))
     # a less noisy run reference cannot fake a regression: no floor term
-    B3 = C.noise_bound(sigma_b=0.03, sigma_r=0.01, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
+    B3 = noise_bound(sigma_b=0.03, sigma_r=0.01, rmse_b=0.03, rmse_r=0.04, n=4096, same_reference=False, z=3)
     assert B3 < 0.03 ** 2 - 0.01 ** 2
-    assert C.mse_from_psnr(30.0, 1.0) == pytest.approx(1e-3) and C.mse_from_psnr(math.inf, 1.0) == 0.0
+    assert mse_from_psnr(30.0, 1.0) == pytest.approx(1e-3) and mse_from_psnr(math.inf, 1.0) == 0.0
 
 
 def test_ssim_drop_fails(tmp_path):
     base = _run(tmp_path, "base", ssim=0.95)
     run = _run(tmp_path, "run", {("atrium", "direct-raster", "direct"): {"ssim": 0.90}}, ssim=0.95)
-    (reg,) = C.compare_paths(base, run).regressions
+    (reg,) = compare_paths(base, run).regressions
     assert reg.metric == "ssim" and "direct-raster" in reg.benchmark
 
 
@@ -188,11 +192,11 @@ def test_missing_row_fails_unless_allowed_and_new_row_is_reported(tmp_path, caps
 def test_failed_row_in_run_is_a_regression(tmp_path):
     base = _run(tmp_path, "base")
     run = _run(tmp_path, "run", {("cornell", "hbao", "ao"): {"status": "error: shader failed"}})
-    (reg,) = C.compare_paths(base, run).regressions
+    (reg,) = compare_paths(base, run).regressions
     assert reg.verdict == "failed" and reg.current.startswith("error")
     # a NaN PSNR (broken output) is a regression as well
     run = _run(tmp_path, "run-nan", {("cornell", "hbao", "ao"): {"psnr": math.nan}})
-    assert [c.metric for c in C.compare_paths(base, run).regressions] == ["psnr"]
+    assert [c.metric for c in compare_paths(base, run).regressions] == ["psnr"]
 
 
 def test_machine_mismatch_disables_time_but_gates_quality(tmp_path, capsys):
@@ -205,7 +209,7 @@ def test_machine_mismatch_disables_time_but_gates_quality(tmp_path, capsys):
     assert "machine differs" in md and "⏭ skipped" in md
     both = _run(tmp_path, "other-worse", {("cornell", "ldm-ao", "ao"): {"ms": 40.0, "psnr": 26.0}},
                 machine=OTHER_GPU)
-    comp = C.compare_paths(base, both)
+    comp = compare_paths(base, both)
     assert [(c.metric, c.verdict) for c in comp.regressions] == [("psnr", "regression")]
 
 
@@ -218,7 +222,7 @@ def test_match_keys_compare_two_configurations(tmp_path, capsys):
     assert rc == 1 and "3 missing, 3 new" in out
     rc, out, _ = _cli(capsys, base, fewer, "--match", "scene,method,effect")
     assert rc == 1
-    comp = C.compare_paths(base, fewer, match=C.parse_match("scene,method,effect"))
+    comp = compare_paths(base, fewer, match=parse_match("scene,method,effect"))
     assert comp.matched == 3
     assert [(c.metric, c.verdict) for c in comp.regressions] == [("psnr", "regression")]
     assert any(c.metric == "time" and c.verdict == "improved" for c in comp.checks)
@@ -282,7 +286,7 @@ def test_benchmark_label_reads_effect_params(tmp_path):
             R.make_row(**{**_row("cornell", "ldm-ao", "ao"),
                           "effect_params": {"effect": "ao", "d_max": 10.32, "falloff": "quadratic"}})]
     R.write_results(rows, tmp_path)
-    labels = {r["method"]: C._effect_label(r) for _, r in R.read_results(tmp_path).iterrows()}
+    labels = {r["method"]: effect_label(r) for _, r in R.read_results(tmp_path).iterrows()}
     assert labels == {"hbao": "ao (step, d_max = ∞)", "ldm-ao": "ao (quadratic, d_max = 10.32)"}
 
 
@@ -297,7 +301,7 @@ def test_degraded_rows_fail_the_gate(tmp_path):
     base = _df(tmp_path, [_row(*b, run_id="b") for b in BENCH])
     bad = _df(tmp_path, [_row(*b, run_id="r", status="degraded: 3 of 90 fragments not stored (pool overflow)"
                          if b[1] == "ldm-ao" else "ok") for b in BENCH])
-    comp = C.compare_frames(base, bad)
+    comp = compare_frames(base, bad)
     assert comp.exit_code == 1
     assert [c.verdict for c in comp.regressions] == ["degraded"] and "ldm-ao" in comp.regressions[0].benchmark
 
@@ -305,7 +309,7 @@ def test_degraded_rows_fail_the_gate(tmp_path):
 def test_earlier_method_names_match_their_adapter(tmp_path):
     base = _df(tmp_path, [_row("cornell", "ldm-ao", "ao", run_id="b")])
     run = _df(tmp_path, [_row("cornell", "ldm", "ao", run_id="r")])
-    comp = C.compare_frames(base, run)
+    comp = compare_frames(base, run)
     assert comp.matched == 1 and comp.count("missing") == 0 and comp.exit_code == 0
 
 
@@ -318,14 +322,14 @@ def _rays_row(run_id, **metrics):
 
 def test_ray_metrics_gated_with_their_own_tolerances(tmp_path):
     base = _df(tmp_path, [_rays_row("b")])
-    same = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.9755)]))
+    same = compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.9755)]))
     assert same.exit_code == 0 and {c.metric for c in same.checks} >= {"hit_agreement", "dist_err_p95"}
     assert "rays (diffuse, rays_per_pixel = 4)" in same.checks[0].benchmark
-    worse = C.compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.970)]))
+    worse = compare_frames(base, _df(tmp_path, [_rays_row("r", hit_agreement=0.970)]))
     assert [c.metric for c in worse.regressions] == ["hit_agreement"]
-    far = C.compare_frames(base, _df(tmp_path, [_rays_row("r", dist_err_p95=0.0610)]))  # +12 %: beyond 10 %
+    far = compare_frames(base, _df(tmp_path, [_rays_row("r", dist_err_p95=0.0610)]))  # +12 %: beyond 10 %
     assert [c.metric for c in far.regressions] == ["dist_err_p95"]
-    nan = C.compare_frames(base, _df(tmp_path, [_rays_row("r", self_hit_rate=math.nan)]))
+    nan = compare_frames(base, _df(tmp_path, [_rays_row("r", self_hit_rate=math.nan)]))
     assert [c.metric for c in nan.regressions] == ["self_hit_rate"]
 
 
@@ -338,8 +342,8 @@ def test_ray_metric_tolerance_is_the_larger_of_absolute_and_relative(tmp_path):
     cases = {("dist_err_p95", 0.0544 * 1.05): 0, ("dist_err_p95", 0.0544 * 1.12): 1,
              ("hit_agreement", 0.976 - 0.0015): 0, ("hit_agreement", 0.976 - 0.0025): 1}
     for (col, v), want in cases.items():
-        comp = C.compare_frames(base, _df(tmp_path, [_rays_row("r", **{col: v})]))
-        assert comp.exit_code == want, (col, v, C.to_markdown(comp))
+        comp = compare_frames(base, _df(tmp_path, [_rays_row("r", **{col: v})]))
+        assert comp.exit_code == want, (col, v, to_markdown(comp))
 
 
 def test_improved_needs_the_minimum_effect_too(tmp_path):
@@ -349,14 +353,14 @@ def test_improved_needs_the_minimum_effect_too(tmp_path):
     base = _run(tmp_path, "base", jitter=0.005)
     for ms, want in ((9.7, "ok"), (8.0, "improved")):
         run = _run(tmp_path, f"fast{ms}", jitter=0.005, ms=ms)
-        comp = C.compare_paths(base, run)
+        comp = compare_paths(base, run)
         times = [c for c in comp.checks if c.metric == "time"]
         assert {c.verdict for c in times} == {want}, [(c.verdict, c.change) for c in times]
-    t = C.time_check([10.0 * (1 + 0.001 * i) for i in range(15)], [9.7 * (1 + 0.001 * i) for i in range(15)],
-                     C.Thresholds())
+    t = time_check([10.0 * (1 + 0.001 * i) for i in range(15)], [9.7 * (1 + 0.001 * i) for i in range(15)],
+                     Thresholds())
     assert t["p_faster"] < 0.01 and t["verdict"] == "ok", t
     run = _run(tmp_path, "sharper", {("cornell", "hbao", "ao"): {"psnr": 30.3}}, psnr=30.0)
-    chk = next(c for c in C.compare_paths(_run(tmp_path, "b2", psnr=30.0), run).checks
+    chk = next(c for c in compare_paths(_run(tmp_path, "b2", psnr=30.0), run).checks
                if c.metric == "psnr" and "hbao" in c.benchmark)
     assert chk.verdict == "ok", chk
 
@@ -414,12 +418,12 @@ def test_a_nan_baseline_is_said_and_fails_unless_allowed(tmp_path, capsys):
     # ray metrics: a NaN baseline with a value now is unchecked; NaN on both sides is a metric the
     # configuration leaves undefined (distances of shadow rays), unless nothing at all was compared
     b = _df(tmp_path, [_rays_row("b", hit_agreement=math.nan)])
-    comp = C.compare_frames(b, _df(tmp_path, [_rays_row("r")]))
+    comp = compare_frames(b, _df(tmp_path, [_rays_row("r")]))
     assert [(c.metric, c.verdict) for c in comp.regressions] == [("hit_agreement", "unchecked")]
     b = _df(tmp_path, [_rays_row("b", dist_err_p95=math.nan)])
-    assert C.compare_frames(b, _df(tmp_path, [_rays_row("r", dist_err_p95=math.nan)])).exit_code == 0
+    assert compare_frames(b, _df(tmp_path, [_rays_row("r", dist_err_p95=math.nan)])).exit_code == 0
     cols = dict(hit_agreement=math.nan, dist_err_p95=math.nan, self_hit_rate=math.nan)
-    comp = C.compare_frames(_df(tmp_path, [_rays_row("b", **cols)]), _df(tmp_path, [_rays_row("r", **cols)]))
+    comp = compare_frames(_df(tmp_path, [_rays_row("b", **cols)]), _df(tmp_path, [_rays_row("r", **cols)]))
     assert comp.exit_code == 1 and {c.verdict for c in comp.regressions} == {"unchecked"}
 
 
@@ -430,7 +434,7 @@ def test_an_int_stored_for_a_float_default_is_still_the_default(tmp_path, capsys
     assert isinstance(full["step_px"], float) and full["step_px"] == 4 and isinstance(full["directions"], int)
     as_int = dict(full, step_px=int(full["step_px"]), angle_bias=int(full["angle_bias"]),
                   directions=float(full["directions"]))
-    assert C.canonical_params("hbao", as_int) == {}
+    assert canonical_params("hbao", as_int) == {}
     base = _run(tmp_path, "base", {b: {"params": full if b[1] == "hbao" else {}} for b in BENCH})
     run = _run(tmp_path, "run", {b: {"params": as_int if b[1] == "hbao" else {}} for b in BENCH})
     got = R.read_results(run).query("method == 'hbao'").iloc[0]["params"]
@@ -439,5 +443,5 @@ def test_an_int_stored_for_a_float_default_is_still_the_default(tmp_path, capsys
     assert rc == 0 and "3 matched, 0 missing, 0 new" in out, out + err
     assert "Configurations that differ" not in (run / "compare.md").read_text()
     # matched on fewer keys, the rows still show no parameter difference
-    comp = C.compare_paths(base, run, match=C.parse_match("scene,method,effect"))
+    comp = compare_paths(base, run, match=parse_match("scene,method,effect"))
     assert comp.matched == 3 and not any("step_px" in n or "directions" in n for n in comp.notes), comp.notes

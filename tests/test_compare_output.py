@@ -3,7 +3,9 @@ for CI (per check the key, metric, values, verdict and thresholds; the exit stat
 import json
 import math
 
-from ldbench.harness import compare as C
+from ldbench.harness.compare.gate import compare_paths
+from ldbench.harness.compare.match import DEFAULT_MATCH
+from ldbench.harness.compare.render import JSON_FORMAT
 from test_compare import _cli, _run
 
 
@@ -18,10 +20,10 @@ def test_json_verdicts_of_a_regression(tmp_path, capsys):
     rc, out, _ = _cli(capsys, base, run, "--json", tmp_path / "ci" / "verdicts.json")
     assert rc == 1 and "verdicts.json" in out
     doc = _load(tmp_path / "ci" / "verdicts.json")
-    assert doc["format"] == C.JSON_FORMAT and doc["exit_status"] == 1 and doc["regression"] is True
-    assert doc["match"] == list(C.DEFAULT_MATCH) and doc["matched"] == 3
+    assert doc["format"] == JSON_FORMAT and doc["exit_status"] == 1 and doc["regression"] is True
+    assert doc["match"] == list(DEFAULT_MATCH) and doc["matched"] == 3
     assert doc["thresholds"]["tol_db"] == 0.5 and doc["thresholds"]["alpha"] == 0.01
-    comp = C.compare_paths(base, run)
+    comp = compare_paths(base, run)
     assert len(doc["checks"]) == len(comp.checks)
     (reg,) = [c for c in doc["checks"] if c["regression"]]
     assert reg["metric"] == "psnr" and reg["verdict"] == "regression" and reg["column"] == "psnr"

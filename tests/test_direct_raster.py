@@ -70,8 +70,8 @@ def test_direct_raster_matches_closed_form(gpu, occluder_first):
 
 
 def test_direct_raster_matches_mitsuba_on_cornell(gpu):
-    """The calibration of docs/results-nvidia.md: cornell at 256², PSNR ≥ 30 dB and SSIM ≥ 0.95 against
-    Mitsuba's `direct` (linear values, data range = reference maximum over unmasked pixels)."""
+    """The calibration of direct-raster: cornell at 256², PSNR ≥ 30 dB and SSIM ≥ 0.95 against Mitsuba's
+    `direct` (linear values, data range = reference maximum over unmasked pixels)."""
     from ldbench.core import metrics
     from ldbench.core.scenes import load_scene
     from ldbench.references import render_reference

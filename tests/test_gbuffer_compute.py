@@ -1,4 +1,4 @@
-"""The compute G-buffer (ldbench/methods/gbuffer.py, ``raster = "compute"``, docs/gbuffer.md) against the hardware
+"""The compute G-buffer (ldbench/methods/gbuffer.py, ``raster = "compute"``, docs/reference/methods/gbuffer.md) against the hardware
 pass it replaces, on llvmpipe.
 
 A small scene of hard cases: a grid whose edges (shared ones and its border) pass exactly through pixel

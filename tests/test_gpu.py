@@ -4,6 +4,7 @@ import pytest
 
 from ldbench.core.errors import LdbenchError
 from ldbench.core.gpu import classify_device, expand_includes, read_texture
+from ldbench.core.paramdoc import markdown
 from ldbench.core.params import ParamsBase, param
 from ldbench.methods.base import registry, get_method
 from dataclasses import dataclass
@@ -147,7 +148,7 @@ def test_params_validation():
                      ({"n": 1.5}, "not a valid int")):
         with pytest.raises(LdbenchError, match=msg):
             _P.from_dict(bad, method="m")
-    assert "count" in _P.table()
+    assert "count" in markdown(_P)
 
 
 def test_registry_discovers_adapters():

@@ -34,10 +34,10 @@ MOVING = {
     "foundation": ("core/errors.py", "core/params.py", "core/conventions.py", "core/bindings.py",
                    "core/gpu.py",
                    "core/egl.py", "core/device.py", "core/scene.py", "core/meshio.py",
-                   "core/scenes.py", "core/scene_registry.py", "core/mitsuba_xml.py",
+                   "core/scenes/", "core/scene_registry.py", "core/mitsuba_xml.py",
                    "core/metrics.py", "core/imageio.py", "core/plugins.py", "core/effects/",
                    "core/exr.py"),
-    "reports": ("reports/report.py", "reports/figures.py", "reports/reproduce.py", "reports/history_plots.py",
+    "reports": ("reports/report.py", "reports/figures/", "reports/reproduce.py", "reports/history_plots.py",
                 "reports/reproductions/"),
 }
 

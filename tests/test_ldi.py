@@ -557,7 +557,7 @@ def test_grazing_rays(gpu):
 
 
 def test_walk_steps_x_first_through_pixel_corners(gpu):
-    """The DDA's tie rule (docs/ldi.md: x steps first when both pixel boundaries are crossed at the same t).
+    """The DDA's tie rule (docs/reference/methods/ldi.md: x steps first when both pixel boundaries are crossed at the same t).
     In the +x LDI of 6 directions (u = −z, w = y: exact axes, centre 0) rays from (x0, 0, 0) start exactly on
     a pixel corner, and d ∝ (2, 1, −1) moves one pixel in u and in w per unit: every crossing is a tie. A
     wall x = X covers only the pixels right of the diagonal (i − j ≥ 1 from the start pixel, its edge half a

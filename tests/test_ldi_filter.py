@@ -1,4 +1,4 @@
-"""The LDI's indirect filter across a crease (docs/ldi.md, "The filter across edges"): a red wall beside a grey
+"""The LDI's indirect filter across a crease (docs/reference/methods/ldi.md, "The filter across edges"): a red wall beside a grey
 floor, lit by a spot on the wall (tests/testkit.py wall_floor_scene), 64², the paper's 8 rays per pixel and
 11×11 Gaussian, against Mitsuba's one-bounce reference (1024 samples).
 

@@ -240,7 +240,7 @@ def test_cornell_against_mitsuba(gpu):
 def test_creases_are_not_bright(gpu):
     """AO pixels along the box's creases: the texel-centre column of a point within half a texel of the
     other wall can meet that wall just *behind* the point; within the crease window ldm_trace counts such
-    geometry above the tangent plane as a hit at distance 0 instead of skipping it (docs/rays.md).
+    geometry above the tangent plane as a hit at distance 0 instead of skipping it (docs/reference/rays.md).
     Classic AO at 128² with 128 LDMs of 128² against a 256-spp reference, pixels with |error| > 0.3
     (measured on llvmpipe): 53 with the default window of 0.5 texels, 150 with crease = 0 (the plain
     skip rule)."""
@@ -289,11 +289,11 @@ def test_rays_identical_over_layouts_and_inserts(gpu):
 
 
 def test_rays_accuracy_cli(tmp_path):
-    """The rays acceptance run (docs/rays.md), from the command line: cornell, 128², 4 diffuse rays per
+    """The rays acceptance run (docs/reference/rays.md), from the command line: cornell, 128², 4 diffuse rays per
     pixel, 512 LDMs of 256². Measured on llvmpipe: hit agreement 0.9759, p95 distance error 5.43 % of the
     diagonal, self-hit rate 0.28 % (0.9767, 5.35 %, 0.26 % with the old ray origin, 16 ε towards the camera).
     The direction snap alone costs most of it: Mitsuba tracing the same rays along their maps' axes instead
-    gets 0.9824 and 5.04 % against the exact answers (docs/rays.md)."""
+    gets 0.9824 and 5.04 % against the exact answers (docs/reference/rays.md)."""
     from ldbench.harness.cli import main
     from ldbench.harness.records import read_results
 
@@ -309,7 +309,7 @@ def test_rays_accuracy_cli(tmp_path):
     assert r["self_hit_rate"] <= 0.0029, r["self_hit_rate"]
     assert r["coverage"] == 1.0 and r["rays_per_s"] > 0 and r["oracle_rays_per_s"] > 0
     assert r["oracle_timing"] in ("wall", "kernel")
-    assert (out / r["images"]["error"]).exists()
+    assert (out / r["images"]["error_exr"]).exists()
 
 
 def test_map_table_finds_the_nearest_map(gpu):

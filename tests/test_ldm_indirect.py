@@ -1,4 +1,4 @@
-"""``ldm`` indirect light (aalund2015 §3.4, §4.2; ldbench/methods/ldm/indirect.py, docs/ldm_indirect.md): the spot
+"""``ldm`` indirect light (aalund2015 §3.4, §4.2; ldbench/methods/ldm/indirect.py, docs/reference/methods/ldm_indirect.md): the spot
 light's flux, a closed form (a square emitter lit by the spot facing a parallel receiver), energy in a closed
 cube, the photon differential against finite differences of the rotated offset rays, Cornell against
 Mitsuba, blend vs atomic splats, counters, invariants and the photon buffer's growth, the paper's split
@@ -281,7 +281,7 @@ def cornell_runs(gpu):
 def test_cornell_against_mitsuba(cornell_runs):
     """48², 1024-spp reference; 128 LDMs of 64², R = 96: PSNR 29.47 dB, SSIM 0.900 measured (peak = the
     reference's maximum), coverage 1, mean 4.7 % below the reference (splats cut at creases and photons
-    discarded behind occluders lose power near them: docs/ldm_indirect.md)."""
+    discarded behind occluders lose power near them: docs/reference/methods/ldm_indirect.md)."""
     scene, ref, blend, _ = cornell_runs
     s = IND.spec.score(blend[-1], ref, scene=scene, inputs=None, stage_ms={})
     assert s["psnr"] >= 29.2 and s["ssim"] >= 0.89, (s["psnr"], s["ssim"])
@@ -434,7 +434,7 @@ def test_paper_split_weights_are_the_equal_area_quadrature(gpu):
 def test_without_refine_hit_the_maps_point_cuts_the_kernel(gpu):
     """``refine_hit = False`` (the paper's and the engine's): x₂ stays at the map's texel-centre depth, off the
     receiver by up to half a texel times its slope, and the kernel's normal row cuts part of each splat
-    off (docs/ldm_indirect.md). The same photons are stored; on the closed form's receiver the image sums
+    off (docs/reference/methods/ldm_indirect.md). The same photons are stored; on the closed form's receiver the image sums
     to 0.787 of the closed form (measured; 1.0015 with the refinement)."""
     out = {}
     for refine in (True, False):

@@ -102,6 +102,26 @@ def test_hairball_opacity_is_the_tubes():
     assert {m.name: m.opacity for m in sc.meshes} == {"tubes": 0.3, "floor": 1.0}
 
 
+def test_hairball_colours_split_the_same_tubes():
+    """colours = n: tube i in mesh i mod n with palette colour i mod n, the same triangles; n = 1 is the
+    one-colour scene, hash included (its cached references stay valid)."""
+    from ldbench.core.scenes.hairball import PALETTE
+
+    one = load_scene("hairball", triangles=6000, opacity=0.3)
+    assert load_scene("hairball", triangles=6000, opacity=0.3, colours=1).content_hash() == one.content_hash()
+    four = load_scene("hairball", triangles=6000, opacity=0.3, colours=4)
+    assert [m.name for m in four.meshes] == ["tubes0", "tubes1", "tubes2", "tubes3", "floor"]
+    assert [m.albedo for m in four.meshes[:4]] == [pytest.approx(c) for c in PALETTE[:4]]
+    assert four.triangle_count == one.triangle_count and all(m.opacity == 0.3 for m in four.meshes[:4])
+    tri = lambda m: {tuple(np.round(m.vertices[f].ravel(), 6)) for f in m.faces}  # noqa: E731
+    assert set().union(*map(tri, four.meshes[:4])) == tri(one.meshes[0])
+    # 66 vertices a tube (11 rings of 6): tube 1 opens tubes1
+    assert np.array_equal(four.meshes[1].vertices[:66], one.meshes[0].vertices[66:132])
+    assert four.content_hash() != one.content_hash()
+    with pytest.raises(LdbenchError, match="colours"):
+        load_scene("hairball", colours=9)
+
+
 @pytest.mark.skipif(not (SHARED_SCENES / "stanford_dragon").is_dir(), reason=f"{SHARED_SKIP} (stanford_dragon)")
 def test_transparent_dragon():
     sc = load_scene("transparent_dragon", opacity=0.4)
@@ -117,7 +137,7 @@ def test_transparent_dragon_not_fetched_is_one_line(tmp_path, monkeypatch):
 
 
 def test_yang2010_published_numbers_and_rows():
-    """Table 1 and §4.1.3 of yang2010 (docs/oit.md); every row is produced by the suite at both scales."""
+    """Table 1 and §4.1.3 of yang2010 (docs/reference/methods/oit.md); every row is produced by the suite at both scales."""
     from ldbench.reports.reproduce import registry, scale_match, scale_suite, suite_file
     from ldbench.harness.suite import load_suite
 

@@ -69,7 +69,7 @@ def test_cli_lists_presets_and_refuses_an_unknown_one(tmp_path):
         out = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", "methods", name], capture_output=True,
                              text=True)  # `ldbench methods NAME`: that method's parameters, presets included
         assert out.returncode == 0 and out.stdout.startswith(name), out.stderr
-        assert any(line.startswith("  preset 'paper'") for line in out.stdout.splitlines()) == has, name
+        assert any(line.startswith('- `preset = "paper"`') for line in out.stdout.splitlines()) == has, name
         assert has or "preset" not in out.stdout
     bad = subprocess.run([sys.executable, "-m", "ldbench.harness.cli", "run", "--scene", "cornell", "--method", "ldm",
                           "--effect", "ao", "--size", "8x8", "--set", "ldm.preset=fast", "--out", str(tmp_path / "r")],

@@ -57,9 +57,9 @@ def built(run):
 
 
 def _read_exr(path):
-    from ldbench.reports.figures import _read_exr
+    from ldbench.core.exr import read_answer_channels
 
-    return _read_exr(Path(path))
+    return read_answer_channels(Path(path))
 
 
 def _values(path: Path) -> np.ndarray:
@@ -118,16 +118,17 @@ def test_values_over_the_size_limit_are_skipped(tmp_path, monkeypatch):
 
 
 def test_value_files_stop_at_the_reports_budget(run, tmp_path):
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.grids import grid_groups, make_grid
+    from ldbench.reports.figures.table import prepare
 
-    df = F.prepare(records.read_results(run))
-    key, rows = next(iter(F.grid_groups(df).items()))
+    df = prepare(records.read_results(run))
+    key, rows = next(iter(grid_groups(df).items()))
     d = tmp_path / "r"
     shutil.copytree(run, d)
     shutil.rmtree(d / "figures")
     one = 32 * 32 * 4 * 4 // 3  # one 1-channel 32x32 image
     budget = {"bytes": 2 * one + 10}  # the reference and the first method, not the FLIP map or the second
-    g = F.make_grid(d, key, rows, values_budget=budget)
+    g = make_grid(d, key, rows, values_budget=budget)
     assert g.reference_values and g.cells[0].values and not g.cells[0].flip_values
     assert not g.cells[1].values and budget["bytes"] == 10
     assert g.cells[1].signed and g.cells[1].flip  # the maps themselves are always written
@@ -171,14 +172,14 @@ def test_swept_parameters_show_in_every_row():
     import pandas as pd
 
     from ldbench.reports.report import swept_params, _results_table, _Html
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.table import prepare
 
     rows = [records.make_row(run_id="r", suite="s", scene="cornell", method="ldm", effect="ao",
                              effect_params={"effect": "ao", "d_max": 1.0, "falloff": "step"},
                              params={"directions": d, "bias": 0.25}, width=8, height=8, device="nvidia",
                              status="ok", total_ms=1.0)
             for d in (128, 512)]  # 128 and bias 0.25 are ldm's defaults
-    df = F.prepare(pd.DataFrame(rows))
+    df = prepare(pd.DataFrame(rows))
     assert swept_params(df) == {"ldm": {"directions"}}
     h = _Html()
     _results_table(h, df)
@@ -211,7 +212,8 @@ def test_terminal_table_shows_each_effects_metrics(run):
 def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
     """The tallest bar has a zero-height stage on top (a stage only the other method has): matplotlib's
     autoscale alone would end the axis exactly at its top."""
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures import stages
+    from ldbench.reports.figures.table import prepare
     import pandas as pd
 
     rows = [records.make_row(run_id="r", suite="s", scene="cornell", method=m, effect="ao",
@@ -220,8 +222,8 @@ def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
                              stage_ms=st)
             for m, st in (("hbao", {"gbuffer": 10.0, "hbao": 5.0}), ("ldm", {"build": 3.0}))]
     seen = []
-    monkeypatch.setattr(F, "save", lambda fig, run_dir, name: (seen.append(fig), {"png": "", "pdf": ""})[1])
-    F.figure_stages(F.prepare(pd.DataFrame(rows)), tmp_path, "cornell")
+    monkeypatch.setattr(stages, "save", lambda fig, run_dir, name: (seen.append(fig), {"png": "", "pdf": ""})[1])
+    stages.figure_stages(prepare(pd.DataFrame(rows)), tmp_path, "cornell")
     (fig,) = seen
     ax = fig.axes[0]
     top = max(p.get_y() + p.get_height() for p in ax.patches)
@@ -230,14 +232,15 @@ def test_stage_bars_leave_headroom(tmp_path, monkeypatch):
 
 def test_single_method_grid_keeps_colour_bar_labels(run, tmp_path):
     """The colour bar of a one-method grid lies right of the last axes; nothing may touch the border."""
-    from ldbench.reports import figures as F
+    from ldbench.reports.figures.grids import grid_groups, make_grid
+    from ldbench.reports.figures.table import prepare
     import matplotlib.image as mpimg
 
-    df = F.prepare(records.read_results(run))
-    key, rows = next(iter(F.grid_groups(df).items()))
+    df = prepare(records.read_results(run))
+    key, rows = next(iter(grid_groups(df).items()))
     d = tmp_path / "r"
     shutil.copytree(run, d)
-    g = F.make_grid(d, key, rows[:1])
+    g = make_grid(d, key, rows[:1])
     img = mpimg.imread(str(d / g.png))[..., :3]
     border = np.concatenate([img[:3].reshape(-1, 3), img[-3:].reshape(-1, 3),
                              img[:, :3].reshape(-1, 3), img[:, -3:].reshape(-1, 3)])

@@ -1,4 +1,4 @@
-"""The results schema: docs/results-columns.md documents every column a run writes, with the type
+"""The results schema: docs/reference/results-columns.md documents every column a run writes, with the type
 ldbench/harness/records.py gives it; every column survives write + read_results (Parquet and CSV) with its
 nested fields decoded; every file carries the schema version."""
 import json
@@ -15,7 +15,7 @@ from ldbench.harness import records as R
 from ldbench.harness.cli import main
 from ldbench.core.errors import LdbenchError
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "results-columns.md"
+DOC = Path(__file__).resolve().parents[1] / "docs" / "reference" / "results-columns.md"
 
 
 def documented() -> list[tuple[str, str, str, str]]:
@@ -117,7 +117,7 @@ def test_a_real_run_writes_only_documented_columns(tmp_path, capsys):
         cols = list(pd.read_csv(out / f, nrows=0).columns) if f.endswith(".csv") else \
             pq.read_schema(out / f).names
         undocumented = [c for c in cols if c not in names]
-        assert not undocumented, f"{f}: columns missing from docs/results-columns.md: {undocumented}"
+        assert not undocumented, f"{f}: columns missing from docs/reference/results-columns.md: {undocumented}"
         assert cols[: len(names)] == names
     df = ldbench.harness.read_results(out)
     assert isinstance(df.loc[0, "stage_ms"], dict) and isinstance(df.loc[0, "machine"], dict)

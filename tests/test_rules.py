@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from ldbench.core import device, gpu
-from ldbench.reports import figures
+from ldbench.reports.figures.table import prepare
 from ldbench.harness import records
 from ldbench.harness.naming import key_slug, slug
 
@@ -90,5 +90,5 @@ def test_figures_read_d_max_through_the_accessor(tmp_path):
                              effect_params={"effect": "ao", "d_max": d, "falloff": "step"})
             for d in ("inf", 0.5)]
     records.write_results(rows, tmp_path)
-    df = figures.prepare(records.read_results(tmp_path))
+    df = prepare(records.read_results(tmp_path))
     assert list(df["d_max"]) == [math.inf, 0.5] and list(df["falloff"]) == ["step", "step"]

@@ -1,4 +1,4 @@
-"""Registered real scenes (ldbench/core/scene_registry.py + .toml, ldbench/harness/scenes.build_registered).
+"""Registered real scenes (ldbench/core/scene_registry.py + .toml, ldbench/core/scenes/registered.py).
 
 Tests marked ``needs_shared_scenes`` use the scene mirror of tests/conftest.py (beside the checkout, or
 $LDBENCH_SHARED/scenes); without it they skip and the session ends with one loud line saying so.

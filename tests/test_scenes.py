@@ -1,4 +1,5 @@
-"""Built-in scene builders and the scene dispatcher (ldbench/core/scenes.py)."""
+"""Built-in scenes (one module each in ldbench/core/scenes/), their validated parameters and the scene
+dispatcher (ldbench/core/scenes/__init__.py). A scene from outside ldbench: tests/test_plugins.py."""
 import time
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 
 from ldbench.core.errors import LdbenchError
 from ldbench.core.scene import Camera, Mesh, Scene, SpotLight
-from ldbench.core.scenes import BUILDERS, list_scenes, load_scene
+from ldbench.core.scenes import build_scene, builders, list_scenes, load_scene
 
 from conftest import SHARED_SCENES as SHARED
 
@@ -61,7 +62,7 @@ def lit_fraction(scene, w=32, h=24):
 @pytest.mark.parametrize("name,params", [("cornell", {}), ("cornell", {"subdivide": 2}), ("atrium", {}),
                                          ("hairball", {}), ("atrium", {"triangles": 2000})])
 def test_builders_build(name, params):
-    sc = BUILDERS[name](**params)
+    sc = build_scene(name, **params)
     assert isinstance(sc, Scene) and sc.name == name
     assert sc.triangle_count > 0 and len(sc.lights) == 1
     v, f, mid, alb = sc.merged()
@@ -172,10 +173,16 @@ def test_deterministic_and_hash_changes():
 @pytest.mark.parametrize("spec,params,words", [
     ("nosuchscene", {}, ["unknown scene", "nosuchscene"]),
     ("cornell", {"colour": 1}, ["unknown parameter", "colour", "cornell"]),
-    ("atrium", {"triangles": 10}, ["triangles", "out of range"]),
-    ("atrium", {"triangles": "many"}, ["triangles", "integer"]),
-    ("hairball", {"seed": -1}, ["seed", "out of range"]),
-    ("cornell", {"subdivide": 1.5}, ["subdivide", "integer"]),
+    ("atrium", {"triangles": 10}, ["scene 'atrium'", "triangles", "below its minimum 2000"]),
+    ("atrium", {"triangles": "many"}, ["scene 'atrium'", "triangles", "not a valid int"]),
+    ("hairball", {"seed": -1}, ["scene 'hairball'", "seed", "below its minimum"]),
+    ("hairball", {"opacity": 2}, ["scene 'hairball'", "opacity", "above its maximum"]),
+    ("cornell", {"subdivide": 1.5}, ["scene 'cornell'", "subdivide", "not a valid int"]),
+    ("cornell", {"subdivide": True}, ["scene 'cornell'", "subdivide", "not a valid int"]),
+    ("teapot", {"segments": "2e4"}, ["scene 'teapot'", "segments", "above its maximum"]),
+    ("mesh", {"path": "x.ply", "albedo": "1, 2"}, ["scene 'mesh'", "albedo", "1 or 3 numbers"]),
+    ("transparent_dragon", {"albedo": 1.5}, ["scene 'transparent_dragon'", "albedo", "outside [0, 1]"]),
+    ("/tmp/x.ply", {"colour": 1}, ["unknown parameter", "colour", "parameters: albedo"]),
     ("mesh", {}, ["mesh", "path"]),
     ("mesh", {"path": "/nonexistent/dragon.ply"}, ["cannot read mesh", "/nonexistent/dragon.ply"]),
     ("/nonexistent/bunny.ply", {}, ["cannot read mesh", "/nonexistent/bunny.ply"]),
@@ -203,6 +210,30 @@ def test_inline_params_and_string_values():
     assert a.triangle_count == b.triangle_count == 270
     assert a.params == {"subdivide": 2}
     assert a.content_hash() == b.content_hash()
+
+
+@pytest.mark.parametrize("value", [20000, "20000", "20_000", 20000.0, "2e4", "20000.0", np.int64(20000)])
+def test_an_integer_parameter_in_every_spelling_a_suite_or_command_line_gives(value):
+    """TOML and ``--scene-set`` give an integral number as an int, a float or text: the same scene."""
+    sc = load_scene("atrium", triangles=value)
+    assert sc.params == {"triangles": 20000} and type(sc.params["triangles"]) is int
+    assert sc.content_hash() == load_scene("atrium").content_hash()
+
+
+def test_colours_in_every_spelling():
+    from ldbench.core.scenes.base import rgb_value
+
+    for v in ("0.7, 0.6, 0.5", "0.7 0.6 0.5", [0.7, 0.6, 0.5], (0.7, 0.6, 0.5), np.array([0.7, 0.6, 0.5])):
+        assert rgb_value("albedo", v) == (0.7, 0.6, 0.5)
+    assert rgb_value("albedo", 0.5) == rgb_value("albedo", "0.5") == (0.5, 0.5, 0.5)
+
+
+def test_every_builtin_scene_is_its_own_module():
+    """Discovered from ldbench/core/scenes/, one module per scene, named as the scene."""
+    reg = builders()
+    assert set(reg) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon", "city"}
+    for name, cls in reg.items():
+        assert cls.__module__ == f"ldbench.core.scenes.{name}", cls
 
 
 @needs_bunny
@@ -266,10 +297,11 @@ def test_list_scenes():
     rows = {r["name"]: r for r in list_scenes()}
     assert set(rows) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon", "city"}
     assert rows["atrium"]["parameters"] == {"triangles": 20000}
-    assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0, "opacity": 1.0}
+    assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0, "opacity": 1.0, "colours": 1}
     assert rows["cornell"]["parameters"] == {"subdivide": 0}
-    assert "path" in rows["mesh"]["parameters"]
+    assert rows["mesh"]["parameters"] == {"path": "", "albedo": [0.8, 0.8, 0.8]}
     assert all(r["description"] and "\n" not in r["description"] for r in rows.values())
+    assert "triangle count" in rows["atrium"]["table"] and "2000 … 4000000" in rows["atrium"]["table"]
 
 
 def test_xml_dispatch():
@@ -291,7 +323,7 @@ def test_hairball_tubes_face_outwards_and_stay_in_the_box():
     assert np.all(np.sum(nrm * out, 1) > 0)  # no folded or inside-out tube
     assert np.abs(v).max() < 1.0
     assert (sc.triangle_count - 2) % 120 == 0  # 120 triangles per tube + the floor
-    assert sc.params == {"triangles": 20000, "seed": 3, "opacity": 1.0}
+    assert sc.params == {"triangles": 20000, "seed": 3, "opacity": 1.0, "colours": 1}
 
 
 @pytest.mark.parametrize("name,params", [("cornell", {"subdivide": 1}), ("atrium", {"triangles": 5000}),

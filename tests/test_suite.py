@@ -9,8 +9,8 @@ import pytest
 from ldbench.harness.checks import camera_sees_geometry, unique_scene_names
 from ldbench.harness.cli import build_parser, suite_from_args
 from ldbench.core.errors import LdbenchError
-from ldbench.harness.suite import (DEFAULT_SIZE, MAX_FRAMES, MAX_SEED, MAX_SPP, MAX_WARMUP, parse_size,
-                                   resolve_sizes, suite_from_dict)
+from ldbench.harness.defaults import SIZE as DEFAULT_SIZE
+from ldbench.harness.suite import MAX_FRAMES, MAX_SEED, MAX_SPP, MAX_WARMUP, parse_size, resolve_sizes, suite_from_dict
 from ldbench.core.params import _coerce
 from ldbench.methods.base import get_method
 

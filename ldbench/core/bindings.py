@@ -128,6 +128,12 @@ _TABLE = {
     "GBUF_NORMAL": _b("image", 1, "gbuffer", "compute G-buffer resolve: camera-facing normal, material",
                       "gb_normal"),
     "GBUF_ALBEDO": _b("image", 2, "gbuffer", "compute G-buffer resolve: albedo", "gb_albedo"),
+    **{f"GTAO_DEPTH{i}": _b("image", i, "gtao.prefilter", f"GTAO's depth pre-filter: view-space depth, MIP level {i}",
+                            f"out_depth{i}") for i in range(5)},
+    "HBAO_LAYER_POSITION": _b("image", 0, "hbao.deinterleave", "HBAO's deinterleave: view-space positions in 4x4 "
+                              "quarter-resolution layers", "out_layer_position"),
+    "HBAO_LAYER_NORMAL": _b("image", 1, "hbao.deinterleave", "HBAO's deinterleave: view-space normals in 4x4 "
+                            "quarter-resolution layers", "out_layer_normal"),
 }
 
 #: name -> :class:`Binding`, read-only.
@@ -165,7 +171,9 @@ def _by_glsl() -> dict:
 def table_errors() -> list[str]:
     """What is wrong with the table itself: unknown kinds, negative numbers, one GLSL name under two
     entries, or two entries of one kind and scope on one number."""
-    errs, seen, glsl = [], {}, {}
+    errs: list[str] = []
+    seen: dict[tuple[str, str, int], str] = {}  # (kind, scope, number) -> entry name
+    glsl: dict[tuple[str, str], str] = {}  # (kind, GLSL name) -> entry name
     for name, b in _TABLE.items():
         if b.kind not in KINDS:
             errs.append(f"{name}: kind {b.kind!r} is not one of {KINDS}")
@@ -194,7 +202,9 @@ def program_mismatches(program, *, strict: bool = True) -> list[str]:
     Every storage block must sit at its table entry's number, every image uniform named in the table at its
     unit, and no two storage blocks may share a binding. ``strict``: a storage block the table does not
     name is a mismatch too (the project's own shaders); tests' scratch kernels pass ``strict=False``."""
-    by_glsl, errs, used = _by_glsl(), [], {}
+    by_glsl = _by_glsl()
+    errs: list[str] = []
+    used: dict[int, str] = {}  # storage binding -> block name
     for member in program:
         m = program[member]
         kind = type(m).__name__

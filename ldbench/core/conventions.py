@@ -19,7 +19,7 @@ until it is CREASE ε from every edge (or reaches the centroid). That is the cas
 crease, x on the edge where two walls meet: x + ε n lies in the other wall's plane and rays into that wall
 escape through it. The move stays in the surface (no offset along n) and touches only points that close to
 an edge. (The earlier rule, x − 16 ε d_cam + ε n, also fixed creases but moved every origin up to 17 ε
-off its surface, 4 mm on cornell and 23 mm on atrium: a bias; docs/rays.md, "Secondary-ray origin".)
+off its surface, 4 mm on cornell and 23 mm on atrium: a bias; docs/reference/rays.md, "Secondary-ray origin".)
 Where no triangle is known (a G-buffer, the LDI gather), x' = x.
 
 **Frame** (:func:`tangent_frame`): the branchless orthonormal basis of Duff et al. (2017),
@@ -147,8 +147,8 @@ def batch_uniforms(seed: int, stream: int, n: int) -> np.ndarray:
     return rng.random((int(n), 2))
 
 
-def _u32(v) -> np.ndarray:
-    """Integers (Python or numpy, any sign) modulo 2³² as uint32."""
+def _u32(v) -> np.ndarray | np.uint32:
+    """Integers (Python or numpy, any sign) modulo 2³² as uint32 (a scalar stays a scalar)."""
     if isinstance(v, (int, np.integer)):
         return np.uint32(int(v) & 0xFFFFFFFF)
     return (np.asarray(v, np.int64) & 0xFFFFFFFF).astype(np.uint32)

@@ -18,12 +18,16 @@ import re
 import time
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from . import bindings
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
+
+if TYPE_CHECKING:
+    import moderngl
 
 log = logging.getLogger(__name__)
 
@@ -151,6 +155,12 @@ def check_bindings(program, path) -> None:
         raise LdbenchError(f"shader {Path(path).name}: {errs[0]}" + (f" (+{len(errs) - 1} more)" if errs[1:] else ""))
 
 
+class _GLObject(Protocol):
+    """What :class:`Resources` keeps: a moderngl object (buffer, texture, ...) that frees its GPU memory."""
+
+    def release(self) -> None: ...
+
+
 class Resources:
     """GPU objects one owner (a method, a G-buffer) allocated, with their sizes in bytes.
 
@@ -160,7 +170,7 @@ class Resources:
 
     def __init__(self, ctx, prefix: str = ""):
         self.ctx, self.prefix = ctx, prefix
-        self.objects: dict[str, object] = {}
+        self.objects: dict[str, _GLObject] = {}
         self.bytes: dict[str, int] = {}
 
     def _add(self, name, obj, nbytes):
@@ -250,9 +260,12 @@ class Gpu:
             self.selection = select_device()
         except Exception:  # a broken EGL install: no choice, the default device as before
             self.selection = Selection(None, visible_gpu(), None, "default")
-        where = {} if self.selection.egl_device is None else {"device_index": self.selection.egl_device}
+        # str and int values; moderngl's stub types each setting as a dict, so the mapping is typed loosely
+        settings: dict[str, Any] = {"backend": "egl"}
+        if self.selection.egl_device is not None:
+            settings["device_index"] = self.selection.egl_device
         try:
-            self.ctx = moderngl.create_standalone_context(backend="egl", require=require, **where)
+            self.ctx = moderngl.create_standalone_context(require=require, **settings)
         except Exception as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise LdbenchError(
@@ -265,7 +278,7 @@ class Gpu:
         self._pending: list = []  # (stage, query or ms) for the current frame
         self._frame_t0 = None
         self._programs: dict = {}
-        self._staging = None  # the kept staging buffer of read()
+        self._staging: moderngl.Buffer | None = None  # the kept staging buffer of read()
         _LIVE.append(self)
 
     # ---- shaders -------------------------------------------------------------------------
@@ -275,11 +288,12 @@ class Gpu:
         if key not in self._programs:
             text = expand_includes(Path(path))
             files: list = []
-            kw = {k: shader_source(path, m, defines, files=files) for k, m in STAGES.items()
-                  if re.search(rf"\b{m}\b", text)}
-            kw.setdefault("fragment_shader", None)
+            src = {k: shader_source(path, m, defines, files=files) for k, m in STAGES.items()
+                   if re.search(rf"\b{m}\b", text)}
             try:
-                prog = self.ctx.program(varyings=list(varyings), **kw)
+                prog = self.ctx.program(vertex_shader=src.get("vertex_shader"),
+                                        geometry_shader=src.get("geometry_shader"),
+                                        fragment_shader=src.get("fragment_shader"), varyings=tuple(varyings))
             except Exception as e:
                 raise LdbenchError(f"shader {Path(path).name} failed to compile: {compile_error(e, files)}")
             check_bindings(prog, path)
@@ -309,7 +323,7 @@ class Gpu:
         Never ``buffer.read()`` on a buffer that shaders keep using: NVIDIA's driver moves a buffer the CPU
         reads from video to host memory ("Buffer performance warning: ... is being copied/moved from
         VIDEO memory to HOST memory"), and every later atomic on it crosses PCIe (measured in
-        docs/fast_builds.md, "Read-backs"). The GPU copies into this staging buffer, which alone the
+        docs/reference/methods/fast_builds.md, "Read-backs"). The GPU copies into this staging buffer, which alone the
         driver may move."""
         size = buffer.size - offset if size is None else int(size)
         if size <= 0:
@@ -343,13 +357,13 @@ class Gpu:
         blending is off and the blend function is moderngl's default again."""
         ctx = self.ctx
         ctx.enable(ctx.BLEND)
-        ctx.blend_equation = ctx.FUNC_ADD
+        ctx.blend_equation = (ctx.FUNC_ADD, ctx.FUNC_ADD)  # rgb, alpha
         ctx.blend_func = func
         try:
             yield
         finally:
             ctx.disable(ctx.BLEND)
-            ctx.blend_func = ctx.DEFAULT_BLENDING
+            ctx.blend_func = (ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA)  # moderngl's DEFAULT_BLENDING
 
     # ---- timing --------------------------------------------------------------------------
     def begin_frame(self):

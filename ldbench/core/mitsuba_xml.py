@@ -72,12 +72,15 @@ _TAGS = {"Scene": "scene", "Sensor": "sensor", "Film": "film", "Emitter": "emitt
 def _mitsuba():
     """(mitsuba, its parser module) with the ``scalar_rgb`` types registered, without setting a variant
     (the references choose theirs; a scalar variant's module does not start the LLVM backend)."""
+    from .signals import deferred_interrupt
+
     try:
         import importlib
 
-        import mitsuba as mi
+        with deferred_interrupt():  # a Ctrl-C inside the extension's start-up would read as "not installed"
+            import mitsuba as mi
 
-        importlib.import_module(f"mitsuba.{VARIANT}")
+            importlib.import_module(f"mitsuba.{VARIANT}")
         return mi, mi.parser
     except ImportError as e:
         raise LdbenchError(f"reading Mitsuba XML needs Mitsuba 3 with its {VARIANT} variant ({e})") from None
@@ -495,7 +498,8 @@ class _Loader:
                            "ldbench needs exactly one perspective sensor")
         if not sensors:
             raise LdbenchError(f"no <sensor> in {self.path}: ldbench needs one perspective sensor")
-        meshes, lights = [], []
+        meshes: list[Mesh] = []
+        lights: list[SpotLight] = []
         for _, n in self.children(root):
             tag = self.tag(n)
             if tag in ("integrator", "sensor"):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -17,8 +17,11 @@ from ldbench.core.errors import LdbenchError
 
 
 def param(default, doc: str, *, lo=None, hi=None, choices=None, paper=None):
-    """A validated parameter: ``lo``/``hi`` inclusive bounds, ``choices`` allowed values,
-    ``paper`` the value the paper used (shown in ``ldbench methods``)."""
+    """A validated parameter: ``doc`` its description, ``lo``/``hi`` inclusive bounds, ``choices`` allowed
+    values, ``paper`` the value the paper used. This declaration is the parameter's only documentation:
+    ``ldbench methods NAME`` and docs/reference/parameters.md are generated from it
+    (:func:`ldbench.core.paramdoc.markdown`), so ``doc`` says what the parameter does and its unit where it
+    has one, and default, range and choices are left to the generated table."""
     return field(default=default, metadata={"doc": doc, "lo": lo, "hi": hi, "choices": choices,
                                             "paper": paper})
 
@@ -122,7 +125,9 @@ class ParamsBase:
         :attr:`renamed_values`, nested group tables (``{"structure": {"source": ...}}``, as TOML reads
         ``structure.source = ...``) flattened, and ``preset`` replaced by its values under the parameters
         given beside it. The same parameter given twice with two values is an error."""
-        groups, out, given = cls._groups(), {}, {}
+        groups = cls._groups()
+        out: dict[str, Any] = {}
+        given: dict[str, str] = {}  # parameter -> how it was given, for the "given twice" message
         values = cls._expand_preset(values)
         flat = []
         for k, v in values.items():
@@ -173,7 +178,8 @@ class ParamsBase:
         values = cls.upgrade(values)
         groups = cls._groups()
         names = set(cls.field_names())
-        top, nested = {}, {g: {} for g in groups}
+        top: dict[str, Any] = {}
+        nested: dict[str, dict[str, Any]] = {g: {} for g in groups}
         for k, v in values.items():
             if k not in names:
                 raise LdbenchError(f"unknown parameter {k!r} for method {method!r} "
@@ -202,40 +208,6 @@ class ParamsBase:
         for f in dataclasses.fields(cls):
             out += [f"{f.name}.{n}" for n in _exposed(f)] if "group" in f.metadata else [f.name]
         return tuple(out)
-
-    @classmethod
-    def table(cls) -> str:
-        """A text table of the parameters by group: name, default, paper value, range, description; then
-        the earlier names."""
-        def row(name, default, md, choices=None, paper=None, indent="  "):
-            choices = choices if choices is not None else md.get("choices")
-            rng = (f"{list(choices)}" if choices else
-                   f"[{md.get('lo', '')}, {md.get('hi', '')}]" if md.get("lo") is not None or md.get("hi") is not None
-                   else "")
-            paper = md.get("paper") if paper is None else paper
-            paper = "" if paper is None else f" (paper: {paper})"
-            return f"{indent}{name:<24} = {default!r:<10} {rng:<18} {md.get('doc', '')}{paper}"
-
-        rows, grouped = [], []
-        for f in dataclasses.fields(cls):
-            md = f.metadata
-            if "group" not in md:
-                rows.append(row(f.name, f.default, md))
-                continue
-            gcls, gdef = md["group"], f.default_factory()
-            lines = [f"  {f.name}: {md['doc']}"]
-            gfields = {g.name: g for g in dataclasses.fields(gcls)}
-            for n in _exposed(f):
-                lines.append(row(f"{f.name}.{n}", getattr(gdef, n), gfields[n].metadata, md["choices"].get(n),
-                                 md["paper_values"].get(n), indent="    "))
-            grouped += lines
-        out = rows + grouped
-        for name, pre in cls.presets.items():
-            vals = ", ".join(f"{k}={v!r}" for k, v in pre.values.items())
-            out.append(f"  preset {name!r} ({PRESET_KEY} = {name!r}): {pre.doc}: {vals}")
-        if cls.renamed:
-            out.append("  earlier names: " + ", ".join(f"{k} -> {v}" for k, v in cls.renamed.items()))
-        return "\n".join(out)
 
 
 def _exposed(f) -> tuple:

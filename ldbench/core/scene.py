@@ -190,6 +190,7 @@ class SpotLight:
         if self.is_point:
             return np.ones_like(cos_theta)
         theta = np.arccos(np.clip(cos_theta, -1, 1))
+        assert self.beam_width is not None  # __post_init__ replaced the None default by its value
         cut, beam = math.radians(self.cutoff_angle), math.radians(self.beam_width)
         trans = (cut - theta) / max(cut - beam, 1e-12)
         v = np.where(theta <= beam, 1.0, trans)

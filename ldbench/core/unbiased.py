@@ -141,7 +141,7 @@ class UnbiasedResult:
     reject_map: np.ndarray = field(repr=False)
 
     def columns(self) -> dict:
-        """The results columns (docs/results-columns.md)."""
+        """The results columns (docs/reference/results-columns.md)."""
         return {"unbiased_p": self.unbiased_p, "unbiased_verdict": self.verdict,
                 "rejected_fraction": self.rejected_fraction, "expected_fraction": self.expected_fraction,
                 "unbiased_p_family": self.p_family, "unbiased_p_count": self.p_count,

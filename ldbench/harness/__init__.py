@@ -1,7 +1,7 @@
 """ldbench: benchmark and validation of real-time GI through rasterized layered depth structures.
 
 The public reader of a run's results is :func:`read_results` (:func:`ldbench.harness.records.read_results`;
-docs/results-columns.md); it is imported on first use, so ``import harness`` stays light.
+docs/reference/results-columns.md); it is imported on first use, so ``import harness`` stays light.
 """
 
 __all__ = ["read_results"]

@@ -1,4 +1,4 @@
-"""The ``ldbench`` command line (docs/design.md, "Command line"; exit codes in docs/cli.md).
+"""The ``ldbench`` command line (docs/design.md, "Command line"; exit codes in docs/reference/cli.md).
 
 Every user error is an :class:`~ldbench.core.errors.LdbenchError`: one line on stderr, exit status 2, no
 traceback. Sub-commands are registered in :data:`COMMANDS` (name → (add_arguments, handler)).
@@ -9,16 +9,20 @@ summaries, the files it wrote) is printed on stdout.
 from __future__ import annotations
 
 import argparse
+import errno
 import logging
 import sys
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
 
-#: The package's logger tree; ``__package__`` also under ``python -m ldbench.harness.cli`` (``__name__`` is then
-#: ``"__main__"``, whose logger would not be the parent of the other modules' loggers).
-_LOG_ROOT = __package__ or __name__.rpartition(".")[0]
-log = logging.getLogger(f"{_LOG_ROOT}.cli")
+from . import defaults
+
+#: The package's logger tree, ``ldbench``: every layer's loggers (``ldbench.core.gpu``, ``ldbench.references...``),
+#: not only this sub-package's; from ``__package__`` also under ``python -m ldbench.harness.cli`` (``__name__`` is
+#: then ``"__main__"``, whose logger would not be the parent of the other modules' loggers).
+_LOG_ROOT = (__package__ or __name__).split(".")[0]
+log = logging.getLogger(f"{__package__ or _LOG_ROOT + '.harness'}.cli")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -68,10 +72,12 @@ def _scenes(args):
 
 def _methods_args(p):
     p.add_argument("name", nargs="?", default=None,
-                   help="one method (or an alias): its parameters; without it, every method in one line each")
+                   help="one method (or an alias): its parameters as a Markdown table (docs/reference/parameters.md "
+                        "holds every method's); without it, every method in one line each")
 
 
 def _methods(args):
+    from ldbench.core.paramdoc import markdown
     from ldbench.methods.base import canonical_name, registry
 
     reg = registry()
@@ -86,7 +92,7 @@ def _methods(args):
     cls = reg[name]
     also = f" (also: {', '.join(cls.aliases)})" if cls.aliases else ""
     print(f"{name}{also}  [{cls.paper}]  effects: {', '.join(sorted(cls.effects))}")
-    print(cls.Params.table() or "  (no parameters)")
+    print(markdown(cls.Params) or "(no parameters)")
     return 0
 
 
@@ -162,14 +168,19 @@ def _literal(v: str):
         return v
 
 
+#: --size of reference, export and score: their default is run's (ldbench/harness/defaults.py)
+_SIZE_HELP = (f"image size WxH (default: a Mitsuba XML scene's film, else {defaults.SIZE[0]}x{defaults.SIZE[1]}, "
+              "as run's)")
+
+
 def _reference_args(p):
     p.add_argument("--scene", help="built-in or registered scene name (ldbench scenes), a Mitsuba 3 .xml file, "
                                    "or a .ply/.obj mesh")
     p.add_argument("scene_arg", nargs="?", metavar="SCENE", help="the scene as a positional argument: deprecated, "
                    "use --scene as run and export do")
     _effect_args(p)
-    p.add_argument("--spp", type=int, default=1024, help="samples per pixel (default 1024)")
-    p.add_argument("--size", default="256x256", metavar="WxH", help="image size (default 256x256)")
+    p.add_argument("--spp", type=int, default=None, help=f"samples per pixel (default {defaults.SPP}, as run's)")
+    p.add_argument("--size", default=None, metavar="WxH", help=_SIZE_HELP)
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
                    help="scene builder parameter (repeatable)")
     p.add_argument("--out", default=None, metavar="FILE.exr",
@@ -192,8 +203,10 @@ def _reference(args):
         raise LdbenchError("reference needs --scene SCENE")
 
     from .suite import MAX_SPP, checked_int, check_budget
-    w, h = parse_size(args.size)
-    check_budget(w, h, checked_int(args.spp, "--spp", 1, MAX_SPP))
+    size = parse_size(args.size) if args.size is not None else None
+    spp = checked_int(defaults.SPP if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
+    if size is not None:  # checked before the scene is loaded; the default size once it is (a film's)
+        check_budget(*size, spp)
     out = _reference_out(args.out)
     effect = _effect_from(args)
     spec = effect.spec
@@ -204,18 +217,22 @@ def _reference(args):
     for w_ in scene.warnings:
         log.warning(w_)
     effect.check_scene(scene)
+    w, h = size if size is not None else parse_size(list(defaults.image_size(scene)))
+    check_budget(w, h, spp)
     from ldbench.references import EXACT, render_effect
 
-    ref = render_effect(scene, effect, width=w, height=h, spp=args.spp, seed=0,
-                        inputs=spec.inputs(scene, w, h, effect.params, 0, exact=EXACT), cache=not args.no_cache)
+    seed = defaults.SEED
+    ref = render_effect(scene, effect, width=w, height=h, spp=spp, seed=seed,
+                        inputs=spec.inputs(scene, w, h, effect.params, seed, exact=EXACT), cache=not args.no_cache)
     m = ref.meta
     took = "cached" if m.get("cached") else f"{m.get('seconds', 0):.2f} s"
-    print(f"{scene.name} {effect.label()} {w}x{h} spp={args.spp} variant={m.get('variant')} {took} "
+    print(f"{scene.name} {effect.label()} {w}x{h} spp={spp} variant={m.get('variant')} {took} "
           f"key={m.get('key')}")
     if out is not None:
         from ldbench.core.exr import write_exr
         from ldbench.core.exr import image_channels
-        write_exr(out, image_channels(ref.mean))
+        tag = {REFERENCE_EXR_TAG.decode(): f"{scene.name} {effect.label()}"}  # what makes it ours to replace
+        write_exr(out, image_channels(ref.mean), header=tag)
         print(f"wrote {out}")
     return 0
 
@@ -225,12 +242,20 @@ def _reference_out(out):
     else is written beside it (a preview would replace the user's FILE.png)."""
     if out is None:
         return None
+    from ldbench.core.files import TEMP_EXTRA, check_output_path, check_replaceable
+
     p = Path(out)
     if p.suffix.lower() != ".exr":
         raise LdbenchError(f"--out {out}: must name an .exr file (the reference's mean, linear float)")
+    check_output_path(p, extra=TEMP_EXTRA + len(".exr"))  # write_exr's temporary ends in .exr
     if p.is_dir() or p.is_symlink():
         raise LdbenchError(f"--out {out} is a directory or a symbolic link; give a file name")
+    check_replaceable(p, lambda head: REFERENCE_EXR_TAG in head)  # only an EXR `reference --out` wrote
     return p
+
+
+#: The EXR header attribute ``reference --out`` writes (name and value): the file is ldbench's to replace.
+REFERENCE_EXR_TAG = b"ldbench_reference"
 
 
 # ---- run / report ---------------------------------------------------------------------------------
@@ -250,14 +275,16 @@ def _run_args(p):
     p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference")
     p.add_argument("--size", default=None, metavar="WxH",
                    help="image size (overrides the suite's; default: the suite's, else an XML scene's film, "
-                        "else 128x128)")
-    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default: the suite's, 256)")
+                        f"else {defaults.SIZE[0]}x{defaults.SIZE[1]})")
+    p.add_argument("--spp", type=int, default=None,
+                   help=f"reference samples per pixel (default: the suite's, {defaults.SPP})")
     p.add_argument("--warmup", type=int, default=None,
-                   help="frames run before timing starts (default: the suite's, 2)")
-    p.add_argument("--frames", type=int, default=None, help="timed frames per job (default: the suite's, 5)")
+                   help=f"frames run before timing starts (default: the suite's, {defaults.WARMUP})")
+    p.add_argument("--frames", type=int, default=None,
+                   help=f"timed frames per job (default: the suite's, {defaults.FRAMES})")
     p.add_argument("--job-timeout", type=float, default=None, metavar="SECONDS",
                    help="seconds one job may take before it becomes an error row and the run goes on "
-                        "(default: the suite's job_timeout, 3600; 0: no limit)")
+                        f"(default: the suite's job_timeout, {defaults.JOB_TIMEOUT:g}; 0: no limit)")
     p.add_argument("--set", action="append", metavar="METHOD.PARAM=VALUE",
                    help="method parameter (repeatable; with a suite it overrides the suite's value)")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE",
@@ -266,25 +293,43 @@ def _run_args(p):
     p.add_argument("--no-report", action="store_true", help="write results only, no HTML/Markdown report")
     p.add_argument("--no-progress", action="store_true",
                    help="no progress bar (it is shown only when stderr is a terminal anyway)")
+    p.add_argument("--writers", type=_writers_arg, default=None, metavar="N",
+                   help="local executor: N writer processes score the jobs and save their images while the next "
+                        "jobs render (0: one job after the other; default: half the CPU cores, at most 8, and 0 "
+                        "on a CPU renderer such as llvmpipe; docs/reference/cli.md)")
     p.add_argument("--executor", default="local", choices=("local", "ray"),
                    help="local: this process (default); ray: one task per job group on a Ray cluster "
-                        "(pip install 'ldbench[ray]'; docs/ray.md)")
+                        "(pip install 'ldbench[ray]'; docs/how-to/run-on-ray.md)")
     p.add_argument("--address", default=None,
                    help="ray: the cluster to join (auto, HOST:6379, ray://HOST:10001); default: start a local one")
     p.add_argument("--retries", type=int, default=None,
                    help="ray: times a failed task is run again (default 1)")
 
 
+def _writers_arg(text: str) -> int:
+    """``--writers N``: an integer in [0, MAX_WRITERS] (ldbench/harness/writers.py)."""
+    from .writers import MAX_WRITERS
+
+    try:
+        n = int(text)
+    except ValueError:
+        n = -1
+    if not 0 <= n <= MAX_WRITERS:
+        raise LdbenchError(f"--writers must be an integer in [0, {MAX_WRITERS}], got {text!r}")
+    return n
+
+
 def _executor_from(args):
-    """The executor of ``ldbench run``: local, or Ray with --address/--retries; either with --save-arrays."""
+    """The executor of ``ldbench run``: local (with --writers), or Ray with --address/--retries; either with
+    --save-arrays."""
     from .executors import get_executor
 
     if args.executor == "local":
         if args.address is not None or args.retries is not None:
             raise LdbenchError("--address and --retries go with --executor ray")
-        ex = get_executor("local")
+        ex = get_executor("local", writers=args.writers)
     else:
-        opts = {"address": args.address}
+        opts = {"address": args.address, "writers": args.writers}
         if args.retries is not None:
             opts["retries"] = args.retries
         ex = get_executor("ray", **opts)
@@ -389,17 +434,20 @@ def _report_args(p):
 
 
 def _report(args):
-    from ldbench.reports.report import write_report
+    from ldbench.reports.report import build_report
 
     d = Path(args.run_dir)
     if not (d / "results.parquet").exists():
         raise LdbenchError(f"{d} is not a run directory (no results.parquet)")
-    path = write_report(d)
-    print(f"wrote {path}")
+    res = build_report(d)
+    print(f"wrote {res['index']}")
+    if res["damaged"]:  # each named in a warning above; the report is written without their grids
+        raise LdbenchError(f"{len(res['damaged'])} image file(s) of {d} cannot be read (listed above); the report "
+                           "leaves their grids out: run the jobs again")
     return 0
 
 
-# ---- compare / history (ldbench/harness/compare.py, ldbench/harness/history.py; imported when used) ---------------
+# ---- compare / history (ldbench/harness/compare/, ldbench/harness/history.py; imported when used) ---------------
 def _compare_args(p):
     from .compare import add_arguments
     add_arguments(p)
@@ -460,27 +508,36 @@ def _question_args(p, required=True):
     p.add_argument("--scene", required=required, help="scene name, Mitsuba XML or mesh path")
     p.add_argument("--scene-set", action="append", metavar="KEY=VALUE", help="scene builder parameter")
     _effect_args(p, required=required)
-    p.add_argument("--size", default=None, help="WxH (default 256x256)")
-    p.add_argument("--spp", type=int, default=None, help="reference samples per pixel (default 64)")
-    p.add_argument("--seed", type=int, default=None, help="seed of the effect's inputs and the reference (default 0)")
+    p.add_argument("--size", default=None, metavar="WxH", help=_SIZE_HELP)
+    p.add_argument("--spp", type=int, default=None,
+                   help=f"reference samples per pixel (default {defaults.SPP}, as run's)")
+    p.add_argument("--seed", type=int, default=None,
+                   help=f"seed of the effect's inputs and the reference (default {defaults.SEED})")
 
 
 def _question_from(args):
     from .score import Question
-    from .suite import MAX_SPP, check_budget, checked_int, parse_size
+    from .suite import MAX_SEED, MAX_SPP, check_budget, checked_int, parse_size
 
-    w, h = parse_size(args.size or "256x256")
-    spp = checked_int(64 if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
-    check_budget(w, h, spp)
-    seed = checked_int(0 if args.seed is None else args.seed, "--seed", 0)
-    return Question(scene=args.scene, effect=_effect_from(args), width=w, height=h, spp=spp, seed=seed,
-                    scene_params=_scene_params(args.scene_set))
+    scene_params = _scene_params(args.scene_set)
+    spp = checked_int(defaults.SPP if args.spp is None else args.spp, "--spp", 1, MAX_SPP)
+    if args.size is not None:
+        w, h = parse_size(args.size)
+    else:  # run's rule: the scene's film (a Mitsuba XML scene), else the default size
+        from ldbench.core.scenes import load_scene
+
+        w, h = parse_size(list(defaults.image_size(load_scene(args.scene, **scene_params))))
+    effect = _effect_from(args)
+    check_budget(w, h, spp, effect)  # with the effect's inputs (rays per pixel, RSM) before any work
+    seed = checked_int(defaults.SEED if args.seed is None else args.seed, "--seed", 0, MAX_SEED)
+    return Question(scene=args.scene, effect=effect, width=w, height=h, spp=spp, seed=seed,
+                    scene_params=scene_params)
 
 
 def _score_args(p):
     p.add_argument("run_dir", help="run directory the rows join (created when missing)")
     p.add_argument("--from", dest="folder", metavar="FOLDER",
-                   help="every folder under FOLDER with question.json + answer.* (docs/adapters.md, 'Benchmarking "
+                   help="every folder under FOLDER with question.json + answer.* (docs/reference/adapters.md, 'Benchmarking "
                         "a method that runs elsewhere')")
     p.add_argument("--answer", metavar="FILE", help="one answer: image (.exr, .png) or per-ray/per-VPL file "
                    "(.npy, .npz, .csv)")
@@ -498,7 +555,7 @@ def _score_args(p):
     p.add_argument("--memory", action="append", metavar="BUFFER=BYTES", help="memory the method used, per buffer")
     p.add_argument("--test", choices=("unbiased",), default=None,
                    help="also test the answer for bias against the reference within both variances "
-                        "(docs/cli.md, 'score --test unbiased'); exit status 1 when it fails")
+                        "(docs/reference/cli.md, 'score --test unbiased'); exit status 1 when it fails")
     p.add_argument("--variance", metavar="FILE.exr", default=None,
                    help="the answer's per-pixel variance of the mean (sample variance / samples)")
     p.add_argument("--second-moment", metavar="FILE.exr", default=None,
@@ -632,7 +689,7 @@ COMMANDS = {
 
 
 EPILOG = ("Exit status: 0 success, 1 a run with failed jobs or a comparison with a regression, 2 bad input "
-          "(one line on stderr), 130 interrupted; docs/cli.md lists them with the accepted value ranges.")
+          "(one line on stderr), 130 interrupted; docs/reference/cli.md lists them with the accepted value ranges.")
 
 
 def _verbosity_args(p, default):
@@ -657,6 +714,9 @@ def build_parser():
 
 class _StderrHandler(logging.Handler):
     """Log records as ``ldbench: [level: ]message`` lines on the current ``sys.stderr``."""
+
+    #: marks the handler :func:`setup_logging` installed, which a second call replaces
+    ldbench_cli: bool = False
 
     def emit(self, record):
         try:
@@ -692,6 +752,19 @@ def main(argv=None) -> int:
     except KeyboardInterrupt as e:
         print(f"ldbench: interrupted: {e}" if str(e) else "ldbench: interrupted", file=sys.stderr)
         return 130
+    except OSError as e:  # the file system said no midway (full disk, read-only, too long): one line, not a traceback
+        if e.errno not in _FILE_SYSTEM_ERRNOS:
+            raise
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"ldbench: error: {where}{e.strerror or e}", file=sys.stderr)
+        return 2
+
+
+#: What a file system answers that is no bug of ldbench's (every output path is also checked up front,
+#: :func:`ldbench.core.files.check_output_path`; a disk fills up, a mount turns read-only, midway too).
+_FILE_SYSTEM_ERRNOS = frozenset(getattr(errno, n) for n in (
+    "ENOSPC", "EDQUOT", "EROFS", "EACCES", "EPERM", "ENAMETOOLONG", "ENOTDIR", "EISDIR", "EFBIG", "EMFILE", "ENFILE",
+    "EIO") if hasattr(errno, n))
 
 
 if __name__ == "__main__":

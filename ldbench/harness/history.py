@@ -1,4 +1,4 @@
-"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (docs/nightly.md).
+"""Benchmark history: ``ldbench history add RUN`` and ``ldbench history plot`` (docs/how-to/nightly-ci.md).
 
 Storage
     ``<history-dir>/<machine-key>.parquet``, one file per machine (:func:`ldbench.harness.records.machine_key`
@@ -9,12 +9,13 @@ Storage
     (``flock``; concurrent ``history add`` wait their turn, at most :data:`LOCK_WAIT_S`) and replace
     each file atomically, so every added run's rows are kept and a reader never sees a torn file.
     The default history directory is ``history/`` under the current directory; it is meant to live
-    outside git (a CI cache or artifact, see ``docs/nightly.md``), add ``/history/`` to ``.gitignore``
+    outside git (a CI cache or artifact, see ``docs/how-to/nightly-ci.md``), add ``/history/`` to ``.gitignore``
     if you keep one locally.
 
 Plots (:mod:`ldbench.reports.history_plots`)
-    One PNG per machine and benchmark (benchmarks as in :data:`ldbench.harness.compare.DEFAULT_MATCH`):
-    the median frame time ``total_ms`` with its interquartile band (from the raw samples) and the
+    One PNG per machine and benchmark (benchmarks as in
+    :data:`ldbench.harness.compare.match.DEFAULT_MATCH`): the median frame time ``total_ms`` with its
+    interquartile band (from the raw samples) and the
     quality (PSNR; for a non-image effect the first metric it gates, e.g. ``rays``: hit agreement, with
     an absolute change floor of 0.002), one point per run in time order, the x axis labelled with the short commit (``*`` = dirty
     checkout) and date. Detected change points are drawn as vertical lines and listed in
@@ -60,7 +61,7 @@ LOCK_WAIT_S = 300.0
 def row_machine_key(row) -> str:
     """The row's ``machine_key``, else computed from its ``machine`` dict or machine columns."""
     from . import records
-    from .compare import row_value
+    from .compare.match import row_value
 
     k = row_value(row, "machine_key")
     if k:
@@ -127,8 +128,10 @@ def add_run(run, history_dir=DEFAULT_HISTORY_DIR) -> list[dict]:
 
     Returns one dict per machine touched: ``{"machine_key", "path", "added", "rows", "runs"}``.
     """
-    from .compare import load_results
+    from ldbench.core.files import check_output_path
+    from .compare.match import load_results
 
+    check_output_path(history_dir, into=True, flag="--history-dir")  # before reading the run
     df = load_results(run, "run")
     if "run_id" not in df or df["run_id"].isna().any():
         raise LdbenchError(f"run {run} has rows without a run_id")

@@ -7,7 +7,7 @@ are :data:`COLUMNS`, each with a type in :data:`COLUMN_TYPES`:
 * ``json``: nested values (dicts, lists, dataclasses such as a method's ``Params``) stored as JSON
   strings, so Parquet and CSV hold the same text; :func:`read_results` parses them back.
 
-Every column's type, unit and meaning is in docs/results-columns.md. Every file carries
+Every column's type, unit and meaning is in docs/reference/results-columns.md. Every file carries
 :data:`SCHEMA_VERSION`: as the ``schema_version`` column, and in ``results.parquet`` also as the
 Parquet key-value metadata ``ldbench.schema_version``. The rule for changing it is written there too
 (major: a column removed, renamed, retyped or its meaning changed; minor: a column added).
@@ -54,7 +54,7 @@ from ldbench.core.plugins import LDBENCH_ROOT, git_info, git_info_from_env  # no
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
 
-#: Version of the results schema, "MAJOR.MINOR" (docs/results-columns.md, "Schema version"): MAJOR
+#: Version of the results schema, "MAJOR.MINOR" (docs/reference/results-columns.md, "Schema version"): MAJOR
 #: goes up when a column is removed, renamed, retyped or changes meaning or unit, MINOR when a column is
 #: added. Readers accept every file of the same MAJOR.
 SCHEMA_VERSION = "1.1"
@@ -147,8 +147,9 @@ def nvidia_gpu_info() -> dict:
     Asks ``nvidia-smi`` (with a timeout), else ``pynvml``; all values are None when neither answers.
     Clocks are the current ones at the time of the query.
     """
-    out = {"gpu_name": None, "gpu_driver": None, "gpu_clock_sm_mhz": None, "gpu_clock_mem_mhz": None,
-           "gpu_memory_mib": None, "gpu_count": None}
+    out: dict[str, str | float | int | None] = {
+        "gpu_name": None, "gpu_driver": None, "gpu_clock_sm_mhz": None, "gpu_clock_mem_mhz": None,
+        "gpu_memory_mib": None, "gpu_count": None}
     exe = shutil.which("nvidia-smi")
     if exe:
         try:
@@ -512,15 +513,31 @@ def _apply_types(df):
     return df
 
 
-def _write_parquet(df, path):
-    """``df`` as Parquet with :data:`SCHEMA_VERSION` in the file's key-value metadata."""
+def _write_parquet(df, path, version: str = SCHEMA_VERSION):
+    """``df`` as Parquet with ``version`` (:data:`SCHEMA_VERSION`) in the file's key-value metadata."""
     import pyarrow as pa
     import pyarrow.parquet as papq
 
     table = pa.Table.from_pandas(df, preserve_index=False)
     table = table.replace_schema_metadata({**(table.schema.metadata or {}),
-                                           SCHEMA_VERSION_KEY: SCHEMA_VERSION.encode()})
+                                           SCHEMA_VERSION_KEY: version.encode()})
     papq.write_table(table, path)
+
+
+def _version_key(v: str) -> tuple:
+    return tuple(int(x) if x.isdigit() else -1 for x in v.split("."))
+
+
+def _kept_schema_version(version: str | None, where) -> str:
+    """The version a results file written with rows of a file of ``version`` declares: the newer of the two
+    (same major; None: a file older than versions)."""
+    if version is None:
+        return SCHEMA_VERSION
+    _check_schema_version(version, Path(where))  # a newer major: refused
+    if version.split(".")[0] != SCHEMA_VERSION.split(".")[0]:
+        raise LdbenchError(f"results {where} have schema version {version}, another major version than this "
+                           f"ldbench writes ({SCHEMA_VERSION}); add rows to a new run instead")
+    return max(version, SCHEMA_VERSION, key=_version_key)
 
 
 def _file_schema_version(path: Path, df) -> str | None:
@@ -550,11 +567,14 @@ def _check_schema_version(version: str | None, path: Path):
                            f"({SCHEMA_VERSION}); update ldbench")
 
 
-def write_results(rows: list[dict], out_dir) -> dict:
+def write_results(rows: list[dict], out_dir, *, schema_version: str | None = None) -> dict:
     """Write ``results.parquet`` and ``results.csv`` into ``out_dir``.
 
     Rows from :func:`make_row` (raw dicts are passed through it). Each file is written to a temporary
-    name and renamed, so a crash never leaves a truncated results file.
+    name and renamed, so a crash never leaves a truncated results file. ``schema_version``: the version of
+    the file these rows were read from (rows added to an existing run): the file keeps it when it is newer
+    than :data:`SCHEMA_VERSION` (a minor version only adds columns, so this ldbench's rows are valid in it);
+    another major version is refused, as :func:`read_results` refuses it.
 
     Returns
     -------
@@ -562,10 +582,11 @@ def write_results(rows: list[dict], out_dir) -> dict:
         ``{"parquet": Path, "csv": Path}``.
     """
     out = Path(out_dir)
+    version = _kept_schema_version(schema_version, out)
     out.mkdir(parents=True, exist_ok=True)
     df = _frame(list(rows))
     pq, csv = out / RESULTS_PARQUET, out / RESULTS_CSV
-    atomic_write(pq, lambda p: _write_parquet(df, p))
+    atomic_write(pq, lambda p: _write_parquet(df, p, version))
     atomic_write(csv, lambda p: df.to_csv(p, index=False))
     return {"parquet": pq, "csv": csv}
 
@@ -605,7 +626,7 @@ def _parse_json(v):
 def read_results(path_or_dir, *, unfinished: bool = False):
     """Read a results file (or a run directory's ``results.parquet``, else ``results.csv``).
 
-    The one reader of ldbench's results (docs/results-columns.md). ``path_or_dir`` is a run directory
+    The one reader of ldbench's results (docs/reference/results-columns.md). ``path_or_dir`` is a run directory
     or a ``.parquet``/``.csv`` results file; returns a pandas DataFrame. Columns get their :data:`COLUMN_TYPES` (floats as float64, ints as nullable ``Int64``, ``dirty``
     as nullable ``boolean``, strings as objects with None for missing) and JSON columns are parsed
     back into dicts/lists. Extra columns read from CSV stay strings. ``df.attrs["schema_version"]``

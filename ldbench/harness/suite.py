@@ -1,6 +1,6 @@
 """Benchmark suites: TOML files (or command-line flags) expanded into a list of validated jobs.
 
-A suite file::
+docs/reference/suite-format.md is the reference of the format (every key, its type and default). A suite file::
 
     [suite]
     name = "default"
@@ -9,6 +9,7 @@ A suite file::
     warmup = 2              # warm-up frames
     frames = 5              # measured frames
     job_timeout = 3600      # seconds one job may take; past it the job is an error row and the run goes on
+                            # (every value left out takes ldbench/harness/defaults.py's, shown here)
 
     [[run]]
     scene = "cornell"               # built-in name, XML path or mesh path (relative to the suite file)
@@ -20,7 +21,7 @@ A suite file::
     seed = 0                        # seed of the effect's inputs and of the reference
     methods = "all"                 # "all" = every registered method supporting the effect, or a list
     test = "unbiased"               # optional: test each method's image for bias (only methods that declare
-                                    # themselves unbiased, e.g. mc-ao; docs/cli.md, "score --test unbiased")
+                                    # themselves unbiased, e.g. mc-ao; docs/reference/cli.md, "score --test unbiased")
     size = "64x64"                  # optional overrides of [suite] values
     [run.params.ldm-ao]             # method parameters; a list is a sweep (grid over all lists)
     directions = [32, 64, 128]
@@ -40,10 +41,9 @@ from ldbench.core.effects import Effect
 from ldbench.core.effects.base import effects_from_user
 from ldbench.core.errors import LdbenchError
 
+from . import defaults
+
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description", "job_timeout"}
-#: Seconds one job (set-up, frames, scoring, saving) may take before it becomes an error row and the run goes
-#: on: an hour, well beyond any paper-scale job measured (the slowest, Figure 9's, takes minutes on llvmpipe).
-DEFAULT_JOB_TIMEOUT = 3600.0
 RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
             "size", "spp",
             "warmup", "frames", "test"}
@@ -74,15 +74,13 @@ class Suite:
     name: str
     jobs: list = field(default_factory=list)
     source: str = ""
-    job_timeout: float = DEFAULT_JOB_TIMEOUT  # seconds (0: no limit)
+    job_timeout: float = defaults.JOB_TIMEOUT  # seconds (0: no limit)
 
 
 #: Image sides: SSIM's smallest window is 3 x 3 (:func:`ldbench.core.metrics.ssim_win_size`); 16384 is the
 #: largest texture any GL driver we know offers (the GPU's own limits are checked by
 #: :meth:`ldbench.core.gpu.Gpu.check_image_size` before rendering).
 MIN_SIDE, MAX_SIDE = 3, 16384
-#: Default image size when neither the suite nor the scene (a Mitsuba XML ``<film>``) gives one.
-DEFAULT_SIZE = (128, 128)
 #: Reference samples per pixel, at most 2^20 (a 1024^2 reference at that spp is already 2^40 samples).
 MAX_SPP = 1 << 20
 #: Reference samples (pixels x spp) per job, at most 2^40: about 11 minutes of AO rays at the 1.7 G
@@ -131,14 +129,15 @@ def _is_int(v) -> bool:
 
 def parse_size(v) -> tuple[int, int]:
     """``"WxH"`` or ``[W, H]`` (integers; no floats, no booleans) as (W, H), each in [3, 16384]."""
-    w = h = None
+    w: int | None = None
+    h: int | None = None
     if isinstance(v, str) and v.lower().count("x") == 1:
         a, b = v.lower().split("x")
         if a.strip().isdigit() and b.strip().isdigit():
             w, h = int(a), int(b)
     elif isinstance(v, (list, tuple)) and len(v) == 2 and all(_is_int(x) for x in v):
         w, h = v
-    if w is None:
+    if w is None or h is None:  # set together
         raise LdbenchError(f"size must be WxH (e.g. 256x256), got {v!r}")
     if not (MIN_SIDE <= w <= MAX_SIDE and MIN_SIDE <= h <= MAX_SIDE):
         raise LdbenchError(f"size {w}x{h} out of range: each side must be in [{MIN_SIDE}, {MAX_SIDE}] "
@@ -171,34 +170,39 @@ def _names(v, name) -> list:
     return vs
 
 
-def check_budget(width: int, height: int, spp: int) -> None:
+def check_budget(width: int, height: int, spp: int, effect=None) -> None:
     """Refuse, before any work, a reference of more than :data:`MAX_REFERENCE_SAMPLES` samples and an image
     this machine's memory cannot hold (:data:`ldbench.core.gpu.HOST_BYTES_PER_PIXEL`, measured, against
-    ``MemAvailable``). Every command checks the sizes it accepts here, from a flag or from a file; the GPU's
-    own limits are checked when its context exists (:meth:`ldbench.core.gpu.Gpu.check_image_size`)."""
+    ``MemAvailable``), with the inputs ``effect`` builds for that size (its spec's ``input_bytes``: the rays of
+    ``rays_per_pixel`` for every pixel, the VPLs of an RSM). Every command checks the sizes it accepts here,
+    from a flag or from a file; the GPU's own limits are checked when its context exists
+    (:meth:`ldbench.core.gpu.Gpu.check_image_size`)."""
     from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, host_available_bytes
 
     if width * height * spp > MAX_REFERENCE_SAMPLES:
         raise LdbenchError(f"a {width}x{height} reference at spp {spp} is {width * height * spp:.3g} samples, "
                            f"more than the limit of 2^40 ({MAX_REFERENCE_SAMPLES:.3g}); lower --spp or --size")
-    need, host = width * height * HOST_BYTES_PER_PIXEL, host_available_bytes()
+    inputs = effect.spec.input_bytes(effect.params, width, height) if effect is not None else 0
+    need, host = width * height * HOST_BYTES_PER_PIXEL + inputs, host_available_bytes()
     if host is not None and need > host:
-        raise LdbenchError(f"size {width}x{height} needs about {need / 2**30:.1f} GiB of memory, this machine has "
-                           f"{host / 2**30:.1f} GiB available; lower --size")
+        what = f" with the inputs of {effect.text()} ({inputs / 2**30:.1f} GiB)" if inputs else ""
+        raise LdbenchError(f"size {width}x{height}{what} needs about {need / 2**30:.1f} GiB of memory, this machine "
+                           f"has {host / 2**30:.1f} GiB available; lower --size"
+                           + (" or the effect's parameters" if inputs else ""))
 
 
 def resolve_sizes(jobs: list, scenes: dict) -> list:
     """Jobs with no size (none in the suite or on the command line) take their scene's film size
-    (``scene.params['film']``, Mitsuba XML scenes), else :data:`DEFAULT_SIZE`. ``scenes`` maps
-    ``job.scene_key`` to the loaded scene."""
+    (``scene.params['film']``, Mitsuba XML scenes), else the default size
+    (:func:`ldbench.harness.defaults.image_size`). ``scenes`` maps ``job.scene_key`` to the loaded scene."""
     import dataclasses
 
     out = []
     for j in jobs:
         if j.width is None or j.height is None:
-            film = scenes[j.scene_key].params.get("film") if j.scene_key in scenes else None
-            w, h = parse_size(list(film) if film else list(DEFAULT_SIZE))
-            check_budget(w, h, j.spp)
+            size = defaults.image_size(scenes[j.scene_key]) if j.scene_key in scenes else defaults.SIZE
+            w, h = parse_size(list(size))
+            check_budget(w, h, j.spp, j.effect)
             j = dataclasses.replace(j, width=w, height=h)
         out.append(j)
     return out
@@ -220,7 +224,7 @@ def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None, j
             spp=j.spp if spp is None else spp, warmup=j.warmup if warmup is None else warmup,
             frames=j.frames if frames is None else frames)
         if j.width is not None:
-            check_budget(j.width, j.height, j.spp)
+            check_budget(j.width, j.height, j.spp, j.effect)
         jobs.append(j)
     suite.jobs = jobs
     if job_timeout is not None:
@@ -260,8 +264,9 @@ def float_or_inf(v):
     return v
 
 
-def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[Job]:
-    """Validate one ``[[run]]`` table and expand it into jobs."""
+def expand_run(run: dict, suite_values: dict, base_dir: Path | None = None) -> list[Job]:
+    """Validate one ``[[run]]`` table and expand it into jobs; ``suite_values``: the ``[suite]`` table's size,
+    spp, warmup and frames (the defaults where it gives none), which the run's own values override."""
     from ldbench.methods.base import registry
 
     unknown = set(run) - RUN_KEYS
@@ -274,13 +279,13 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     scene = _str(run["scene"], "scene")
     if base_dir is not None and scene.endswith((".xml", ".ply", ".obj")) and not Path(scene).is_absolute():
         scene = str((base_dir / scene).resolve()) if (base_dir / scene).exists() else scene
-    size = run.get("size", defaults["size"])
+    size = run.get("size", suite_values["size"])
     w, h = parse_size(size) if size is not None else (None, None)  # None: the scene's (resolve_sizes)
-    spp = checked_int(run.get("spp", defaults["spp"]), "spp", 1, MAX_SPP)
-    if w is not None:
+    spp = checked_int(run.get("spp", suite_values["spp"]), "spp", 1, MAX_SPP)
+    if w is not None and h is not None:  # both or neither
         check_budget(w, h, spp)
-    warmup = checked_int(run.get("warmup", defaults["warmup"]), "warmup", 0, MAX_WARMUP)
-    frames = checked_int(run.get("frames", defaults["frames"]), "frames", 1, MAX_FRAMES)
+    warmup = checked_int(run.get("warmup", suite_values["warmup"]), "warmup", 0, MAX_WARMUP)
+    frames = checked_int(run.get("frames", suite_values["frames"]), "frames", 1, MAX_FRAMES)
     scene_params = run.get("scene_params", {}) or {}
     if not isinstance(scene_params, dict):
         raise LdbenchError("scene_params must be a table")
@@ -298,7 +303,10 @@ def expand_run(run: dict, defaults: dict, base_dir: Path | None = None) -> list[
     for name in _names(run["effect"], "effect"):
         effects += effects_from_user(name, [{k: float_or_inf(v) for k, v in combo.items()}
                                             for combo in (_grid(opts) if opts else [{}])])
-    seed = checked_int(run.get("seed", 0), "seed", 0, MAX_SEED)
+    if w is not None and h is not None:
+        for e in effects:  # the inputs of each (rays per pixel, RSM size) with the image's own
+            check_budget(w, h, spp, e)
+    seed = checked_int(run.get("seed", defaults.SEED), "seed", 0, MAX_SEED)
     test = run.get("test")
     if test is not None and test != "unbiased":
         raise LdbenchError(f"test must be \"unbiased\", got {test!r}")
@@ -380,13 +388,13 @@ def suite_from_dict(data: dict, *, name: str, base_dir: Path | None = None, sour
     for k in ("name", "description"):
         if k in head:
             _str(head[k], k)
-    defaults = {"size": head.get("size"), "spp": head.get("spp", 256),
-                "warmup": head.get("warmup", 2), "frames": head.get("frames", 5)}
+    suite_values = {"size": head.get("size"), "spp": head.get("spp", defaults.SPP),
+                    "warmup": head.get("warmup", defaults.WARMUP), "frames": head.get("frames", defaults.FRAMES)}
     runs = data.get("run", [])
     if not runs:
         raise LdbenchError("the suite has no [[run]] tables")
-    jobs = [j for r in runs for j in expand_run(r, defaults, base_dir)]
-    timeout = checked_timeout(head.get("job_timeout", DEFAULT_JOB_TIMEOUT), "job_timeout")
+    jobs = [j for r in runs for j in expand_run(r, suite_values, base_dir)]
+    timeout = checked_timeout(head.get("job_timeout", defaults.JOB_TIMEOUT), "job_timeout")
     return Suite(name=head.get("name", name), jobs=jobs, source=source, job_timeout=timeout)
 
 

@@ -14,12 +14,17 @@ import importlib
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
-from ldbench.core.scene import Camera
+from ldbench.core.scene import Camera, Scene
 from ldbench.core.params import ParamsBase, group, param  # noqa: F401 (re-exported)
+
+if TYPE_CHECKING:
+    from ldbench.core.effects.rays import RayBatch
 
 
 @dataclass(frozen=True)
@@ -54,11 +59,11 @@ class Result:
     frame's timing never includes a read-back; the runner resolves only the frames it keeps.
     """
 
-    image: np.ndarray | None = None
+    image: np.ndarray | Callable[[], np.ndarray] | None = None
     memory_bytes: dict = field(default_factory=dict)
     counters: dict = field(default_factory=dict)
     stages_ms: dict = field(default_factory=dict)
-    mask: np.ndarray | None = None
+    mask: np.ndarray | Callable[[], np.ndarray] | None = None
     arrays: dict = field(default_factory=dict)
     invariants: list = field(default_factory=list)
 
@@ -82,15 +87,18 @@ class Method:
     aliases: tuple = ()  # earlier names that still select this adapter
     paper: str = ""
     effects: frozenset = frozenset()
-    Params: type = ParamsBase
+    Params: type[ParamsBase] = ParamsBase
     folder: Path = Path(__file__).parent
     #: the exact ray tracer ``t = oracle(scene, batch)`` (a :class:`~ldbench.core.effects.rays.RayBatch`; inf =
     #: miss), set by the harness for adapters whose parameters ask for an exact baseline (never timed)
-    oracle = None
+    oracle: Callable[[Scene, RayBatch], np.ndarray] | None = None
+    #: the exact primary hits, RSM hits and ray epsilons (``primary_hits``, ``rsm_hits``, ``epsilons``), as the
+    #: effects get them; set by the harness before setup
+    exact: SimpleNamespace
     run_seed: int = 0  # the run's --seed, set by the runner before setup (View.seed carries it too)
 
     def __init__(self, params: ParamsBase | None = None):
-        self.params = params if params is not None else self.Params()
+        self.params: ParamsBase = params if params is not None else self.Params()
 
     def seed_for(self, own: int = 0, bits: int = 32) -> int:
         """The seed a sampling method uses: its own ``seed`` parameter mixed with the run's seed,
@@ -141,13 +149,15 @@ class Method:
                 first = first or p
                 if p.is_file():
                     return p
+        assert first is not None  # Method's own module, in every class's MRO, is a file
         return first
 
 
-_REGISTRY: dict = {}  # {plugins.discovery_key: registry}: the current environment's only
+#: {plugins.discovery_key: registry}: the current environment's only
+_REGISTRY: dict[tuple, dict[str, type[Method]]] = {}
 
 
-def registry() -> dict:
+def registry() -> dict[str, type[Method]]:
     """{name: Method subclass}: every adapter package under ``methods/`` (discovered), every entry point
     of group ``ldbench.methods``, and the ``package.module:Class`` references registered in this process
     or its driver (:mod:`ldbench.core.plugins`). Two classes with one name are one error naming both."""
@@ -161,11 +171,12 @@ def registry() -> dict:
     return dict(_REGISTRY[key])
 
 
-def _discover() -> dict:
+def _discover() -> dict[str, type[Method]]:
     from ldbench.core import plugins
 
     package = __name__.rpartition(".")[0]  # the methods package, whatever it is installed as
-    found, sources = {}, {}
+    found: dict[str, type[Method]] = {}
+    sources: dict[str, str] = {}
     for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
         if not mod.ispkg:
             continue
@@ -196,7 +207,7 @@ def canonical_name(name: str) -> str:
     return aliases().get(name, name)
 
 
-def get_method(name: str) -> type:
+def get_method(name: str) -> type[Method]:
     from ldbench.core import plugins
 
     if plugins.is_reference(name):

@@ -269,8 +269,7 @@ def cube_directions(k: int, half: bool = False, rotation=None) -> np.ndarray:
         raise ValueError(f"cube sampling needs k >= 1 squares per face edge, got {k!r}")
     k = int(k)
     c = (2.0 * np.arange(k) + 1.0) / k - 1.0
-    p, q = np.meshgrid(c, c, indexing="ij")
-    p, q = p.reshape(-1), q.reshape(-1)
+    p, q = (g.reshape(-1) for g in np.meshgrid(c, c, indexing="ij"))
     out = []
     for a in range(3):
         v = np.zeros((k * k, 3))

@@ -5,7 +5,7 @@
 shadow maps, LDM/LDI builds) shares one vertex buffer and sees the same geometric normals as Mitsuba.
 
 :class:`GBuffer` renders position / normal / albedo (and, with the hardware raster, depth) for a
-:class:`~ldbench.methods.base.View`, by the hardware raster or by a compute rasterizer (docs/gbuffer.md).
+:class:`~ldbench.methods.base.View`, by the hardware raster or by a compute rasterizer (docs/reference/methods/gbuffer.md).
 """
 from __future__ import annotations
 
@@ -118,9 +118,10 @@ RASTERS = ("hardware", "compute")
 
 def gbuffer_param(default: str = "compute"):
     """The ``gbuffer`` parameter of an adapter that renders the camera G-buffer (hbao, gtao, ldm): which
-    raster fills it (:class:`GBuffer`); both give the same textures (docs/gbuffer.md)."""
+    raster fills it (:class:`GBuffer`); both give the same textures (docs/reference/methods/gbuffer.md)."""
     return param(default, "the camera G-buffer's raster: compute (a visibility buffer rasterized in compute "
-                 "shaders, then resolved) or hardware (one raster pass); the same textures (docs/gbuffer.md)",
+                 "shaders, then resolved; much faster where the graphics raster is slow) or hardware (one raster "
+                 "pass); the same textures (docs/reference/methods/gbuffer.md)",
                  choices=RASTERS, paper="hardware")
 
 
@@ -133,7 +134,7 @@ class GBuffer:
     ``raster``: ``"hardware"`` draws the scene into the three textures and a depth texture
     (``gbuffer/gbuffer.glsl``); ``"compute"`` rasterizes a visibility buffer in compute shaders with the hardware's
     fill rule (:func:`~ldbench.methods.structures.splat.fill_rule`) and resolves it into the same three
-    textures (``gbuffer/raster.glsl``, ``gbuffer/resolve.glsl``; docs/gbuffer.md). No consumer reads the
+    textures (``gbuffer/raster.glsl``, ``gbuffer/resolve.glsl``; docs/reference/methods/gbuffer.md). No consumer reads the
     depth texture, so the compute G-buffer has none. ``max_pixels``: the compute raster gives a triangle
     whose viewport-clamped bounding box holds more pixel centres than this to the hardware
     (``gbuffer/large.glsl``), as it does triangles crossing the near or far plane."""
@@ -145,7 +146,7 @@ class GBuffer:
             raise LdbenchError(f"G-buffer max_pixels {max_pixels} is not in 1 .. 4096")
         self.gpu, self.geo, self.res = gpu, geometry, res
         self.raster, self.max_pixels = raster, int(max_pixels)
-        self.size = None
+        self.size: tuple[int, int] | None = None  # of the allocated targets
         if raster == "hardware":
             self.prog = gpu.program(GLSL_DIR / "gbuffer/gbuffer.glsl")
             self.vao = geometry.vao(self.prog)
@@ -176,6 +177,11 @@ class GBuffer:
             self.vis = r.buffer("gbuffer.visibility", reserve=8 * w * h)
             self.fbo = self.gpu.ctx.empty_framebuffer((w, h))  # the hardware path's, attachment-less
         self.size = (w, h)
+
+    def _allocated_size(self) -> tuple[int, int]:
+        """(w, h) of the targets, which :meth:`render` allocates before it runs any pass."""
+        assert self.size is not None, "a G-buffer pass ran before render() allocated the targets"
+        return self.size
 
     def view_proj(self, view) -> np.ndarray:
         cam = view.camera
@@ -214,14 +220,14 @@ class GBuffer:
         """Visibility buffer to nothing, the hardware path's index count to 0."""
         from ldbench.methods.structures.core import fill_uint
 
-        w, h = self.size
+        w, h = self._allocated_size()
         fill_uint(self.gpu, self.vis, 2 * w * h, 0xFFFFFFFF)
         fill_uint(self.gpu, self.large, 1, 0)
 
     def compute_pass(self, p: int, vp: bytes):
         """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the triangles
         it leaves to the hardware."""
-        ctx, (w, h) = self.gpu.ctx, self.size
+        ctx, (w, h) = self.gpu.ctx, self._allocated_size()
         cs = self.raster_cs
         cs["view_proj"].write(vp)
         cs["vis_size"].value = (w, h)
@@ -236,7 +242,7 @@ class GBuffer:
 
     def large_pass(self, p: int, vp: bytes):
         """Pass ``p`` of the hardware's draw of the listed triangles (one indirect draw)."""
-        ctx, (w, h) = self.gpu.ctx, self.size
+        ctx, (w, h) = self.gpu.ctx, self._allocated_size()
         prog = self.large_prog
         prog["view_proj"].write(vp)
         prog["vis_size"].value = (w, h)
@@ -249,7 +255,7 @@ class GBuffer:
 
     def resolve(self, view, vp: bytes):
         """Triangle ids to position / normal / albedo."""
-        (w, h), cs = self.size, self.resolve_cs
+        (w, h), cs = self._allocated_size(), self.resolve_cs
         cs["view_proj"].write(vp)
         cs["eye"].value = tuple(view.camera.origin)
         cs["vis_size"].value = (w, h)

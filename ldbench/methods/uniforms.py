@@ -1,4 +1,4 @@
-"""Setting a GLSL program's uniforms from Python (docs/adapters.md).
+"""Setting a GLSL program's uniforms from Python (docs/reference/adapters.md).
 
 :func:`set_uniforms` sets each ``name=value`` the program declares and skips the names the GLSL
 compiler optimised away (an unused uniform is not an error: a ``#define`` may remove its only use).

@@ -34,6 +34,7 @@ do not depend on how samples are split into batches.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def _look_at_up(position, target, up) -> list:
     d = np.asarray(target, float) - np.asarray(position, float)
     d /= np.linalg.norm(d)
     u = np.asarray(up, float)
-    if np.linalg.norm(np.cross(d, u)) > 1e-6 * max(np.linalg.norm(u), 1e-30):
+    if np.linalg.norm(np.cross(d, u)) > 1e-6 * max(float(np.linalg.norm(u)), 1e-30):
         return [float(x) for x in u]
     axis = np.eye(3)[int(np.argmin(np.abs(d)))]
     return [float(x) for x in axis]
@@ -67,7 +68,7 @@ def _look_at_up(position, target, up) -> list:
 def emitter_dicts(scene) -> dict:
     """The scene's lights as Mitsuba ``load_dict`` entries."""
     mi, _ = _mi()
-    out = {}
+    out: dict[str, dict[str, Any]] = {}  # Mitsuba plugin dicts: strings, lists, transforms, numbers
     for i, l in enumerate(scene.lights):
         rgb = {"type": "rgb", "value": [float(x) for x in l.intensity]}
         if l.is_point:

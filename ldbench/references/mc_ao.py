@@ -1,5 +1,5 @@
 """A truly unbiased ``ao`` estimator independent of the reference's sampling: brute-force Monte Carlo
-through the ``rays`` oracle, for ``ldbench score --test unbiased`` (docs/cli.md).
+through the ``rays`` oracle, for ``ldbench score --test unbiased`` (docs/reference/cli.md).
 
 Per hit pixel ``spp`` rays of kind ``ao`` (:mod:`ldbench.core.effects.rays`: cosine-distributed about the
 camera-facing normal from the reference's own spawn origin, ``t_max = d_max``, directions from ldbench's

@@ -102,13 +102,20 @@ def choose_variant() -> str:
 
     The choice is made once per process. Raises :class:`LdbenchError` (one line) when neither works.
     """
-    global _chosen
     if _chosen is not None:
         return _chosen
     forced = os.environ.get("LDBENCH_MITSUBA_VARIANT", "").strip()
     if forced and forced not in VARIANTS:
         raise LdbenchError(f"LDBENCH_MITSUBA_VARIANT={forced!r}: must be one of {', '.join(VARIANTS)}")
+    from ldbench.core.signals import deferred_interrupt
 
+    with deferred_interrupt():  # a Ctrl-C inside Dr.Jit's start-up would fake "no usable variant" or abort
+        return _choose(forced)
+
+
+def _choose(forced: str) -> str:
+    """:func:`choose_variant`'s search (``forced``: LDBENCH_MITSUBA_VARIANT), with Ctrl-C held back."""
+    global _chosen
     llvm_err = None
     try:
         setup_llvm_env()  # before drjit/mitsuba can start the LLVM backend

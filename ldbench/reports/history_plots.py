@@ -23,11 +23,11 @@ def _series(df):
     """One point per run for every benchmark: ``{key: (label, DataFrame of points)}``.
 
     Benchmarks are keyed by :data:`HISTORY_MATCH`; if a run holds several rows of one such key (a
-    parameter sweep), the method parameters join the key (:data:`ldbench.harness.compare.DEFAULT_MATCH`).
+    parameter sweep), the method parameters join the key (:data:`ldbench.harness.compare.match.DEFAULT_MATCH`).
     """
     import numpy as np
     import pandas as pd
-    from ldbench.harness.compare import DEFAULT_MATCH, canonical, row_value, row_key, benchmark_labels
+    from ldbench.harness.compare.match import DEFAULT_MATCH, canonical, row_value, row_key, benchmark_labels
     from ldbench.harness.records import summarize_samples
 
     match = HISTORY_MATCH
@@ -73,7 +73,7 @@ def _series(df):
 def _quality_column(row) -> str:
     """The quality series of a benchmark: PSNR for image effects, else the first metric its effect
     gates (``rays``: hit agreement). Stored under the key "psnr" of the series."""
-    from ldbench.harness.compare import gated_metrics
+    from ldbench.harness.compare.gate import gated_metrics
 
     gate = gated_metrics(row)
     return gate[0][0] if gate else "psnr"
@@ -98,8 +98,11 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
     for name, v in (("min-effect", min_effect), ("min-db", min_db)):
         if not (math.isfinite(v) and v >= 0):
             raise LdbenchError(f"--{name} must be a finite number >= 0, got {v}")
-    hist = load_history(history_dir, machine)
+    from ldbench.core.files import check_output_path
+
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
+    check_output_path(out, into=True)  # under a file, /proc, read-only, too long: one line before any work
+    hist = load_history(history_dir, machine)
     out.mkdir(parents=True, exist_ok=True)
     pngs, cps, entries = [], [], []
     for mkey, df in hist.items():

@@ -3,11 +3,11 @@
 Each board ranks the configurations (a method with its parameters) of one scene × effect × size by an
 error metric against the same reference, best first, with the time and memory beside it, and marks the
 Pareto-optimal ones: no other configuration of the board is at least as fast and at least as accurate and
-better in one of the two (:func:`ldbench.reports.figures.pareto_front`). A row that failed, or whose metric
+better in one of the two (:func:`ldbench.reports.figures.quality.pareto_front`). A row that failed, or whose metric
 is not a finite number, is not ranked; the board lists it below the ranking with its status, so a fast
 method that fails is never hidden.
 
-Pure functions of a prepared results table (:func:`ldbench.reports.figures.prepare`); the report writes
+Pure functions of a prepared results table (:func:`ldbench.reports.figures.table.prepare`); the report writes
 the boards at the top of ``index.html`` and ``summary.md``.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .figures import pareto_front
+from .figures.quality import pareto_front
 
 #: Metrics a board can rank by: column -> higher is better
 METRICS = {"psnr": True, "ssim": True, "flip": False, "relmse": False}
@@ -66,7 +66,7 @@ def leaderboards(df, image_rows, params_label, metric: str = "psnr") -> list[Boa
     Parameters
     ----------
     df : pandas.DataFrame
-        rows prepared by :func:`ldbench.reports.figures.prepare`.
+        rows prepared by :func:`ldbench.reports.figures.table.prepare`.
     image_rows : list of bool
         which rows are of image effects (the boards rank images only).
     params_label : callable

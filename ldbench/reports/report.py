@@ -532,7 +532,7 @@ def _reproduce_html(h: _Html, run_dir: Path) -> bool:
         h.text("h3", f"{entry.get('key')}: {entry.get('title')}")
         h.text("p", f"Published: {entry.get('published_setup')}. Ours: {entry.get('our_setup')}.", cls="cap")
         h.raw("<table><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
-              ("row", "paper setup", "our configuration", "quantity", "published", "ours", "ours / published"))
+              ("row", "paper setup", "our configuration", "quantity", "published", "ours", "ours vs published"))
               + "</tr></thead><tbody>")
         for r in entry.get("rows", []):
             h.raw("<tr>" + "".join((f'<td class="num">{esc(v)}</td>' if i >= 4 else f"<td>{esc(v)}</td>") for i, v in enumerate(

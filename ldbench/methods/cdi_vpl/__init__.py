@@ -44,38 +44,9 @@ Stages: ``count``, ``scan``, ``fill``, ``sort`` (CDI); ``raycast`` (``vpl_range`
 Defaults assemble the paper's one-pass CDI as sorted pairs with no read-back (the same arrays);
 ``preset = "paper"`` is the count + fill assembly, which every ``reproduce`` entry runs.
 
-Parameters are grouped by role (``ldbench methods``); the earlier flat names still work
-(:attr:`CdiVplParams.renamed`; ``build = brute_force`` is ``structure.source = raster`` with
+Parameters (``ldbench methods cdi-vpl``, docs/reference/parameters.md) are grouped by role; the earlier flat
+names still work (:attr:`CdiVplParams.renamed`; ``build = brute_force`` is ``structure.source = raster`` with
 ``structure.instanced = false``, ``build = instanced`` the same with ``true``).
-
-=========================  ==============  ==============  ===========================================================
-Parameter                  Default         Paper           Meaning
-=========================  ==============  ==============  ===========================================================
-``directions``             169             169             number of deep images
-``direction_set``          stacks_slices   stacks_slices   stacks × slices (spherical coordinates) | eqsp (zonal)
-``resolution``             64              64              texels per side of each deep image
-``structure.source``       one_pass        one_pass        one_pass | raster | splat (compute, = the raster)
-``structure.instanced``    False                           raster: one instanced draw (False: one per direction)
-``structure.assembly``     sort            direct          count + fill passes | one pass of pairs sorted by list
-``structure.pool``         lazy            grow            lazy: sized from the previous build (no read-back) | grow
-``structure.pass_layers``  0                               one_pass: directions per raster pass (0 = all)
-``structure.max_list``     128             (32: preset)    register-sort length (longer lists: exact slow path)
-``structure.splat_large``  tiles                           splat: long triangles by compute tiles | raster (the same)
-``cdi``                    frame           frame           build the CDI every frame | once in setup (static)
-``trace.bias``             0.25                            self-intersection bias, in CDI texels
-``trace.lookup``           auto            (closest)       nearest direction: (θ, φ) grid / cube table | scan
-``vpl.range``              cdi             cdi             cdi | random | exact (Mitsuba, once in setup)
-``vpl.r_min``              0.01                            random range: lower bound × scene diagonal
-``vpl.r_max``              0.25                            random range: upper bound × scene diagonal
-``indirect.rsm``           256             256             indirect: RSM side R
-``indirect.vpl_step``      2               (≈20k of 65k)   indirect: every vpl_step-th RSM texel is a VPL
-``indirect.primary``       normal          either          indirect: primary ray = normal | reflected light
-``indirect.cone_angle``    45              –               indirect: angle of the five rays around it (degrees)
-``indirect.range_mode``    mean            either          indirect: mean | max of the six distances
-``indirect.miss_range``    0.5             –               indirect: distance of a miss, × scene diagonal
-``indirect.grid``          16              –               indirect: light-grid cells along the longest side
-``indirect.depth_mask``    True            True            indirect: VPLs only into cells holding visible surfaces
-=========================  ==============  ==============  ===========================================================
 """
 from __future__ import annotations
 
@@ -114,7 +85,9 @@ class CdiVplRanges(ParamsBase):
     """Where the VPL ranges come from, for ``vpl_range`` and ``indirect`` (``vpl.``)."""
 
     prefix = "vpl."
-    range: str = param("cdi", "VPL ranges from the CDI raycast, random, or exact (Mitsuba, in setup)",
+    range: str = param("cdi", "where the VPL ranges come from: cdi (the CDI raycast), random (uniform in "
+                       "[r_min, r_max] x the scene diagonal: the paper's baseline) or exact (Mitsuba on the same "
+                       "rays, once in setup: the quality bound, not a timing)",
                        choices=("cdi", "random", "exact"), paper="cdi (random: the baseline)")
     r_min: float = param(0.01, "random range: lower bound, x scene diagonal", lo=0.0, hi=10.0)
     r_max: float = param(0.25, "random range: upper bound, x scene diagonal", lo=0.0, hi=10.0)
@@ -130,10 +103,12 @@ class CdiVplIndirect(ParamsBase):
     """The ``indirect`` effect: RSM, VPLs and the light grid (``indirect.``)."""
 
     prefix = "indirect."
-    rsm: int = param(256, "reflective shadow map side R", lo=4, hi=4096, paper=256)
+    rsm: int = param(256, "reflective shadow map side R (R^2 texels) of the method's own VPLs", lo=4, hi=4096,
+                     paper=256)
     vpl_step: int = param(2, "every vpl_step-th RSM texel in x and y is a VPL", lo=1, hi=64,
                           paper="about 20,000 of 65,536 texels")
-    primary: str = param("normal", "primary ray direction", choices=("normal", "reflected"), paper="either")
+    primary: str = param("normal", "primary ray of each VPL: its normal or the reflected light direction",
+                         choices=("normal", "reflected"), paper="either")
     cone_angle: float = param(45.0, "angle of the five rays around the primary one (degrees)", lo=0.0, hi=89.0)
     range_mode: str = param("mean", "range = mean or max of the six distances", choices=("mean", "max"),
                             paper="either")
@@ -160,7 +135,7 @@ class CdiVplParams(ParamsBase):
     structure: StructureSpec = group(
         StructureSpec, "the CDI: linearised arrays; source one_pass (the paper: one raster for all directions), "
         "raster (one raster per direction: instanced = false is the paper's brute force, true one instanced "
-        "draw) or splat (the instanced raster's fragments; docs/fast_builds.md)",
+        "draw) or splat (the instanced raster's fragments; docs/reference/methods/fast_builds.md)",
         expose=("source", "instanced", "assembly", "pool", "pass_layers", "max_list", "splat_large"),
         choices={"source": ("one_pass", "raster", "splat")},
         paper={"source": "one_pass (raster, instanced = false: the baseline)"},
@@ -191,6 +166,7 @@ class CdiVpl(Method):
     paper = "archer2019"
     effects = frozenset({"vpl_range", "indirect", "rays"})
     Params = CdiVplParams
+    params: CdiVplParams
 
     # ---- setup ---------------------------------------------------------------------------------------
     def setup(self, gpu, scene):

@@ -17,7 +17,7 @@
 // beyond it is the hit (at max(t, 0): as in the LDM tracer, a crease entry above the plane but behind x
 // is a hit at 0). The skipped band also hides a wall meeting x's surface at a crease within it: a ray
 // from a VPL in a corner can miss the wall beside it (a stored normal per fragment to tell the two apart
-// was tried and measured worse: self hits on curved surfaces, docs/cdi_vpl.md).
+// was tried and measured worse: self hits on curved surfaces, docs/reference/methods/cdi_vpl.md).
 #ifndef LDBENCH_CDI_TRACE_GLSL
 #define LDBENCH_CDI_TRACE_GLSL
 #include "layered/layered.glsl"

@@ -23,11 +23,7 @@ ties — are a single layer to depth peeling, which keeps the first fragment to 
 ``fragments`` (layers summed over pixels), ``pixels_covered``, ``samples_per_pass`` (the queries).
 Invariant: peeling ended because no fragment was left (not at the safety cap :data:`MAX_PASSES`).
 
-=================  ========  =====================================================
-Parameter          Default   Meaning
-=================  ========  =====================================================
-``max_layers``     0         peel at most n layers (0 = until the query reads zero)
-=================  ========  =====================================================
+Parameters: ``ldbench methods depth-peeling`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 

@@ -6,13 +6,7 @@ orientation disagreed with the Mitsuba reference, this method would show it firs
 Stages: ``gbuffer`` (scene → position/normal/albedo), ``shadow`` (6 faces of a distance atlas seen
 from the light), ``shade`` (compute pass: albedo/π · I · falloff · cos/d² · V).
 
-==================  ========  ====================================================================
-Parameter           Default   Meaning
-==================  ========  ====================================================================
-``shadow_size``     1024      texels per cube face of the shadow atlas
-``normal_offset``   1.5       shadow-lookup offset along the normal, in shadow-map texels
-``depth_bias``      1e-3      constant distance bias, as a fraction of the scene diagonal
-==================  ========  ====================================================================
+Parameters: ``ldbench methods direct-raster`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 

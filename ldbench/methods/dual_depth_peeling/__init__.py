@@ -24,14 +24,7 @@ Counters: ``peel_passes`` (geometry passes after the min-max pass), ``geometry_p
 ``fragments`` / ``pixels_covered`` from an untimed fragment-counting raster of the same view (additive
 blending). Invariant: peeling ended because the query read zero, not at the safety cap.
 
-=================  ========  ==========================================================================
-Parameter          Default   Meaning
-=================  ========  ==========================================================================
-``pass_through``   false     the original's pass-through: the front target cleared each pass and every
-                             fragment of the scene writes all three targets; default: the front target
-                             starts as a copy of the previous one and fragments peeled earlier are
-                             discarded (same output: MAX over the same values; docs/oit.md)
-=================  ========  ==========================================================================
+Parameters: ``ldbench methods dual-depth-peeling`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 
@@ -50,8 +43,10 @@ FAR = 3.0e38
 
 @dataclass(frozen=True)
 class DualDepthPeelingParams(ParamsBase):
-    pass_through: bool = param(False, "every fragment writes all targets in every pass, the front target cleared "
-                                      "(the original's pass-through) instead of copied, peeled fragments discarded")
+    pass_through: bool = param(False, "the original's pass-through: every fragment of the scene writes all "
+                               "three targets in every pass and the front target is cleared; false: the front target "
+                               "starts as a copy of the previous one and fragments peeled earlier are discarded (the "
+                               "same output: MAX over the same values; docs/reference/methods/oit.md)")
 
 
 class DualDepthPeeling(PeelingMethod):

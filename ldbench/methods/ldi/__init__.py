@@ -12,7 +12,7 @@ currently do not exploit this": ``share_opposite = false`` builds them all, for 
 time). A ray's LDI is the cube cell of its direction (O(1); the angularly nearest direction in 93–94 %
 of directions, never more than 19.4°/15.7°/10.0° away for k = 4/5/8). For odd k the paper's
 axis-aligned cube has directions in the planes x = 0, y = 0, z = 0: their LDIs see axis-aligned walls
-edge-on (not at all), and rays grazing such walls miss them (measured in docs/ldi.md). ``rotated`` turns the cube by a fixed rotation that
+edge-on (not at all), and rays grazing such walls miss them (measured in docs/reference/methods/ldi.md). ``rotated`` turns the cube by a fixed rotation that
 keeps every direction of k = 4, 5, 8 ≥ 0.72° away from those planes.
 
 **LDIs**: ``resolution²`` pixels covering the scene's bounding sphere (centre = bounds centre, radius =
@@ -35,34 +35,9 @@ Counters: ``crossings_mean``, ``crossings_max`` (pixel crossings per ray), ``ray
 Stages: ``gbuffer`` (image effects), ``shadow`` (indirect, glossy), the build's, ``trace`` (rays: the
 batch; image effects: tracing and shading of every pixel's rays), ``filter`` (indirect).
 
-Parameters are grouped by role (``ldbench methods``); the earlier flat names still work
-(:attr:`LdiParams.renamed`; ``build = single_pass`` is ``structure.source = raster``, with
+Parameters (``ldbench methods ldi``, docs/reference/parameters.md) are grouped by role; the earlier flat
+names still work (:attr:`LdiParams.renamed`; ``build = single_pass`` is ``structure.source = raster``, with
 ``raster = splat`` ``structure.source = splat``).
-
-==============================  ===========  ==========  ===================================================
-Parameter                       Default      Paper       Meaning
-==============================  ===========  ==========  ===================================================
-``directions``                  150          96/150/384  cube-sampled directions, 6k²
-``resolution``                  128          128, 512    LDI pixels per side
-``rotated``                     False        False       rotate the direction cube (CUBE_ROTATION; see below)
-``share_opposite``              True         False       one LDI answers v and −v (3k² LDIs stored)
-``structure.source``            splat        peel        peel | raster | splat (single pass: the same structure)
-``structure.assembly``          sort                     raster, splat: count + fill | one pass of pairs sorted by list
-``prebuild``                    False                    build once in setup (untimed); frames only trace
-``trace.epsilon``               1.0                      hit tolerance, LDI pixels (world ×2R/resolution)
-``trace.bias``                  0.25                     tangent-plane bias of the self-hit test, LDI pixels
-``trace.max_crossings``         0                        pixel crossings per ray before giving up (0: none)
-``structure.max_layers``        1024                     depth-peeling passes at most (reaching it: degraded)
-``structure.splat_large``       tiles                    splat: long triangles by compute tiles | raster (the same)
-``image.rays_per_pixel``        0            8, 16, 16   image effects (0: indirect 8, glossy 16, soft 16)
-``image.samples_per_dispatch``  1                        rays per pixel per dispatch of image effects (0: all)
-``indirect.filter_size``        11           11          Gaussian taps of the indirect filter (0 = off; odd)
-``indirect.filter_kind``        gaussian     gaussian    gaussian | bilateral (plane-distance and normal weights)
-``shadow.shadow_size``          1024                     cube shadow-map texels per face (indirect, glossy)
-``shadow.normal_offset``        1.5                      shadow lookup offset along n2, shadow texels
-``shadow.depth_bias``           1e-3                     shadow depth bias, fraction of the scene diagonal
-``image.seed``                  0                        GPU random-number seed of the image effects
-==============================  ===========  ==========  ===================================================
 """
 from __future__ import annotations
 
@@ -113,8 +88,9 @@ class LdiImage(ParamsBase):
     prefix = "image."
     rays_per_pixel: int = param(0, "rays per pixel (0: indirect 8, glossy 16, soft shadows 16)",
                                 lo=0, hi=4096, paper="8, 16, 16")
-    samples_per_dispatch: int = param(1, "rays per pixel traced by one dispatch (0: all)", lo=0, hi=4096)
-    seed: int = param(0, "random-number seed", lo=0, hi=(1 << 32) - 1)
+    samples_per_dispatch: int = param(1, "rays per pixel traced by one dispatch of an image effect (0: all in "
+                                      "one)", lo=0, hi=4096)
+    seed: int = param(0, "seed of the GPU random numbers of the image effects' rays", lo=0, hi=(1 << 32) - 1)
 
 
 @dataclass(frozen=True)
@@ -157,7 +133,7 @@ class LdiParams(ParamsBase):
     # the peel's structure bit for bit)
     structure: StructureSpec = group(
         StructureSpec, "the LDIs: depth peeling + GPU compaction (peel), or the shared one-pass arrays from the "
-        "hardware raster or the compute splat (the same fragments; docs/fast_builds.md)",
+        "hardware raster or the compute splat (the same fragments; docs/reference/methods/fast_builds.md)",
         expose=("source", "assembly", "max_layers", "splat_large"), choices={"source": ("peel", "raster", "splat")},
         paper={"source": "peel"}, when={"source": {"peel": {"assembly": "direct", "pool": "grow"}}},
         layout="linear", source="splat", assembly="sort", pool="lazy", payload=PAYLOAD, indexed=False, max_list=64,
@@ -216,6 +192,7 @@ class Ldi(Method):
     paper = "niessner2010"
     effects = frozenset({"rays", "indirect", "glossy_indirect", "soft_shadows"})
     Params = LdiParams
+    params: LdiParams
 
     @property
     def n_ldis(self) -> int:

@@ -20,7 +20,7 @@
 //    q, has dot(n, q - o) <= bias) are skipped: a ray leaving o above its tangent plane cannot reach them,
 //    and o's own surface is among them. (So is geometry meeting o's surface at an edge whose pixel-centre
 //    sample lands below the plane: a ray grazing o's surface may pass under a wall standing on it within
-//    about a pixel of the edge. Keeping differently oriented fragments there measured worse: docs/ldi.md.)
+//    about a pixel of the edge. Keeping differently oriented fragments there measured worse: docs/reference/methods/ldi.md.)
 // 4. The walk ends at a hit, when the ray leaves the pixel grid or the bounding sphere or passes tmax, or
 //    after max_crossings pixel crossings (0 = no limit but the grid's; the ray then counts as a miss,
 //    `ended`). Whatever the float values (a NaN origin or tmax), it ends after at most size.x + size.y

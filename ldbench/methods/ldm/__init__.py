@@ -20,7 +20,7 @@ build        the N maps as a layered structure (:mod:`ldbench.methods.structures
 indirect     (``indirect``, §3.4, §4.2) ``gbuffer``, the build, then ``light_raster``, ``trace`` (photons:
              first hit by rasterizing from the spot light, split into the N map directions, second hit by
              the two-way query, camera visibility, photon differentials) and ``splat`` (Silverman's kernel
-             over each photon's footprint): :mod:`ldbench.methods.ldm.indirect`, docs/ldm_indirect.md.
+             over each photon's footprint): :mod:`ldbench.methods.ldm.indirect`, docs/reference/methods/ldm_indirect.md.
 
 Maps. The N axes are :func:`ldbench.methods.directions.ldm_axes` (the recursive zonal equal-area partition of the
 upper hemisphere; {±v_i} is an antipodally symmetric equal-area set of 2N directions). Map i is an
@@ -38,78 +38,15 @@ V = 1). ``estimator = "ratio"`` (default) returns Σ V_i cos θ_i / Σ cos θ_i,
 point and consistent as N → ∞; ``"paper"`` returns eq. (2), (2/N) Σ V_i cos θ_i. Background pixels = 1.
 
 Defaults are the fastest build that stores the same lists (the compute splat, yang2010's insert, the lists
-sorted by the long triangles' tiles and a sort pass of the longer ones, no read-back: docs/fast_builds.md) and
+sorted by the long triangles' tiles and a sort pass of the longer ones, no read-back: docs/reference/methods/fast_builds.md) and
 the AO's batches of maps in one dispatch (the same image to float rounding); ``preset = "paper"`` is the
 paper's build (hardware raster, pre-sorted lock-free insert), which every ``reproduce`` entry runs; both
 render the same images.
 
-Parameters are grouped by role (``ldbench methods``; the earlier flat names, e.g. ``build``, ``photons``,
-still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
+Parameters (``ldbench methods ldm``, docs/reference/parameters.md) are grouped by role (the earlier flat names,
+e.g. ``build``, ``photons``, still work: :attr:`LdmParams.renamed`): ``structure.*`` the maps' layered structure
 (:class:`~ldbench.methods.structures.spec.StructureSpec`), ``trace.*`` the map query of every effect,
 ``rays.*`` and ``indirect.*`` one effect's.
-
-===============================  ========  =======  ========================================================
-Parameter                        Default   Paper    Meaning
-===============================  ========  =======  ========================================================
-``structure.layout``             linked    linked   layered structure: linked (lists) | linear (arrays)
-``directions``                   128       512      number of LDMs (axes; each answers ±v)
-``resolution``                   128       200, 50  texels per side of each LDM
-``gbuffer``                      compute            camera G-buffer: compute | hardware raster (the same textures)
-``trace.bias``                   0.25               self-intersection bias along the ray, in LDM texels
-``trace.crease``                 0.5       0        crease window behind the point, in texels (ldbench/methods/ldm/ldm_trace.glsl)
-``structure.pool``               lazy               pool sizing: grow | count | fixed | lazy (count: linked only;
-                                                    lazy: no read-back inside a build, docs/fast_builds.md)
-``structure.source``             splat     raster   fragments from: raster (hardware, per map) | one_pass
-                                                    (archer2019, not conservative) | splat (compute, same
-                                                    fragments as raster; long triangles by tiles)
-``structure.assembly``           direct             linear layout: direct (count, scan, fill, sort) | sort
-                                                    (one pass of (list, depth) pairs, scan, scatter, sort)
-``structure.pool_capacity``      0                  nodes for ``fixed`` (and first size for ``grow``)
-``structure.sorted_insert``      False     True     lock-free sorted insert; False = yang2010 + sort pass
-``structure.max_list``           64                 register-array length of the sort passes (longer: slow path)
-``structure.instanced``          True               one instanced draw for all maps (False: a draw per map)
-``structure.aggregate``          True      False    one atomicAdd per subgroup on the node counter (needs
-                                                    ARB_shader_ballot: set False on a driver without it)
-``structure.indexed``            True               build from indexed position-only geometry (vertex reuse)
-``structure.splat_large``        tiles              splat: triangles longer than 16 texels by a compute pass over
-                                                    tiles of the maps | raster (the hardware; the same fragments)
-``structure.splat_batch``        16                 splat: maps per invocation of the small triangles' pass
-``structure.splat_group``        128                splat: invocations per workgroup of that pass
-``structure.splat_queue``        True               splat: (triangle, map) pairs reaching a texel centre queued in
-                                                    shared memory, rasterized by consecutive invocations (the same
-                                                    fragments)
-``structure.splat_sort``         True               splat: the long triangles' tiles sort the lists they own (up to
-                                                    10 nodes, in registers); the sort pass sorts only longer ones
-                                                    (the same lists)
-``trace.estimator``              ratio     paper    ratio = Σ V cos / Σ cos; paper = (2/N) Σ V cos (AO); the
-                                                    photon split weights: cos/Σ cos (ratio) or 2 cos/N (paper)
-``trace.query``                  two_way   two_way  (ao, rays) two_way: map i answers ±v_i from one walk (§3.1); one_way:
-                                                    2N maps along ±v_i, each answering its own axis only (the
-                                                    same 2N directions: the same answers from twice the maps)
-``trace.walk``                   early     early    (ao, rays) early_stop: stop at x's depth (§4.1, pre-sorted lists);
-                                                    full: walk the whole list (unsorted lists' walk; same answers)
-``trace.prefetch``               1                  (ao) maps whose first list node is loaded before any is walked
-                                                    (1: one map at a time; the same image)
-``trace.map_batch``              64        0        (ao) maps per batch: a dispatch each, or a z-slice of one
-                                                    dispatch (``map_schedule``); 0: all maps in one batch
-``trace.map_schedule``           grid               (ao) a dispatch per batch of maps (pixel sums carried over:
-                                                    the same image), or ``grid``: one dispatch of all (batch =
-                                                    workgroup z), partial sums added in batch order by a pass
-                                                    (same image to rounding; dispatches where the partial sums
-                                                    would pass the driver's largest buffer)
-``rays.map_lookup``              table              (rays) nearest map from a 3 × 128² cube table of ≤ 4 candidates
-                                                    (ldbench/methods/directions.py; the true nearest for all but ~1e-5 of
-                                                    directions, then the second nearest) or ``scan`` of all N axes
-``indirect.photons``             128       –        (indirect) light raster side R: one photon per texel in the cone
-``indirect.footprint_scale``     2.0       ≈24      (indirect) multiplies the photon differentials before splatting
-``indirect.differential_bias``   1.0                (indirect) largest positional differential kept, × scene radius
-``indirect.max_splat_px``        400       400      (indirect) largest splat kept: screen diagonal in pixels
-``indirect.topology_bias``       1.0                (indirect) the paper's a: off-plane cut-off, per footprint size
-``indirect.visibility_bias``     2.0                (indirect) x₂ within this many LDM texels of the pixel's plane
-``indirect.refine_hit``          True      False    (indirect) x₂ moved along d₂ onto the seeing pixel's tangent plane
-``indirect.rotation``            incident  (engine) (indirect) differential turned by α(−d₁, d₂), or α(d₁, d₂) (propagation)
-``indirect.splat``               atomic    blend    (indirect) additive blending, or float atomics over the same pixels
-===============================  ========  =======  ========================================================
 """
 from __future__ import annotations
 
@@ -176,7 +113,8 @@ class LdmTrace(ParamsBase):
 
     prefix = "trace."
     bias: float = param(0.25, "self-intersection bias along the ray, in LDM texels", lo=0.0, hi=64.0)
-    crease: float = param(0.5, "crease window behind the point, in LDM texels (0 = plain skip rule)",
+    crease: float = param(0.5, "crease window behind the point, in LDM texels (0 = plain skip rule; "
+                          "ldbench/methods/ldm/ldm_trace.glsl)",
                           lo=0.0, hi=64.0, paper=0)
     estimator: str = param("ratio", "ratio = sum V cos / sum cos; paper = 2/N sum V cos (eq. 2); for the "
                            "photon split: weights cos / sum cos or 2 cos / N", choices=("ratio", "paper"),
@@ -184,11 +122,11 @@ class LdmTrace(ParamsBase):
     query: str = param("two_way", "two_way: N maps, each answering +v and -v from one walk; one_way: 2N maps "
                        "along +v and -v, each answering its own axis (the same 2N directions; ao and rays)",
                        choices=("two_way", "one_way"), paper="two_way")
-    walk: str = param("early_stop", "early_stop: the list walk ends at x's depth (pre-sorted lists); full: "
-                      "the whole list, nearest entry kept (as for unsorted lists; the same answers)",
+    walk: str = param("early_stop", "(ao, rays) early_stop: the list walk ends at x's depth (§4.1, pre-sorted "
+                      "lists); full: the whole list, nearest entry kept (as for unsorted lists; the same answers)",
                       choices=("early_stop", "full"), paper="early_stop")
-    prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (the "
-                          "same image)", lo=1, hi=16)
+    prefetch: int = param(1, "(ao) maps whose first list node is loaded before any of them is walked (1: one "
+                          "map at a time; the same image)", lo=1, hi=16)
     map_batch: int = param(64, "(ao) maps per batch: a dispatch each, or a z-slice of one dispatch "
                            "(map_schedule); 0: all maps in one batch", lo=0, hi=1 << 16)
     map_schedule: str = param("grid", "(ao) the batches of map_batch maps: one dispatch each, or one "
@@ -214,7 +152,9 @@ class LdmRays(ParamsBase):
     """The ``rays`` effect (``rays.``)."""
 
     prefix = "rays."
-    map_lookup: str = param("table", "the nearest map by a cube table of candidates, or a scan of all maps",
+    map_lookup: str = param("table", "how a ray finds the map whose axis is nearest to it: table (a 3 x 128^2 "
+                            "cube table of up to 4 candidates, ldbench/methods/directions.py: the true nearest for all "
+                            "but about 1e-5 of directions, else the second nearest) or scan (all N axes)",
                             choices=("table", "scan"))
 
 
@@ -265,7 +205,7 @@ class LdmParams(ParamsBase):
                                      source="splat", sorted_insert=False, pool="lazy", aggregate=True,
                                      splat_queue=True, splat_batch=16, splat_group=128, splat_sort=True)
     trace: LdmTrace = group(LdmTrace, "the two-way map query of every effect")
-    rays: LdmRays = group(LdmRays, "effect rays")
+    rays: LdmRays = group(LdmRays, "the rays effect: how a ray picks its map")
     indirect: LdmIndirect = group(LdmIndirect, "effect indirect (photons with differentials)")
 
     presets = {"paper": Preset(
@@ -274,7 +214,7 @@ class LdmParams(ParamsBase):
         "the same lists (a compute raster with the hardware's fill rule, yang2010's insert and a sort pass, no "
         "read-back), so the same AO and rays, "
         "and adds the same splats over the same pixels with float atomics (the indirect image to the order "
-        "of the sums, docs/fast_builds.md)",
+        "of the sums, docs/reference/methods/fast_builds.md)",
         {"structure.layout": "linked", "structure.source": "raster", "structure.sorted_insert": True,
          "structure.pool": "grow", "structure.aggregate": False, "indirect.splat": "blend",
          "trace.map_batch": 0})}
@@ -299,6 +239,7 @@ class Ldm(Method):
     paper = "aalund2015"
     effects = frozenset({"ao", "rays", "indirect"})
     Params = LdmParams
+    params: LdmParams
 
     def setup(self, gpu, scene):
         p = self.params

@@ -1,5 +1,5 @@
 """LDM single-bounce indirect light: photon differentials traced through the maps and splatted into the
-camera view (aalund2015 §3.4, §4.2; docs/ldm_indirect.md). Used by :class:`ldbench.methods.ldm.Ldm` for the
+camera view (aalund2015 §3.4, §4.2; docs/reference/methods/ldm_indirect.md). Used by :class:`ldbench.methods.ldm.Ldm` for the
 ``indirect`` effect (LDDE paths, no direct term).
 
 Per frame, after the camera G-buffer and the LDM build of the adapter (stages):
@@ -34,6 +34,7 @@ fate, and with ``estimator = "ratio"`` the candidates carry exactly the reflecte
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,6 +47,9 @@ from ldbench.methods.lights import set_spot_uniforms
 from ldbench.methods.gbuffer import GBuffer, mat_bytes
 from ldbench.methods.structures import fill_uint
 from ldbench.methods.structures.splat import fill_rule, rule_defines
+
+if TYPE_CHECKING:
+    import moderngl
 
 PHOTON_BYTES = 64
 #: widest spot light one pinhole raster covers (field of view = 2 × cut-off)
@@ -67,7 +71,7 @@ def light_camera(light) -> Camera:
                            f"{light.cutoff_angle:g}")
     d = light.direction()
     up = np.asarray(light.up, float)
-    if np.linalg.norm(np.cross(d, up)) < 1e-6 * max(np.linalg.norm(up), 1e-30):
+    if np.linalg.norm(np.cross(d, up)) < 1e-6 * max(float(np.linalg.norm(up)), 1e-30):
         up = np.eye(3)[int(np.argmin(np.abs(d)))]  # the fall-off is symmetric: any up will do
     return Camera(light.position, light.target, tuple(up), 2.0 * light.cutoff_angle)
 
@@ -89,6 +93,7 @@ class IndirectLight:
         self.count_buf = res.buffer("photons.count", reserve=4)
         self.max_capacity = max(1, int(ldm.ls.ssbo_limit) // PHOTON_BYTES)
         self.capacity, self._shrink_to, self.trace_passes = 0, 0, 0
+        self.vao: moderngl.VertexArray | None = None  # the splat's, made at its first use
         self._allocate(min(self.max_capacity, max(1024, 4 * R * R)))
         self.out = self.fbo = self.accum = None
         self._size = None
@@ -104,7 +109,7 @@ class IndirectLight:
     # ---- buffers ---------------------------------------------------------------------------------
     def _allocate(self, n: int):
         self.capacity = int(min(max(n, 1), self.max_capacity))
-        if getattr(self, "vao", None) is not None:
+        if self.vao is not None:
             self.vao.release()  # bound to the old buffer
         self.vao = None
         self.photons = self.m.res.buffer("photons.buffer", reserve=PHOTON_BYTES * self.capacity)

@@ -17,7 +17,7 @@
 // at most ldm_crease behind x — typically the other wall of a crease that the texel-centre column meets
 // behind x. It is a hit at distance 0, not skipped: skipping it let rays escape through the adjacent
 // wall (bright lines along creases). ldm_crease = 0 is the plain rule (skip everything up to
-// max(s, 0) + bias); larger windows also catch small geometry just behind x (docs/rays.md).
+// max(s, 0) + bias); larger windows also catch small geometry just behind x (docs/reference/rays.md).
 //
 // Walk modes (trace.walk, ldbench/methods/ldm/__init__.py): by default the walk stops at x's depth, as soon as
 // the answer is known (aalund2015 §4.1: "the search can be terminated as soon as a geometric intersection

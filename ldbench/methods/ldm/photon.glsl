@@ -1,4 +1,4 @@
-// Photon differentials and splats of the LDM indirect light (aalund2015 §3.4, §4.2; docs/ldm_indirect.md).
+// Photon differentials and splats of the LDM indirect light (aalund2015 §3.4, §4.2; docs/reference/methods/ldm_indirect.md).
 // Shared by photon_trace.glsl and photon_splat.glsl.
 //
 // A stored photon (B_PHOTONS, 64 bytes): x = the second hit x2, D_u x / D_v x = its positional

@@ -164,7 +164,7 @@ void trace_texel(ivec2 p) {
         }
 #if REFINE_HIT
         // x2 along d2 onto the tangent plane of the pixel that sees it: the map gives the depth of its
-        // texel centre's column, off x1's column by up to half a texel (docs/ldm_indirect.md)
+        // texel centre's column, off x1's column by up to half a texel (docs/reference/methods/ldm_indirect.md)
         t2 -= dot(x2 - g.xyz, n2) / dot(d2, n2);
         x2 = x1 + t2 * d2;
 #endif

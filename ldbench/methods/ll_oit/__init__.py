@@ -30,19 +30,8 @@ Counters: ``fragments`` (rasterized), ``fragments_stored``, ``overflow``, ``dept
 ``degraded``): every fragment stored — pool overflow is reported even with ``pool = "fixed"``, because a
 lost fragment changes the image — every stored node reachable once, no abandoned insert.
 
-==========================  ========  ===========  ==============================================
-Parameter                   Default   Paper        Meaning
-==========================  ========  ===========  ==============================================
-``oit.max_layers``          0         0; 8 of 64   composite only the n nearest fragments (0 = all)
-``oit.max_list``            64                     register array of the resolve's sort (longer: slow path)
-``structure.pool``          grow                   node pool: grow | count | fixed | lazy
-                                                   (ldbench/methods/structures/linked.py)
-``structure.pool_capacity`` 0                      nodes for ``fixed`` (first size for ``grow``; 0 = 1/pixel)
-``structure.aggregate``     False                  one atomicAdd per subgroup on the node counter
-==========================  ========  ===========  ==============================================
-
-The earlier flat names (``max_layers``, ``pool``, ``aggregate_atomics``, ...) still work
-(:attr:`LLOITParams.renamed`).
+Parameters: ``ldbench methods ll-oit`` (docs/reference/parameters.md); the earlier flat names
+(``max_layers``, ``pool``, ``aggregate_atomics``, ...) still work (:attr:`LLOITParams.renamed`).
 """
 from __future__ import annotations
 
@@ -62,9 +51,10 @@ class LLOITResolve(ParamsBase):
     """The ``oit`` effect's resolve (``oit.``)."""
 
     prefix = "oit."
-    max_layers: int = param(0, "composite only the n nearest fragments (0 = all: exact)", lo=0, hi=256,
+    max_layers: int = param(0, "composite only the n nearest fragments of each pixel (0 = all: exact)", lo=0, hi=256,
                             paper="all (Table 1); 8 of 64 (§4.1.3)")
-    max_list: int = param(64, "register array of the resolve's insertion sort (longer lists: exact O(n^2) path)",
+    max_list: int = param(64, "length of the register array of the resolve's insertion sort (longer lists take an "
+                          "exact O(n^2) path in global memory)",
                           lo=1, hi=256)
 
 
@@ -86,6 +76,7 @@ class LLOIT(OITMethod):
     name = "ll-oit"
     paper = "yang2010"
     Params = LLOITParams
+    params: LLOITParams
 
     def setup(self, gpu, scene):
         super().setup(gpu, scene)

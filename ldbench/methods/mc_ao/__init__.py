@@ -1,7 +1,7 @@
 """``mc-ao``: brute-force Monte Carlo ambient occlusion through the exact ray oracle: an unbiased method.
 
 Not a real-time method: a ground-truth-grade estimator that declares itself **unbiased** (``unbiased =
-True``), so that a suite can test it with ``test = "unbiased"`` (docs/cli.md, "`score --test unbiased`").
+True``), so that a suite can test it with ``test = "unbiased"`` (docs/reference/cli.md, "`score --test unbiased`").
 It is left out of a ``[[run]]``'s ``methods = "all"``; name it.
 
 Per pixel whose primary ray hits (the harness's exact primary hits, :attr:`Method.exact`), ``spp`` rays of
@@ -14,12 +14,7 @@ independent of the reference's Mitsuba streams) are traced by the harness's ray 
 spp. Background pixels are 1 with variance 0. The ``trace`` stage wraps CPU/oracle work: its GPU time
 means nothing.
 
-==========  =======  ====================================================================
-Parameter   Default  Meaning
-==========  =======  ====================================================================
-``spp``     64       rays per hit pixel (2 … 1024)
-``seed``    0        the direction streams (mixed with the run's ``--seed``)
-==========  =======  ====================================================================
+Parameters: ``ldbench methods mc-ao`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 
@@ -35,7 +30,7 @@ from ldbench.methods.base import Method, Result
 
 @dataclass(frozen=True)
 class McAoParams(ParamsBase):
-    spp: int = param(64, "rays per hit pixel", lo=2, hi=1024)
+    spp: int = param(64, "cosine-distributed rays per hit pixel (the estimate's samples)", lo=2, hi=1024)
     seed: int = param(0, "seed of the direction streams (mixed with the run's --seed)", lo=0, hi=2**31 - 1)
 
 

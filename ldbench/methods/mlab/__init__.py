@@ -24,12 +24,7 @@ Counters: ``fragments``, ``merges`` (fragments beyond k that were compressed), `
 of the stored layers, ``sync`` (the mode used). Memory: k × 24 bytes per pixel plus 8 bytes of count and
 lock.
 
-=========  =======  ======================================================================================
-Parameter  Default  Meaning
-=========  =======  ======================================================================================
-``k``      4        layers per pixel (the paper's MLAB4; it also measures 2 and 8)
-``sync``   auto     critical section: ``interlock`` | ``spinlock`` | ``auto``
-=========  =======  ======================================================================================
+Parameters: ``ldbench methods mlab`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 
@@ -50,8 +45,12 @@ INTERLOCK = "GL_ARB_fragment_shader_interlock"
 
 @dataclass(frozen=True)
 class MLABParams(ParamsBase):
-    k: int = param(4, "layers per pixel (exact up to k fragments per pixel)", lo=1, hi=32, paper="2, 4, 8")
-    sync: str = param("auto", "per-pixel critical section: interlock (ordered) | spinlock | auto",
+    k: int = param(4, "layers stored per pixel: exact up to k fragments per pixel, beyond that the two "
+                   "farthest layers are merged (the paper's MLAB4 is k = 4; it also measures 2 and 8)",
+                   lo=1, hi=32, paper="2, 4, 8")
+    sync: str = param("auto", "per-pixel critical section: interlock (fragment shader interlock, ordered), "
+                      "spinlock (an atomic lock per pixel), or auto (interlock where the GL has it, else "
+                      "spinlock)",
                       choices=SYNCS, paper="interlock (pixel synchronization)")
 
 

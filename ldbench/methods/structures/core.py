@@ -57,6 +57,11 @@ class LayeredStructure:
     """
 
     layout = ""
+    #: pool slots allocated now, and the most the GPU's limits allow (the layout's :meth:`allocate` sets them)
+    capacity: int
+    max_capacity: int
+    #: slots to shrink the pool to before the next build (0: keep it)
+    _shrink_to: int
 
     def __init__(self, gpu, geometry, res, spec: StructureSpec, *, layers: int, width: int,
                  height: int | None = None, prefix: str = "ls."):
@@ -82,7 +87,11 @@ class LayeredStructure:
         self.source = None
         self.have_layers = False
         self.layer_scale, self.layers_affine = 0.0, True
-        self.layer_clip = None
+        self.layer_clip: np.ndarray | None = None
+
+    def allocate(self, capacity: int):
+        """(Re)allocate the pool for ``capacity`` fragments, clamped to :attr:`max_capacity` (each layout)."""
+        raise NotImplementedError
 
     def resize_pool(self, need: int) -> None:
         """Before a build (the count and lazy pools): reallocate to ``need`` slots when they would not fit

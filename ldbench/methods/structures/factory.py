@@ -4,7 +4,7 @@ from __future__ import annotations
 from .linear import LinearisedArrays
 from .linked import LayeredLinkedLists
 from .peel import Peel
-from .sources import OnePass, Raster
+from .sources import FragmentSource, OnePass, Raster
 from .spec import StructureSpec
 from .splat import Splat
 
@@ -19,6 +19,7 @@ def make_structure(spec: StructureSpec, gpu, geometry, res, *, layers: int, widt
     bounding sphere). The layers' transforms follow with ``set_layers``."""
     s = LAYOUT_CLASSES[spec.layout](gpu, geometry, res, spec, layers=layers, width=width, height=height,
                                     prefix=prefix)
+    source: FragmentSource
     if spec.source == "raster":
         source = Raster(s)
     elif spec.source == "one_pass":

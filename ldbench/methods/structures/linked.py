@@ -284,7 +284,8 @@ class LayeredLinkedLists(LayeredStructure):
             for y in range(self.height):
                 row = []
                 for x in range(self.width):
-                    i, vals = int(heads[k, y, x]), []
+                    i = int(heads[k, y, x])
+                    vals: list[float | tuple[float, tuple]] = []  # depths, or (depth, payload words)
                     while i != EOL and len(vals) <= self.capacity:
                         vals.append(float(depth[i]) if words is None else (float(depth[i]), tuple(words[i])))
                         i = int(nxt[i])

@@ -46,22 +46,29 @@ class StructureSpec(ParamsBase):
 
     layout: str = param("linked", "per-texel linked lists or linearised arrays (peeled layers: linear)",
                         choices=LAYOUTS)
-    source: str = param("raster", "fragments from the hardware raster per layer, the one-pass raster (not "
-                        "conservative), the compute splat (the raster's fragments) or depth peeling",
+    source: str = param("raster", "where the fragments come from: raster (the hardware raster of every layer in "
+                        "its own view), one_pass (one swizzled raster projected into every layer, archer2019; not "
+                        "conservative), splat (a compute rasterizer of the small triangles with the hardware's "
+                        "fill rule: the raster's fragments) or peel (depth peeling, niessner2010)",
                         choices=SOURCES)
-    assembly: str = param("direct", "count + fill passes, or one pass of (list, depth) pairs sorted by list "
-                          "(linear layout)", choices=ASSEMBLIES)
-    pool: str = param("grow", "pool sizing: grow and redo / counting pass (linked) / fixed / lazy (sized from "
-                      "the previous build: no read-back inside a build)", choices=POOLS)
+    assembly: str = param("direct", "how the fragments are put in order: direct (count, scan, fill, sort; linked "
+                          "lists: insert) or sort (one pass of (list, depth) pairs, scan, scatter by list, sort; "
+                          "linear layout only)", choices=ASSEMBLIES)
+    pool: str = param("grow", "how the fragment pool is sized: grow (redo a build that overflowed), count (a "
+                      "counting pass first; linked only), fixed (pool_capacity, overflow reported) or lazy (sized "
+                      "from the previous build: no read-back inside a build; docs/reference/methods/fast_builds.md)", choices=POOLS)
     pool_capacity: int = param(0, "fragments for pool=fixed (first size for grow and lazy; 0 = 1 per texel)", lo=0)
     sorted_insert: bool = param(True, "linked: lock-free sorted insert (PSPPSLL); False = yang2010 insert + "
                                 "sort pass")
     max_list: int = param(64, "register-array length of the sort passes (longer lists take a slow exact path)",
                           lo=1, hi=1024)
     instanced: bool = param(True, "raster: one instanced draw for all layers (False: one draw per layer)")
-    aggregate: bool = param(False, "linked: warp-aggregated atomicAdd on the node counter (ARB_shader_ballot)")
-    indexed: bool = param(True, "without payload, rasterize the indexed position-only geometry (same fragments)")
-    payload: tuple = param((), "32-bit words stored per fragment, names from PAYLOAD_WORDS, in this order")
+    aggregate: bool = param(False, "linked: one atomicAdd per subgroup on the node counter (needs "
+                            "ARB_shader_ballot: set false on a driver without it)")
+    indexed: bool = param(True, "without payload, rasterize the indexed position-only geometry (vertex reuse; "
+                          "the same fragments)")
+    payload: tuple = param((), "32-bit words stored per fragment besides its depth, any of normal, albedo "
+                           "and material, stored in the order given")
     pass_layers: int = param(0, "one_pass: layers per raster pass (0 = all in one)", lo=0)
     raster_size: int = param(0, "one_pass: samples per side of the swizzled raster (0 = the larger layer side)",
                              lo=0)
@@ -76,7 +83,8 @@ class StructureSpec(ParamsBase):
                              "registers) and leaves only the longer ones to the sort pass (the same lists)")
     splat_large: str = param("tiles", "splat: the triangles longer than splat_max, by the hardware raster or "
                              "by a compute pass over tiles of the layers (the same fragments)", choices=SPLAT_LARGE)
-    max_layers: int = param(1024, "peel: depth-peeling passes at most", lo=1, hi=1 << 20)
+    max_layers: int = param(1024, "peel: depth-peeling passes at most (reaching it with fragments left marks "
+                            "the row degraded)", lo=1, hi=1 << 20)
     canonical: bool = param(False, "linear: order fragments at equal depth by their payload words (stage canon)")
     page_nodes: int = param(0, "linked: nodes per SSBO page, a power of two (0 = from the SSBO size limit)",
                             lo=0, hi=1 << 30)

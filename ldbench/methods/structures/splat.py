@@ -1,8 +1,8 @@
 """The ``splat`` source: a compute rasterizer of small triangles with the hardware's fill rule.
 
-Variant of the fragment pass of :mod:`ldbench.methods.structures` (docs/fast_builds.md). The hardware raster of
+Variant of the fragment pass of :mod:`ldbench.methods.structures` (docs/reference/methods/fast_builds.md). The hardware raster of
 every triangle in every layer is the reference source; it is bound by the rasterizer's triangle rate, not
-by memory (measured in docs/fast_builds.md).
+by memory (measured in docs/reference/methods/fast_builds.md).
 
 :class:`Splat` (``ldbench/methods/glsl/layered/splat_raster.glsl``): one invocation per (triangle, batch of
 ``splat_batch`` layers) loads its positions (``SceneGeometry.triangle_positions``), projects the triangle
@@ -19,7 +19,7 @@ spec's ``splat_large`` rasterizes in the same build:
   layer, one invocation per texel, which bins the long triangles meeting its tile and tests its centre with
   the same fill rule (edge functions exact at any size, stepped per texel in int32), after a pass that sets up
   the first ``BOX_CAP`` long triangles (box, edges, planes) in every layer (the tiles set up any others
-  themselves); its stores: ``layered/splat_tiles.glsl``. Why it is the default: docs/fast_builds.md.
+  themselves); its stores: ``layered/splat_tiles.glsl``. Why it is the default: docs/reference/methods/fast_builds.md.
 - ``raster``: one instanced indirect draw of them by the hardware (``layered/build.glsl``).
 
 Layers must be affine (orthographic maps: LDM, CDI, LDI).

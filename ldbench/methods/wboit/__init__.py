@@ -10,15 +10,10 @@ Stages:
 ``resolve``     ``resolve.glsl``: C = Σ c α w / Σ α w · (1 − Π(1 − α)) + Π(1 − α) · background.
 
 Exact where every fragment of a pixel has one colour and one opacity (the weighted average is then that
-colour and the revealage is exact); elsewhere the weights w(z, α) stand in for the order. docs/oit.md
+colour and the revealage is exact); elsewhere the weights w(z, α) stand in for the order. docs/reference/methods/oit.md
 has the measured error on the yang2010 scenes.
 
-===========  =======  =====================================================================================
-Parameter    Default  Meaning
-===========  =======  =====================================================================================
-``weight``   eq7      the paper's depth weight: ``eq7``, ``eq8``, ``eq9`` (of the view depth), ``eq10`` (of
-                      the window depth), or ``constant`` (w = 1: the weighted average, Bavoil & Myers 2008)
-===========  =======  =====================================================================================
+Parameters: ``ldbench methods wboit`` (docs/reference/parameters.md).
 """
 from __future__ import annotations
 
@@ -33,7 +28,8 @@ WEIGHTS = {"eq7": 7, "eq8": 8, "eq9": 9, "eq10": 10, "constant": 0}
 
 @dataclass(frozen=True)
 class WBOITParams(ParamsBase):
-    weight: str = param("eq7", "depth weight: the paper's eq7 | eq8 | eq9 | eq10, or constant (w = 1)",
+    weight: str = param("eq7", "depth weight w(z, alpha): the paper's eq7, eq8 or eq9 (of the view depth), eq10 "
+                        "(of the window depth), or constant (w = 1: the weighted average of Bavoil & Myers 2008)",
                         choices=tuple(WEIGHTS), paper="eq7 .. eq10")
 
 

@@ -49,7 +49,7 @@
 #define LL_C_OVERFLOW 7u    // fragments refused because the pool was full
 #define LL_C_CAPACITY 8u    // pool capacity, written by the host: the bound of every list walk
 // Passes that only read lists (tracers) see the counters as a plain readonly buffer: a coherent load of the
-// walk bound in every step of every walk made tracing 100x slower on an H200 (docs/rays.md).
+// walk bound in every step of every walk made tracing 100x slower on an H200 (docs/reference/rays.md).
 #if defined(LL_WRITABLE) || defined(LL_STATS)
 #define LL_COUNTERS_QUAL coherent
 #else

@@ -2,7 +2,7 @@
 // LL_SORT_LISTED only the lists the build left unsorted.
 // Lists of up to LL_MAX_LIST nodes: their depths insertion-sorted into a local array as the walk reads them, the depths
 // that changed written back along a second walk of the same chain (no array of node indices: the smaller local array is
-// faster, docs/fast_builds.md); with a payload the node indices are kept too and node contents swapped by a selection
+// faster, docs/reference/methods/fast_builds.md); with a payload the node indices are kept too and node contents swapped by a selection
 // sort. Longer lists: counted in ll_counters[LL_C_SORT_LONG] and sorted in place in global memory (selection sort
 // over the chain: O(L^2) but exact), so nothing is truncated. Every walk is bounded by the pool capacity.
 #define LL_WRITABLE 1
