@@ -1,4 +1,4 @@
-"""Where cdi-vpl's indirect light goes on a spot-lit coloured wall beside a floor (docs/cdi_vpl.md,
+"""Where cdi-vpl's indirect light goes on a spot-lit coloured wall beside a floor (docs/reference/methods/cdi_vpl.md,
 "Energy budget"): the method's mean radiance over the image and over the floor against Mitsuba's one-bounce
 reference, with each factor switched off or to its exact variant, one at a time.
 

@@ -1,5 +1,5 @@
 """Dual depth peeling vs depth peeling by counting (no timing): passes, fragments each geometry pass
-shades, blends and reads, and CPU sync points, on one scene and view. Written for docs/oit.md,
+shades, blends and reads, and CPU sync points, on one scene and view. Written for docs/reference/methods/oit.md,
 "Why dual depth peeling is not faster here".
 
     python scripts/ddp_counts.py [--scene hairball --set triangles=20000 --set opacity=0.3] [--size 512x512]

@@ -1,6 +1,6 @@
 """How the fragments of the LDMs of aalund2015's Figure 8 (atrium 260k, 512 maps of 200²) divide between
 the splat's small triangles and its long ones (longer than ``splat_max`` texels in the maps), estimated
-from the triangles' projected areas (numpy, on the CPU; docs/fast_builds.md, "The long triangles").
+from the triangles' projected areas (numpy, on the CPU; docs/reference/methods/fast_builds.md, "The long triangles").
 
     python scripts/fragment_shares.py [--maps N] [--sample K] [--splat-max T]
 

@@ -1,6 +1,6 @@
 """How many list nodes the LDM AO's walks read at aalund2015's Figure 8 settings (atrium 260k, 512 maps of 200²,
 the Figure 8 camera), from the G-buffer and the maps' lists built on this machine's GL and read back (numpy;
-docs/fast_builds.md, "What bounds them now"). The query is ``ldm_query`` of ldbench/methods/ldm/ldm_trace.glsl
+docs/reference/methods/fast_builds.md, "What bounds them now"). The query is ``ldm_query`` of ldbench/methods/ldm/ldm_trace.glsl
 (texel, receiver-plane threshold with the bias and crease window), and a walk's length counts every node it
 loads, the one that ends it included.
 

@@ -1,5 +1,6 @@
-"""Fast-build measurements (run by scripts/gpu/fast-builds.sh; docs/fast_builds.md): the build variants of the
-layered structures (ldbench/methods/structures/) timed alone, on the LDM's maps of aalund2015 Figure 8.
+"""Fast-build measurements (scripts/gpu/README.md; docs/reference/methods/fast_builds.md): the copy bandwidth
+that bounds a build, and the build variants of the layered structures (ldbench/methods/structures/) timed
+alone, on the LDM's maps of aalund2015 Figure 8.
 
     python scripts/gpu/fast_builds_bench.py OUT_DIR PART [--dry] [--fig8 TRIANGLES,MAPS,RESOLUTION] [--variants A,B]
 
@@ -70,7 +71,7 @@ VARIANTS = {
                           ("-group128", dict(splat_group=128)), ("-group256", dict(splat_group=256)),
                           ("-batch16-aggregate", dict(splat_batch=16, aggregate=True)),
                           ("-aggregate", dict(aggregate=True)))},
-    # the LDM adapter's default structure (the Figure 8 build of docs/fast_builds.md)
+    # the LDM adapter's default structure (the Figure 8 build of docs/reference/methods/fast_builds.md)
     "splat/linked-yang-queue-batch16-aggregate-tilesort": LDM_STRUCTURE,
     "splat/linked-yang-batch16-aggregate": dict(layout="linked", pool="lazy", source="splat", sorted_insert=False,
                                                 splat_batch=16, aggregate=True),

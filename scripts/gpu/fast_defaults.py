@@ -1,4 +1,4 @@
-"""Fast defaults against the paper presets (docs/fast_builds.md, "Defaults"): each workload run twice in one
+"""Fast defaults against the paper presets (docs/reference/methods/fast_builds.md, "Defaults"): each workload run twice in one
 process-per-run sequence on the same GPU — the configuration of the previous defaults (``preset = paper``, or
 the variant it replaces) and today's default — with its stage times, image quality against the same Mitsuba
 reference, and the bound its build reaches.
@@ -113,14 +113,14 @@ def main():
                 print(p.stderr[-2000:], flush=True)
                 rows.append(dict(row=row, label=label, status=f"rc {p.returncode}"))
                 continue
-            r = read_results(d).iloc[0]
+            r = read_results(d).iloc[0]  # d.name: the run, for scripts/gpu/results_page.py
             st = dict(r.stage_ms)
             build = sum(v for k, v in st.items() if k in BUILD_STAGES)
             sbytes = r.get("structure_bytes")
             sbytes = 0.0 if sbytes is None or pd.isna(sbytes) else float(sbytes)
             c = r.get("counters") if isinstance(r.get("counters"), dict) else {}
             rows.append(dict(
-                row=row, label=label, total_ms=r.total_ms, build_ms=build,
+                row=row, label=label, run=d.name, total_ms=r.total_ms, build_ms=build,
                 stages=" ".join(f"{k} {v:.3f}" for k, v in st.items()),
                 psnr=r.get("psnr"), range_err_p50=r.get("range_err_p50"), hit_agreement=r.get("hit_agreement"),
                 structure_mb=sbytes / 1e6, fragments=c.get("fragments"),

@@ -1,4 +1,4 @@
-"""G-buffer timing (docs/gbuffer.md): the hardware pass and the compute G-buffer (ldbench/methods/gbuffer.py) on
+"""G-buffer timing (docs/reference/methods/gbuffer.md): the hardware pass and the compute G-buffer (ldbench/methods/gbuffer.py) on
 atrium at 260,000 triangles and 800 × 800, each the median of 20 frames by GL timer query (wall clock
 around glFinish on llvmpipe), with the compute G-buffer's per-pass split and, untimed, how far its
 textures are from the hardware's on this GPU.
