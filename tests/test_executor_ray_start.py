@@ -8,6 +8,8 @@ import time
 
 import pytest
 
+# Slow tier: each test starts its own local Ray cluster (a few seconds each on two cores).
+pytestmark = pytest.mark.slow
 ray = pytest.importorskip("ray", reason="the test extra installs ray (pip install -e '.[test]')")
 
 from ldbench.harness.executors import run_jobs  # noqa: E402

@@ -128,6 +128,7 @@ def test_installed_ldbench_runs_outside_the_source_tree(installed):
     assert json.loads(rows) == [{"commit": None, "status": "ok"}]
 
 
+@pytest.mark.slow  # a whole run from the installed wheel (~10 s on two cores)
 def test_bundled_suite_by_name(installed):
     path = _run(installed, installed["py"], "-c", "from ldbench.harness.resources import suite_path; print(suite_path('default'))")
     path = Path(path.strip())

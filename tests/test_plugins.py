@@ -301,6 +301,7 @@ def _rows(v, run):
     return pd.read_parquet(v["work"] / run / "results.parquet").set_index("method")
 
 
+@pytest.mark.slow  # pip-installs the example and starts a Ray cluster (~12 s on two cores)
 def test_example_plugin_installed_lists_and_runs_local_and_ray(venv):
     import pandas as pd
 

@@ -3,7 +3,8 @@
 #
 #   bash scripts/gpu/test.sh [SCENES] [PYTEST ARGS...]
 #
-# TESTS (default: tests, the whole suite) narrows the run, e.g. TESTS=tests/test_concurrency.py.
+# TESTS (default: tests, the whole suite, both tiers: LDBENCH_SLOW=1) narrows the run, e.g.
+# TESTS=tests/test_concurrency.py; LDBENCH_SLOW=0 leaves out the tests marked slow.
 # SCENES: a scene mirror (a folder holding scenes/), or a .tar.xz of that scenes/ folder; default
 # $LDBENCH_SHARED. Without it the tests that need real scenes skip and say so in the summary.
 #
@@ -57,6 +58,7 @@ $PY -c "import ldbench.core.gpu, moderngl, mitsuba, drjit" >>"$log" 2>&1 || { ec
 # One worker a core (at most 16), each with one thread for numpy's BLAS and Arrow: the workers share the
 # cores, and every worker opens its own GL context on the one GPU.
 jobs=${JOBS:-$(( $(nproc) > 16 ? 16 : $(nproc) ))}
+export LDBENCH_SLOW=${LDBENCH_SLOW:-1}
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 ARROW_NUM_THREADS=1
 extra=()
 $PY -c "import xdist" 2>/dev/null && extra+=(-n "$jobs" --dist worksteal)
