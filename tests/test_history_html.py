@@ -5,6 +5,7 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ldbench.harness import history as H
 from ldbench.harness import records as R
@@ -73,3 +74,20 @@ def test_no_html_flag_and_a_page_without_change_points(tmp_path, capsys):
     page = Path(res["html"]).read_text(encoding="utf-8")
     assert "No change points." in page and "change(s)</span>" not in page
     assert R.machine_key(LLVMPIPE) not in page and page.count('class="card"') == 2
+
+
+@pytest.mark.parametrize("name", ["changes.md", "index.html", "png"])
+def test_plot_replaces_its_own_files_and_never_a_users(tmp_path, capsys, name):
+    """A second ``history plot`` into the same --out replaces what the first wrote; a file of the user's with
+    one of its names (changes.md, index.html, a benchmark's PNG) is refused in one line and left as it was."""
+    hist = _history(tmp_path, days=6, step_day=3)
+    out = tmp_path / "site"
+    args = ["history", "plot", "--history-dir", str(hist), "--out", str(out)]
+    assert main(args) == 0 and main(args) == 0  # its own files, replaced
+    capsys.readouterr()
+    target = next(out.rglob("*.png")) if name == "png" else out / name
+    target.write_bytes(b"my own notes\n")
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "ldbench did not write it" in err and str(target) in err, err
+    assert target.read_bytes() == b"my own notes\n"

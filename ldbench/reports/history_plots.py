@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
-from ldbench.core.files import atomic_write_text
+from ldbench.core.files import atomic_write, atomic_write_text, check_replaceable
 from ldbench.harness.history import DEFAULT_HISTORY_DIR, detect_change_points, load_history
 from ldbench.harness.naming import slug
 
@@ -102,6 +102,10 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
 
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
     check_output_path(out, into=True)  # under a file, /proc, read-only, too long: one line before any work
+    # a file of ours by its mark; a user's changes.md or index.html in --out is refused before any work
+    check_replaceable(out / "changes.md", lambda head: head.startswith(CHANGES_MARK.encode()))
+    if html:
+        check_replaceable(out / "index.html", lambda head: HTML_MARK.encode() in head)
     hist = load_history(history_dir, machine)
     out.mkdir(parents=True, exist_ok=True)
     pngs, cps, entries = [], [], []
@@ -152,7 +156,8 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
                 ax.grid(alpha=0.3)
             fig.tight_layout()
             path = mdir / f"{slug(label, 120, fallback='benchmark')}.png"
-            fig.savefig(path, dpi=100)
+            check_replaceable(path, lambda head: PNG_MARK.encode() in head)  # PNG text chunks precede the pixels
+            atomic_write(path, lambda t: fig.savefig(t, dpi=100, format="png", metadata={"Software": PNG_MARK}))
             plt.close(fig)
             pngs.append(path)
             entries.append({"machine": mkey, "benchmark": label, "png": path, "points": p, "quality": qname,
@@ -197,7 +202,7 @@ def _index_html(entries, cps, out: Path, alpha, min_effect, min_db, min_size) ->
 
     machines = list(dict.fromkeys(e["machine"] for e in entries))
     n_runs = max((len(e["points"]) for e in entries), default=0)
-    lines = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+    lines = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">', HTML_MARK,
              "<title>ldbench history</title>", f"<style>{_CSS}</style>", f"<script>{_FILTER_JS}</script>",
              "</head><body>", "<h1>ldbench benchmark history</h1>",
              f"<p>{len(entries)} benchmark(s) on {len(machines)} machine(s), up to {n_runs} run(s) each, in "
@@ -240,8 +245,14 @@ def _index_html(entries, cps, out: Path, alpha, min_effect, min_db, min_size) ->
     return "\n".join(lines) + "\n"
 
 
+#: What marks the files ``plot_history`` writes as its own (it replaces those, and refuses any other file).
+CHANGES_MARK = "# Detected changes"
+HTML_MARK = '<meta name="generator" content="ldbench history plot">'
+PNG_MARK = "ldbench history plot"
+
+
 def _changes_md(cps, alpha, min_effect, min_db, min_size, out) -> str:
-    lines = ["# Detected changes", "",
+    lines = [CHANGES_MARK, "",
              f"Binary segmentation with a two-sided Mann-Whitney U test (Bonferroni-corrected p < {alpha:g}, "
              f"at least {min_size} runs on each side) and a minimum median shift of {min_effect:.0%} "
              f"(time) or {min_db:g} dB (PSNR).", ""]
