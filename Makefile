@@ -2,9 +2,11 @@
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.ldbench-installed
-# -n auto: one pytest worker a core (pytest-xdist); --timeout: a hung test fails with its stack instead of
-# stalling the run.
-PYTEST_ARGS ?= -q -n auto --dist worksteal --timeout 600
+# One pytest worker a core plus one (pytest-xdist): tests that wait on a subprocess, a sleep or a Ray worker
+# leave a core idle otherwise (on 2 cores: 242 s with 3 workers, 259 s with 2). --timeout: a hung test
+# fails with its stack instead of stalling the run.
+JOBS   ?= $(shell echo $$(( $$(nproc) + 1 )))
+PYTEST_ARGS ?= -q -n $(JOBS) --dist worksteal --timeout 600
 
 .PHONY: bench test test-slow test-all typecheck setup clean
 setup: $(STAMP)
@@ -26,8 +28,12 @@ typecheck: $(STAMP)
 
 # Two tiers: `make test` (the fast tier, every test not marked slow) and `make test-slow` (the tests marked
 # `slow`: paper-scale accuracy and Ray cluster set-ups that cannot be made cheap). CI runs both: make test-all.
-test: typecheck
-	$(PY) -m pytest $(PYTEST_ARGS) tests
+# mypy runs beside the tests (its log is printed after them); either failing fails the target.
+test: $(STAMP)
+	@$(VENV)/bin/mypy > $(VENV)/mypy.log 2>&1 & m=$$!; \
+	$(PY) -m pytest $(PYTEST_ARGS) tests; t=$$?; \
+	wait $$m; k=$$?; echo "mypy: $$(tail -n 1 $(VENV)/mypy.log)"; [ $$k -eq 0 ] || cat $(VENV)/mypy.log; \
+	[ $$t -eq 0 ] && [ $$k -eq 0 ]
 
 test-slow: $(STAMP)
 	LDBENCH_SLOW=1 $(PY) -m pytest $(PYTEST_ARGS) -m slow tests

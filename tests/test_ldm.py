@@ -202,6 +202,8 @@ def references():
     return refs
 
 
+# Slow tier: the 512 maps take ~10 s a case on two cores; test_cornell_against_mitsuba checks the fast tier's rise
+@pytest.mark.slow
 @pytest.mark.parametrize("effect", [Effect("ao"), Effect("ao", d_max=0.5, falloff="quadratic")],
                          ids=lambda e: e.label())
 def test_error_falls_with_directions(gpu, references, effect):
