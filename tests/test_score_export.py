@@ -576,3 +576,78 @@ def test_ctrl_c_while_score_writes_its_report_says_the_rows_are_kept(tmp_path, c
     err = capsys.readouterr().err
     assert rc == 130 and "are kept in" in err and f"ldbench report {run}" in err, err
     assert len(records.read_results(run)) == 1
+
+
+def _png_bytes(w, h, depth, ctype, rows, plte=b""):
+    """A PNG of pre-packed ``rows`` (bytes each, no filter byte yet), with a PLTE chunk when given."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    raw = b"".join(b"\x00" + r for r in rows)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, depth, ctype, 0, 0, 0))
+            + (chunk(b"PLTE", plte) if plte else b"") + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("kind", ["grey1", "grey2", "grey4", "grey-alpha8", "grey-alpha16", "rgba8", "rgba16",
+                                  "palette8", "palette4"])
+def test_every_png_mode_reads_as_its_codes_in_float(tmp_path, kind):
+    """Every PNG colour type and bit depth the reader accepts answers with its codes / (2^depth − 1) (a palette
+    with its entries / 255), alpha dropped, against the same image in float: packed 1-, 2- and 4-bit grey,
+    grey + alpha and RGBA at 8 and 16 bits (Pillow keeps only the high byte of 16-bit colour), 8- and 4-bit
+    palettes. The files are packed here byte by byte, not by the reader's library."""
+    from ldbench.harness.score import read_image
+
+    rng = np.random.default_rng(7)
+    w, h = 12, 5
+    if kind.startswith("grey") and "alpha" not in kind:
+        depth = int(kind[4:])
+        codes = rng.integers(0, 2 ** depth, (h, w))
+        per = 8 // depth
+        rows = [bytes(sum(int(c) << (8 - depth * (i + 1)) for i, c in enumerate(r[k:k + per]))
+                      for k in range(0, w, per)) for r in codes]
+        data, want = _png_bytes(w, h, depth, 0, rows), (codes / (2 ** depth - 1))[..., None]
+        channels = 1
+    elif kind.startswith("palette"):
+        depth = int(kind[7:])
+        pal = rng.integers(0, 256, (2 ** depth, 3))
+        idx = rng.integers(0, 2 ** depth, (h, w))
+        per = 8 // depth
+        rows = [bytes(sum(int(c) << (8 - depth * (i + 1)) for i, c in enumerate(r[k:k + per]))
+                      for k in range(0, w, per)) for r in idx]
+        data, want = _png_bytes(w, h, depth, 3, rows, plte=pal.astype(np.uint8).tobytes()), pal[idx] / 255.0
+        channels = 3
+    else:
+        depth = int(kind[-2:] if kind.endswith("16") else kind[-1])
+        n, ctype = (2, 4) if kind.startswith("grey") else (4, 6)
+        codes = rng.integers(0, 2 ** depth, (h, w, n))
+        codes[0, 0, :n - 1] = 2 ** depth - 1 - 1  # a code whose low byte matters at 16 bits
+        dt = ">u2" if depth == 16 else "u1"
+        rows = [codes[y].astype(dt).tobytes() for y in range(h)]
+        data, want = _png_bytes(w, h, depth, ctype, rows), codes[..., :n - 1] / (2 ** depth - 1)
+        channels = n - 1
+    path = tmp_path / f"{kind}.png"
+    path.write_bytes(data)
+    got = read_image(path, channels, transfer="linear")
+    assert got.shape == want.shape, (got.shape, want.shape)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-6, err_msg=kind)
+
+
+def test_half_float_exr_answers_read_at_full_precision(tmp_path):
+    """A half-float EXR answer reads as its half values exactly (float32 holds every half), Y and RGB."""
+    import OpenEXR
+
+    from ldbench.harness.score import read_image
+
+    rng = np.random.default_rng(3)
+    v = (rng.random((6, 9), np.float32) * 8).astype(np.float16)
+    for names in ("Y", "RGB"):
+        chans = {c: np.ascontiguousarray(v if i == 0 else v[::-1] if i == 1 else v * 2) for i, c in enumerate(names)}
+        path = tmp_path / f"{names}.exr"
+        OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                     {c: OpenEXR.Channel(a) for c, a in chans.items()}).write(str(path))
+        got = read_image(path, len(names), transfer=None)
+        want = np.stack([chans[c].astype(np.float32) for c in names], -1)
+        assert got.dtype == np.float32 and np.array_equal(got, want), names

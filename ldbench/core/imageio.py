@@ -35,8 +35,9 @@ _PNG_16BIT_LOSSY = (2, 4, 6)
 
 def read_png(path: Path) -> np.ndarray:
     """A PNG's pixels as float64 in [0, 1]: ``H × W`` (grey) or ``H × W × C`` (C = 2 grey + alpha, 3 RGB,
-    4 RGBA), every code divided by 2^depth - 1, exactly for 8- and 16-bit files. Pillow (under matplotlib)
-    keeps only the high byte of a 16-bit colour PNG, so those are decoded with Mitsuba's libpng reader.
+    4 RGBA), every code divided by 2^depth - 1 (a palette's entries by 255), exactly at every bit depth. Pillow
+    (under matplotlib) keeps only the high byte of a 16-bit colour PNG, so those are decoded with Mitsuba's
+    libpng reader; matplotlib scales 2- and 4-bit grey wrongly, so those are read through Pillow alone.
     Raises ``ValueError`` or ``OSError`` when the file is not a readable PNG."""
     path = Path(path)
     with open(path, "rb") as f:
@@ -57,6 +58,13 @@ def read_png(path: Path) -> np.ndarray:
         if a.dtype != np.uint16:
             raise ValueError(f"16-bit PNG decoded as {a.dtype}")
         return a.astype(np.float64) / 65535.0
+    if depth < 8 and colour_type == 0:
+        # Pillow widens 1-, 2- and 4-bit grey to 8 bits (code × 255 / (2^depth − 1)); matplotlib then divides
+        # by 2^depth − 1 instead of 255 (a 4-bit white reads 17): take Pillow's 8-bit codes
+        from PIL import Image
+
+        with Image.open(path) as im:
+            return np.asarray(im.convert("L"), np.float64) / 255.0
     import matplotlib.image as mpimg
 
     return np.asarray(mpimg.imread(path), np.float64)
