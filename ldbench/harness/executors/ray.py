@@ -329,11 +329,16 @@ def _cause(e: BaseException) -> BaseException:
     return getattr(e, "cause", None) or e
 
 
+def _died(e: BaseException) -> bool:
+    """Whether a call failed because its worker's process ended (not because the task raised)."""
+    return any(b.__name__ == "RayActorError" for b in type(_cause(e)).__mro__)
+
+
 def _reason(e: BaseException) -> str:
     """One line: what failed a call. A worker whose process ended is reported as such: Ray's own
     message (ActorDiedError, ActorUnavailableError, depending on timing) is about Ray's state."""
     c = _cause(e)
-    if any(b.__name__ == "RayActorError" for b in type(c).__mro__):
+    if _died(e):
         return f"worker died: its process ended during the call ({type(c).__name__})"
     lines = [ln.strip() for ln in str(c).splitlines() if ln.strip()]
     text = f"{type(c).__name__}: {lines[0] if lines else ''}".rstrip(": ")
@@ -608,17 +613,39 @@ class RayExecutor:
 
             for key, e in local_failed.items():  # the driver's attempt was the first call
                 failed(_Work(key), e)
+            # A worker whose process died is restarted by Ray; a call sent to it before the restart fails too
+            # (ActorUnavailableError), and a job that never ran would be charged with it. So it takes calls
+            # again only once it answers `ready`; a worker that never comes back leaves the others the queue.
+            probing: dict = {}  # ready() ref -> (worker, attempts)
+
+            def probe(w, attempts=0):
+                if attempts < 60:
+                    probing[workers[w].ready.remote()] = (w, attempts + 1)
+
             dispatch()
-            while running:
-                done, _ = ray.wait(list(running), num_returns=1, timeout=1.0)
+            while running or (probing and queue):
+                done, _ = ray.wait(list(running) + list(probing), num_returns=1, timeout=1.0)
                 for ref in done:
+                    if ref in probing:
+                        w, attempts = probing.pop(ref)
+                        try:
+                            ray.get(ref)
+                            idle.append(w)
+                        except Exception:  # still restarting
+                            time.sleep(0.5)
+                            probe(w, attempts)
+                        continue
                     w, work, prep = running.pop(ref)
-                    idle.append(w)
                     try:
                         value = ray.get(ref)
                     except Exception as e:  # raised, or the worker died (Ray restarts it)
+                        if _died(e):
+                            probe(w)
+                        else:
+                            idle.append(w)
                         failed(work, e)
                         continue
+                    idle.append(w)
                     if work.items is None:
                         if "error" in value:  # bad input, as in a local run: the run stops
                             raise LdbenchError(value["error"])
@@ -630,6 +657,9 @@ class RayExecutor:
                             self._merge(value, out)
                         settle(work.items, work.key, new_rows=value.rows)
                 dispatch()
+            for work in queue:  # every worker died and none came back
+                if work.items is not None:
+                    settle(work.items, work.key, status="error: no worker left to run it (every worker died)")
             if bar is not None:
                 bar.close()
             self.stats = {"workers": n, "calls": calls, "references": len(keys), "groups": len(groups),
