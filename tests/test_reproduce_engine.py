@@ -267,7 +267,13 @@ def test_jobs_on_an_unfetched_scene_are_left_out_with_the_fetch_command(tmp_path
     assert ours["teapot-ll"] is not None and ours["cap-8"] is not None and ours["dragon-ll"] is None
     v = {c["text"]: c["verdict"] for c in res["claims"]}
     assert v["Dragon: the linked list is faster than depth peeling"] == NOT_MEASURED
-    assert v["Teapot: the linked list is faster than depth peeling"] == NOT_MEASURABLE
+    # A time claim on rows that ran: "not measurable" on a software rasterizer (wall clock on shared cores);
+    # on a GPU (timer queries) a verdict the measurement decides.
+    teapot = v["Teapot: the linked list is faster than depth peeling"]
+    if records.read_results(out_dir)["device"].iloc[0] == R.CPU_SOFTWARE:
+        assert teapot == NOT_MEASURABLE
+    else:
+        assert teapot in (HOLDS, FAILS, INCONCLUSIVE)
     assert "- not run: 3 jobs on transparent_dragon" in (out_dir / "reproduce.md").read_text()
     assert main(["reproduce", "aalund2015-fig8-real", "--scale", "ci", "--out", str(tmp_path / "r"),
                  "--no-progress", "--no-report"]) == 2

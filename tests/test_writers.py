@@ -25,9 +25,9 @@ pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 def slow_finish(task, prep, phases, row_calls=1):
     """Marks its start and end in ``task.dir``; takes ``task.seconds``; returns the job's index."""
     d = Path(task.dir)
-    (d / f"started-{task.i}").touch()
+    (d / f"started-{task.i}").write_text(repr(time.time()))  # not the mtime: some file systems keep it coarse
     time.sleep(task.seconds)
-    (d / f"done-{task.i}").touch()
+    (d / f"done-{task.i}").write_text(repr(time.time()))
     return {"i": task.i, "pid": os.getpid()}
 
 
@@ -64,9 +64,11 @@ def test_at_most_n_jobs_are_in_flight(tmp_path):
             assert live <= n, f"{live} jobs in flight after handing over job {i}, more than {n}"
         rows = pool.rows()
     assert len(rows) == 7 and pool.max_in_flight == n and peak == n
-    starts = sorted((tmp_path / f"started-{i}").stat().st_mtime for i in range(7))
-    ends = sorted((tmp_path / f"done-{i}").stat().st_mtime for i in range(7))
-    assert starts[1] < ends[0], "the two writers never ran at once"
+    # Some pair of jobs overlapped in time. Not necessarily the first two: a writer process that starts late on
+    # a loaded host (seen on 16 busy cores) leaves the first jobs to the other.
+    span = [tuple(float((tmp_path / f"{k}-{i}").read_text()) for k in ("started", "done")) for i in range(7)]
+    assert any(a0 < b1 and b0 < a1 for i, (a0, a1) in enumerate(span) for b0, b1 in span[i + 1:]), \
+        f"the two writers never ran at once: {span}"
 
 
 def test_a_writer_that_dies_is_its_jobs_error_row_and_the_others_finish(tmp_path):
