@@ -205,18 +205,21 @@ def test_floor_near_wall_which_integral_matches(gpu):
 
 
 def broken_hbao(tmp_path, *edits):
-    """An unregistered HBAO whose hbao.glsl has each (old, new) text replaced (each must occur)."""
-    src = (HBAO_DIR / "hbao.glsl").read_text()
+    """An unregistered HBAO whose shaders (copied to ``tmp_path``, includes and all) have each (old, new) text
+    replaced; each ``old`` must occur in exactly one of them."""
+    src = {f.name: f.read_text() for f in HBAO_DIR.glob("*.glsl")}
     for old, new in edits:
-        assert old in src, old
-        src = src.replace(old, new)
-    (tmp_path / "hbao.glsl").write_text(src)
+        where = [k for k, text in src.items() if old in text]
+        assert len(where) == 1, (old, where)
+        src[where[0]] = src[where[0]].replace(old, new)
+    for name, text in src.items():
+        (tmp_path / name).write_text(text)
 
     class Broken(HBAO):
         name = ""  # not registered
 
         def shader(self, name):
-            return tmp_path / name if name == "hbao.glsl" else HBAO_DIR / name
+            return tmp_path / name
 
     return Broken
 

@@ -3,18 +3,15 @@ with and without the plane fit, blur and pixel-step sampling, at sizes that are 
 workgroups; every workgroup of the AO pass on one 4×4 layer (one rotation), where the interleaved one holds
 all 16; and checks that a broken layer lookup or pixel mapping fails."""
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import ldbench.methods.hbao
 from ldbench.core.effects import Effect
 from ldbench.core.errors import LdbenchError
 from ldbench.methods.base import View
 from ldbench.methods.hbao import HBAO, HBAOParams
-
-HBAO_DIR = Path(ldbench.methods.hbao.__file__).resolve().parent
+from test_hbao import broken_hbao
 
 CASES = [  # (parameters, effect, width, height)
     ({}, Effect("ao", 0.35, "step"), 128, 128),
@@ -22,23 +19,6 @@ CASES = [  # (parameters, effect, width, height)
     ({"plane_fit": False, "blur": False}, Effect("ao", 0.5, "quadratic"), 131, 64),
     ({"sampling": "pixel_step", "steps": 64}, Effect("ao", 1.0, "step"), 96, 96),
 ]
-
-
-def broken_hbao(tmp_path, *edits):
-    """An unregistered HBAO whose hbao.glsl has each (old, new) text replaced (each must occur)."""
-    src = (HBAO_DIR / "hbao.glsl").read_text()
-    for old, new in edits:
-        assert old in src, old
-        src = src.replace(old, new)
-    (tmp_path / "hbao.glsl").write_text(src)
-
-    class Broken(HBAO):
-        name = ""  # not registered
-
-        def shader(self, name):
-            return tmp_path / name if name == "hbao.glsl" else HBAO_DIR / name
-
-    return Broken
 
 
 def run(gpu, method_cls, params, effect, w, h, scene):
@@ -73,7 +53,7 @@ def test_deinterleaved_access_gives_the_same_image(gpu):
 
 
 def test_a_wrong_layer_lookup_fails(gpu, tmp_path):
-    broken = broken_hbao(tmp_path, ("return (q & 3) * quarter + (q >> 2); }", "return (q >> 2) * 4 + (q & 3); }"))
+    broken = broken_hbao(tmp_path, ("ivec2 cell = q & 3, t = q >> 2;", "ivec2 t = q & 3, cell = q >> 2;"))
     with pytest.raises(AssertionError, match="changes the image"):
         check_same_image(gpu, broken)
 

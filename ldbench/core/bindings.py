@@ -130,10 +130,9 @@ _TABLE = {
     "GBUF_ALBEDO": _b("image", 2, "gbuffer", "compute G-buffer resolve: albedo", "gb_albedo"),
     **{f"GTAO_DEPTH{i}": _b("image", i, "gtao.prefilter", f"GTAO's depth pre-filter: view-space depth, MIP level {i}",
                             f"out_depth{i}") for i in range(5)},
-    "HBAO_LAYER_POSITION": _b("image", 0, "hbao.deinterleave", "HBAO's deinterleave: view-space positions in 4x4 "
-                              "quarter-resolution layers", "out_layer_position"),
-    "HBAO_LAYER_NORMAL": _b("image", 1, "hbao.deinterleave", "HBAO's deinterleave: view-space normals in 4x4 "
-                            "quarter-resolution layers", "out_layer_normal"),
+    # -- HBAO's deinterleaved access (ldbench/methods/hbao/layers.glsl): written by its deinterleave, read by the AO pass
+    "HBAO_LAYERS": _b("ssbo", 0, "hbao", "HBAO's view-space positions and normals in 4x4 quarter-resolution layers",
+                      "HbaoLayers"),
 }
 
 #: name -> :class:`Binding`, read-only.

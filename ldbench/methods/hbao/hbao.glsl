@@ -34,7 +34,7 @@
 // (sum over directions), 0 where none; with GROUP_IDS, r = the index of the workgroup that ran the pixel.
 // DEINTERLEAVED 1 (`access = "deinterleaved"`): the same arithmetic on the same values in another order.
 //   deinterleave.glsl has copied the view-space positions and normals into 4x4 layers of a quarter of the
-//   image each, layer (q & 3) holding pixel q at q >> 2, and invocation g here is pixel
+//   image each (layers.glsl), layer (q & 3) holding pixel q at q >> 2, and invocation g here is pixel
 //   4 (g mod quarter) + g / quarter: every workgroup lies in one layer, so its pixels share p & 3 and thus
 //   the rotation and jitter, and a sample offset that is the same for all of them reads neighbouring texels
 //   of one layer (rather than 16 rotations scattering the group's reads over a circle of the radius).
@@ -73,19 +73,15 @@ uniform int sampling;           // 0 fixed, 1 pixel_step
 uniform float step_px;          // pixel_step: pixels between samples
 uniform float angle_bias;       // radians
 #if DEINTERLEAVED
-uniform sampler2D l_position;   // deinterleaved view-space position, w = 1 where hit
-uniform sampler2D l_normal;     // deinterleaved view-space normal (mat3(view) * the G-buffer's)
-uniform ivec2 quarter;          // the size of one layer (a multiple of the workgroup's 8 x 8)
-
-ivec2 layer_texel(ivec2 q) { return (q & 3) * quarter + (q >> 2); }
+#include "layers.glsl"
 
 bool view_position(ivec2 q, out vec3 S) {
-    vec4 s = texelFetch(l_position, layer_texel(q), 0);
+    vec4 s = layers[layer_index(q)].position;
     S = s.xyz;
     return s.w >= 0.5;
 }
 
-vec3 view_normal(ivec2 q) { return texelFetch(l_normal, layer_texel(q), 0).xyz; }
+vec3 view_normal(ivec2 q) { return layers[layer_index(q)].normal.xyz; }
 #else
 bool view_position(ivec2 q, out vec3 S) {   // false where no surface (background)
     vec4 s = texelFetch(g_position, q, 0);
