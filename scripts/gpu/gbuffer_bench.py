@@ -3,7 +3,7 @@ atrium at 260,000 triangles and 800 × 800, each the median of 20 frames by GL t
 around glFinish on llvmpipe), with the compute G-buffer's per-pass split and, untimed, how far its
 textures are from the hardware's on this GPU.
 
-    python scripts/gpu/gbuffer_bench.py [--dry] [--max-pixels 64,256,1024] [--frames 20] [--size 800]
+    python scripts/gpu/gbuffer_bench.py [--dry] [--max-pixels 64,256,1024] [--frames 20] [--size 800|3840x2160]
 
 --dry: a small atrium at 64 × 64 and 3 frames (llvmpipe); --max-pixels: the compute raster's large-triangle
 thresholds to measure (GBuffer's max_pixels; default: its default).
@@ -72,15 +72,17 @@ def main(argv=None):
     ap.add_argument("--dry", action="store_true")
     ap.add_argument("--max-pixels", default="")
     ap.add_argument("--frames", type=int, default=20)
-    ap.add_argument("--size", type=int, default=800)
+    ap.add_argument("--size", default="800", help="N (square) or WxH (default 800)")
     a = ap.parse_args(argv)
-    spec, size, frames = ("atrium:triangles=4000", 64, 3) if a.dry else ("atrium:triangles=260000", a.size, a.frames)
+    w, _, h = a.size.partition("x")
+    spec, (width, height), frames = (("atrium:triangles=4000", (64, 64), 3) if a.dry else
+                                     ("atrium:triangles=260000", (int(w), int(h or w)), a.frames))
     gpu = Gpu()
     scene = load_scene(spec)
     res = gpu.resources()
     geo = SceneGeometry(gpu, scene, res)
-    view = View(scene.camera, size, size)
-    print(f"{gpu.info.get('GL_RENDERER')}: {spec}, {geo.triangles} triangles, {size} x {size}, median of {frames}")
+    view = View(scene.camera, width, height)
+    print(f"{gpu.info.get('GL_RENDERER')}: {spec}, {geo.triangles} triangles, {width} x {height}, median of {frames}")
     hw = GBuffer(gpu, geo, gpu.resources("hw."))
     hw.render(view)
     t = [timed(gpu, lambda: hw.render(view)) for _ in range(frames)]

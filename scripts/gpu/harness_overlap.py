@@ -138,7 +138,7 @@ def main(argv=None) -> int:
             suites.append(Path(s).resolve())
     rows = []
     for suite in suites:
-        warm = run_once(suite, "0", a.out / "warm", cache, a.extra, False)  # the references, once, untimed
+        warm = run_once(suite, "auto", a.out / "warm", cache, a.extra, False)  # the references, once, untimed
         print(f"{suite.name}: references ready (untimed run: rc {warm['rc']}, {warm['wall']:.1f} s)", flush=True)
         if warm["rc"] not in (0, 1):
             print(warm["stderr"], file=sys.stderr)
