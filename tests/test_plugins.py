@@ -479,7 +479,8 @@ def test_example_ao_kernel_in_tree(monkeypatch, tmp_path, clean_plugins):
 
 def test_plugin_imports_that_raise_are_one_line(tmp_path, monkeypatch, capsys, clean_plugins):
     """A plugin module that raises anything but ImportError at import (RuntimeError, ZeroDivisionError,
-    SystemExit), named by --method, by a suite or by LDBENCH_PLUGIN_METHODS: one line, exit 2."""
+    SystemExit), named by --method (local or Ray executor), by a suite or by LDBENCH_PLUGIN_METHODS: one
+    line, exit 2."""
     from test_cli import assert_one_line_error
 
     src = tmp_path / "src"
@@ -492,6 +493,9 @@ def test_plugin_imports_that_raise_are_one_line(tmp_path, monkeypatch, capsys, c
         ref = f"{mod}:Thing"
         rc = main(["run", "--scene", "cornell", "--method", ref, "--effect", "ao", "--out", str(tmp_path / "r"),
                    *TINY])
+        assert_one_line_error(rc, capsys.readouterr().err, "cannot import", why)
+        rc = main(["run", "--scene", "cornell", "--method", ref, "--effect", "ao", "--out", str(tmp_path / "r"),
+                   "--executor", "ray", *TINY])  # refused before any worker starts
         assert_one_line_error(rc, capsys.readouterr().err, "cannot import", why)
         suite = tmp_path / f"{mod}.toml"
         suite.write_text(f'[suite]\nname = "s"\nsize = "16x16"\nspp = 1\nwarmup = 0\nframes = 1\n\n[[run]]\n'
