@@ -449,12 +449,12 @@ def _report(args):
 
 # ---- compare / history (ldbench/harness/compare/, ldbench/harness/history.py; imported when used) ---------------
 def _compare_args(p):
-    from .compare import add_arguments
+    from .compare.arguments import add_arguments
     add_arguments(p)
 
 
 def _compare(args):
-    from .compare import run_cli
+    from .compare.command import run_cli
     return run_cli(args)
 
 

@@ -62,10 +62,8 @@ it was judged by, and the overall exit status.
 Modules: :mod:`~ldbench.harness.compare.match` (matching rows, benchmark names),
 :mod:`~ldbench.harness.compare.verdicts` (thresholds, checks), :mod:`~ldbench.harness.compare.stats` (the
 time test, the noise bound), :mod:`~ldbench.harness.compare.gate` (the comparison),
-:mod:`~ldbench.harness.compare.render` (Markdown, JSON, terminal) and :mod:`~ldbench.harness.compare.command`
-(the command line).
+:mod:`~ldbench.harness.compare.render` (Markdown, JSON, terminal), :mod:`~ldbench.harness.compare.arguments`
+and :mod:`~ldbench.harness.compare.command` (the command line: its arguments, and its run). The package
+imports none of them, so that building the command line does not import pandas and scipy.
 """
-from .command import add_arguments, run_cli
-
-__all__ = ["add_arguments", "run_cli"]
 

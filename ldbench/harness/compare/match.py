@@ -16,11 +16,8 @@ from ldbench.harness.records import check_columns, read_results
 from ldbench.methods.base import canonical_name, get_method
 from ldbench.reports.labels import effect_text
 
-#: Default match keys: one benchmark = one scene (with builder parameters), method, effect (with its
-#: parameters), method parameters and image size.
-DEFAULT_MATCH = ("scene", "scene_params", "method", "effect", "effect_params", "params", "width", "height")
-#: Every column ``--match`` accepts.
-MATCH_KEYS = DEFAULT_MATCH + ("suite", "scene_hash", "ref_spp")
+from .keys import DEFAULT_MATCH, MATCH_KEYS
+
 
 
 #: Columns the gate reads besides the match keys; a table without one of them cannot be gated (a missing

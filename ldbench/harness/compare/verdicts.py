@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 from ldbench.core.errors import LdbenchError
 
-from .match import DEFAULT_MATCH
+from .keys import DEFAULT_MATCH
 
 REGRESSING_VERDICTS = ("regression", "failed", "missing", "degraded", "unchecked")
 
