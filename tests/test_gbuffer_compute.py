@@ -127,20 +127,25 @@ def compare(hwb, cpb, eye, vp):
     return int(diff.sum())
 
 
-@pytest.mark.parametrize("max_pixels", [256, 1])
-def test_compute_equals_hardware(gpu, hard, max_pixels):
+@pytest.mark.parametrize("max_pixels,tile_capacity", [(256, None), (1, None), (1, 5)])
+def test_compute_equals_hardware(gpu, hard, max_pixels, tile_capacity):
     """Every view, rendered in sequence by one compute G-buffer (its per-frame clear), equals the hardware
-    pass; max_pixels = 1 gives nearly every triangle to the hardware path."""
+    pass; max_pixels = 1 gives nearly every triangle to the tile raster of wide triangles, and a tile list
+    of 5 entries then gives most of them to the hardware path, after frames that filled a longer list."""
     geo, ref = hard
-    g = GBuffer(gpu, geo, gpu.resources(f"c{max_pixels}."), raster="compute", max_pixels=max_pixels)
-    for k in (0, 1, 0):
+    g = GBuffer(gpu, geo, gpu.resources(f"c{max_pixels}.{tile_capacity}."), raster="compute", max_pixels=max_pixels)
+    for i, k in enumerate((0, 1, 0, 1)):
+        if tile_capacity is not None and i == 2:
+            g.tile_capacity = tile_capacity  # the list keeps the longer frames' entries beyond it
         cam = VIEWS[k]
         g.render(View(cam, W, W))
         compare(ref[k][0], g.read(), np.array(cam.origin), ref[k][1])
-        large = g.large_triangles()
+        large, (wide, tiles) = g.large_triangles(), g.wide_triangles()
         assert large >= 1  # the floor crosses the near plane
-        if max_pixels == 1:
-            assert large > geo.triangles // 2
+        if max_pixels == 1 and g.tile_capacity > 5:
+            assert wide > geo.triangles // 2 and large < 10
+        elif max_pixels == 1:
+            assert tiles <= 5 and large > geo.triangles // 2
 
 
 def test_resize(gpu, hard):

@@ -48,6 +48,9 @@ _TABLE = {
                    "GbufVis"),
     "GBUF_LARGE": _b("ssbo", 3, "raster", "compute G-buffer: indirect command and triangles left to the hardware",
                      "GbufLarge"),
+    "GBUF_WIDE": _b("ssbo", 4, "raster", "compute G-buffer: wide triangles, their tile counts and dispatches",
+                    "GbufWide"),
+    "GBUF_TILES": _b("ssbo", 5, "raster", "compute G-buffer: the wide triangles' tiles", "GbufTiles"),
     # -- one-kernel utilities, each alone in its program
     "FILL": _b("ssbo", 0, "fill_uint", "the uint buffer common/fill_uint.glsl clears", "FillData"),
     "SCAN_DATA": _b("ssbo", 0, "scan", "values scanned in place (ldbench/methods/scan.py)", "ScanData"),

@@ -20,6 +20,10 @@ from ldbench.core.params import param
 
 VERTEX_ATTRS = (("in_position", 3), ("in_normal", 3), ("in_material", 1))  # float32 each
 LARGE_CMD_WORDS = 8  # DrawElementsIndirectCommand (5 words) padded; the compute G-buffer's indices follow it
+#: gbuffer/wide_list.glsl's header: tiles, triangles, two indirect dispatches (x, y, z); its list (uvec4) follows
+WIDE_HEADER = np.array([0, 0, 0, 1, 1, 0, 1, 1], np.uint32)
+WIDE_TILE = 16  # pixels: gbuffer/wide_list.glsl's GB_TILE
+WIDE_TILE_GROUPS, WIDE_LIST_GROUPS = 8, 20  # byte offsets of the two dispatches in that header
 
 
 def face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -135,9 +139,10 @@ class GBuffer:
     (``gbuffer/gbuffer.glsl``); ``"compute"`` rasterizes a visibility buffer in compute shaders with the hardware's
     fill rule (:func:`~ldbench.methods.structures.splat.fill_rule`) and resolves it into the same three
     textures (``gbuffer/raster.glsl``, ``gbuffer/resolve.glsl``; docs/reference/methods/gbuffer.md). No consumer reads the
-    depth texture, so the compute G-buffer has none. ``max_pixels``: the compute raster gives a triangle
-    whose viewport-clamped bounding box holds more pixel centres than this to the hardware
-    (``gbuffer/large.glsl``), as it does triangles crossing the near or far plane."""
+    depth texture, so the compute G-buffer has none. ``max_pixels``: a triangle whose viewport-clamped
+    bounding box holds more pixel centres than this (or is wider or taller than 64 pixels) is rasterized in
+    16 × 16 tiles by workgroups (``gbuffer/wide.glsl``) rather than by one invocation; triangles crossing
+    the near or far plane go to the hardware (``gbuffer/large.glsl``)."""
 
     def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
         if raster not in RASTERS:
@@ -156,7 +161,10 @@ class GBuffer:
         self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer/raster.glsl", rule_defines(fill_rule(gpu)))
         self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl")
         self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl")
+        self.wide_cs = gpu.compute(GLSL_DIR / "gbuffer/wide.glsl", rule_defines(fill_rule(gpu)))
+        self.expand_cs = gpu.compute(GLSL_DIR / "gbuffer/wide_expand.glsl")
         n = geometry.triangles
+        self.wide = res.buffer("gbuffer.wide", reserve=WIDE_HEADER.nbytes + 16 * n)
         self.large = res.buffer("gbuffer.large", reserve=4 * (LARGE_CMD_WORDS + 3 * n))
         cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)
         cmd[1], cmd[2] = 1, LARGE_CMD_WORDS  # one instance; the indices follow the command
@@ -175,6 +183,9 @@ class GBuffer:
             self.fbo = self.gpu.ctx.framebuffer([self.position, self.normal, self.albedo], self.depth)
         else:
             self.vis = r.buffer("gbuffer.visibility", reserve=8 * w * h)
+            # room for 4 viewports of tiles (wide triangles overlap), at least 65536; more goes to the hardware
+            self.tile_capacity = max(65536, 4 * -(-w // WIDE_TILE) * -(-h // WIDE_TILE))
+            self.tiles = r.buffer("gbuffer.tiles", reserve=8 * self.tile_capacity)
             self.fbo = self.gpu.ctx.empty_framebuffer((w, h))  # the hardware path's, attachment-less
         self.size = (w, h)
 
@@ -200,6 +211,9 @@ class GBuffer:
             self.clear()
             for p in (0, 1):
                 self.compute_pass(p, vp)
+                if p == 0:
+                    self.expand_pass()
+                self.wide_pass(p, vp)
                 self.large_pass(p, vp)
             self.resolve(view, vp)
             return
@@ -223,6 +237,7 @@ class GBuffer:
         w, h = self._allocated_size()
         fill_uint(self.gpu, self.vis, 2 * w * h, 0xFFFFFFFF)
         fill_uint(self.gpu, self.large, 1, 0)
+        self.wide.write(WIDE_HEADER.tobytes())
 
     def compute_pass(self, p: int, vp: bytes):
         """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the triangles
@@ -234,11 +249,36 @@ class GBuffer:
         cs["vis_pass"].value = p
         cs["n_triangles"].value = self.geo.triangles
         cs["max_pixels"].value = self.max_pixels
+        cs["tile_capacity"].value = self.tile_capacity
         self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
         self.vis.bind_to_storage_buffer(B.GBUF_VIS)
         self.large.bind_to_storage_buffer(B.GBUF_LARGE)
+        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
         cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT)))
         ctx.memory_barrier()
+
+    def expand_pass(self):
+        """The tile list of the wide triangles pass 0 listed (one indirect dispatch)."""
+        cs = self.expand_cs
+        cs["tile_capacity"].value = self.tile_capacity
+        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
+        self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
+        cs.run_indirect(self.wide, WIDE_LIST_GROUPS)
+        self.gpu.ctx.memory_barrier()
+
+    def wide_pass(self, p: int, vp: bytes):
+        """Pass ``p`` of the tile raster of the wide triangles (one indirect dispatch)."""
+        (w, h), cs = self._allocated_size(), self.wide_cs
+        cs["view_proj"].write(vp)
+        cs["vis_size"].value = (w, h)
+        cs["vis_pass"].value = p  # (max_pixels only sorts triangles, which pass 0 did)
+        cs["tile_capacity"].value = self.tile_capacity
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
+        self.vis.bind_to_storage_buffer(B.GBUF_VIS)
+        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
+        self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
+        cs.run_indirect(self.wide, WIDE_TILE_GROUPS)
+        self.gpu.ctx.memory_barrier()
 
     def large_pass(self, p: int, vp: bytes):
         """Pass ``p`` of the hardware's draw of the listed triangles (one indirect draw)."""
@@ -271,6 +311,12 @@ class GBuffer:
     def large_triangles(self) -> int:
         """Triangles the last compute frame gave to the hardware (a read-back; tests and the bench)."""
         return int(np.frombuffer(self.gpu.read(self.large, 4), np.uint32)[0]) // 3
+
+    def wide_triangles(self) -> tuple[int, int]:
+        """(triangles, tiles) the last compute frame rasterized by tiles (a read-back; tests and the bench)."""
+        head = np.frombuffer(self.gpu.read(self.wide, WIDE_HEADER.nbytes), np.uint32)
+        listed = np.frombuffer(self.gpu.read(self.wide, 16 * int(head[1]), offset=WIDE_HEADER.nbytes), np.uint32)
+        return int(np.count_nonzero(listed[0::4] != 0xFFFFFFFF)), int(min(head[0], self.tile_capacity))
 
     def bind(self, first_unit: int = 0):
         """Bind position/normal/albedo to texture units first_unit.. (for sampler2D reads)."""

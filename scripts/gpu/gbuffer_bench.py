@@ -42,7 +42,9 @@ def passes(g: GBuffer, view, vp):
     """The compute G-buffer's passes in render's order, as (name, callable)."""
     out = [("clear", g.clear)]
     for p in (0, 1):
-        out += [(f"compute{p}", lambda p=p: g.compute_pass(p, vp)), (f"hardware{p}", lambda p=p: g.large_pass(p, vp))]
+        out += [(f"compute{p}", lambda p=p: g.compute_pass(p, vp))]
+        out += [("expand", g.expand_pass)] if p == 0 else []
+        out += [(f"wide{p}", lambda p=p: g.wide_pass(p, vp)), (f"hardware{p}", lambda p=p: g.large_pass(p, vp))]
     return out + [("resolve", lambda: g.resolve(view, vp))]
 
 
@@ -98,8 +100,9 @@ def main(argv=None):
         for _ in range(frames):
             for name, fn in passes(g, view, vp):
                 split.setdefault(name, []).append(timed(gpu, fn))
-        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}, {g.large_triangles()} triangles to the "
-              f"hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
+        wide, tiles = g.wide_triangles()
+        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}: {wide} triangles in {tiles} tiles, "
+              f"{g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
         print("          " + differences(ref, g.read(), np.array(scene.camera.origin), g.view_proj(view)))
 
 

@@ -6,8 +6,9 @@
 // edge (SPLAT_TOP / BOTTOM / LEFT / RIGHT, 0 or 1, measured per context by layered/splat_probe.glsl,
 // ldbench/methods/structures/splat.py fill_rule). With the triangle taken counter-clockwise (GL window
 // coordinates, y up), a horizontal edge going left is a top edge, going right a bottom edge; an edge going
-// down is a left edge, going up a right edge. Callers keep coordinate differences below 2^14 (edges of at
-// most 64 texels) so every edge function fits int32.
+// down is a left edge, going up a right edge. sp_covers: callers keep coordinate differences below 2^14
+// (edges of at most 64 texels) so every edge function fits int32; sp_covers_wide: fixed-point coordinates
+// below 2^24 in magnitude, so every edge function is an exact double (products below 2^51).
 
 const int SP_ONE = 1 << LS_SUBPIXEL_BITS;
 const int SP_HALF = SP_ONE >> 1;
@@ -67,4 +68,15 @@ void sp_plane_vertices(ivec2 f0, ivec2 f1, ivec2 f2, bool cw, inout vec2 w0, ino
 #else
     if (cw) { vec2 tw = w1; w1 = w2; w2 = tw; }
 #endif
+}
+
+double sp_edge_wide(ivec2 e, ivec2 f, ivec2 p) {
+    return double(e.x) * double(p.y - f.y) - double(e.y) * double(p.x - f.x);
+}
+
+// sp_covers for any triangle of sp_covers_wide's range (above)
+bool sp_covers_wide(SpTri t, ivec2 texel) {
+    ivec2 p = texel * SP_ONE + SP_HALF;
+    return sp_edge_wide(t.e0, t.f0, p) >= double(t.b0) && sp_edge_wide(t.e1, t.f1, p) >= double(t.b1)
+        && sp_edge_wide(t.e2, t.f2, p) >= double(t.b2);
 }
