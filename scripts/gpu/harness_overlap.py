@@ -117,7 +117,8 @@ def main(argv=None) -> int:
     ap.add_argument("--dry", action="store_true", help="the small suite at 32x32, once, writers 0 and 1")
     ap.add_argument("--report", action="store_true", help="write each run's report too (as `make bench` does)")
     ap.add_argument("extra", nargs="*", help="more `ldbench run` arguments (after --)")
-    a = ap.parse_args(argv)
+    a, rest = ap.parse_known_args(argv)  # `-- --spp 64`: argparse leaves what follows `--` here
+    a.extra = [*a.extra, *[x for x in rest if x != "--"]]
     from ldbench.harness.executors.check import differences
 
     if a.dry:
