@@ -158,10 +158,11 @@ class GBuffer:
             return
         from ldbench.methods.structures.splat import fill_rule, rule_defines
 
-        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer/raster.glsl", rule_defines(fill_rule(gpu)))
+        rule = rule_defines(fill_rule(gpu))  # the per-triangle and the tile raster share it
+        self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer/raster.glsl", rule)
         self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl")
         self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl")
-        self.wide_cs = gpu.compute(GLSL_DIR / "gbuffer/wide.glsl", rule_defines(fill_rule(gpu)))
+        self.wide_cs = gpu.compute(GLSL_DIR / "gbuffer/wide.glsl", rule)
         self.expand_cs = gpu.compute(GLSL_DIR / "gbuffer/wide_expand.glsl")
         n = geometry.triangles
         self.wide = res.buffer("gbuffer.wide", reserve=WIDE_HEADER.nbytes + 16 * n)
