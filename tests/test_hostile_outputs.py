@@ -39,9 +39,10 @@ def _bad_paths(tmp_path: Path) -> dict:
 
 
 def test_every_command_that_writes_refuses_an_impossible_output_in_one_line(tmp_path, capsys):
-    """export, new-method, run, score, reference, history add and history plot: an output under a regular file,
-    under /proc, in a folder nothing can be created in, or with a name longer than the file system takes is one
-    line naming it, exit 2, before any work; nothing is written anywhere."""
+    """Every command that writes (export, new-method, run, score, reference, history add and plot, reproduce,
+    compare --md/--json), each with every kind of impossible output (under a regular file, under /proc, in a
+    folder nothing can be created in, a name longer than the file system takes): one line naming it, exit 2,
+    before any work; nothing is written anywhere."""
     run = _tiny_run_dir(tmp_path / "run")
     answer = tmp_path / "answer.npy"
     np.save(answer, np.zeros(3, np.float32))
@@ -58,11 +59,12 @@ def test_every_command_that_writes_refuses_an_impossible_output_in_one_line(tmp_
                                 "--out", f"{p}.exr"],
         "history add": lambda p: ["history", "add", str(run), "--history-dir", str(p)],
         "history plot": lambda p: ["history", "plot", "--history-dir", str(run), "--out", str(p)],
+        "reproduce": lambda p: ["reproduce", "aalund2015-fig8", "--scale", "ci", "--no-progress", "--out", str(p)],
+        "compare --md": lambda p: ["compare", str(run), str(run), "--md", f"{p}.md"],
+        "compare --json": lambda p: ["compare", str(run), str(run), "--json", f"{p}.json"],
     }
-    cases = list(_bad_paths(tmp_path).values())
-    tries = [(commands["export"], case) for case in cases]  # every case, and every command (cases in turn)
-    tries += [(argv, cases[i % len(cases)]) for i, argv in enumerate(commands.values())]
-    for argv, (path, needle) in tries:
+    tries = [(argv, case) for argv in commands.values() for case in _bad_paths(tmp_path).values()]
+    for argv, (path, needle) in tries:  # every case for every command
         rc = main(argv(path))
         err = capsys.readouterr().err
         assert_one_line_error(rc, err, needle)  # the message names what is wrong, not a traceback

@@ -623,3 +623,48 @@ def check_bad_output_rows(tmp_path, monkeypatch, executor=None):
         assert df.loc[m, "status"].startswith("error: ") and "'huge'" in df.loc[m, "status"], df.loc[m, "status"]
     for m, code in (("exit-zero", 0), ("exit-three", 3)):  # a plugin's sys.exit() ends its job, not the run
         assert df.loc[m, "status"].startswith(f"error: sys.exit({code}) called inside the job"), df.loc[m, "status"]
+
+
+# One in-tree method per effect, and the array its answer's poisoned values go into.
+IN_TREE = [("ao", "hbao", "image", {"d_max": 0.5}), ("direct", "direct-raster", "image", {}),
+           ("indirect", "ldm", "image", {}), ("glossy_indirect", "ldi", "image", {}),
+           ("soft_shadows", "ldi", "image", {}), ("oit", "wboit", "image", {}),
+           ("rays", "ldm", "t", {}), ("vpl_range", "cdi-vpl", "range", {})]
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("effect,method,where,extra", IN_TREE, ids=[e for e, *_ in IN_TREE])
+def test_non_finite_answers_of_an_in_tree_method_are_never_ok(tmp_path, monkeypatch, effect, method, where, extra):
+    """Every effect, through an in-tree method whose frame is made to answer +inf and -inf in two places (NaN
+    where the effect reads it as no answer): the row is ``degraded``, counts the values in ``nonfinite``, and
+    its metrics stay finite."""
+    import numpy as np
+
+    from ldbench.harness.executors import run_jobs
+    from ldbench.harness.suite import suite_from_dict
+    from ldbench.methods.base import get_method
+
+    cls = get_method(method)
+    frame = cls.frame
+
+    def poisoned(self, *a, **k):
+        r = frame(self, *a, **k).resolve()
+        if where == "image":
+            img = np.array(r.image, np.float32)
+            img.reshape(-1, img.shape[-1])[[1, 5], 0] = (np.inf, -np.inf)
+            r.image = img
+        else:
+            v = np.array(r.arrays[where], np.float32)
+            v.reshape(-1)[[0, 3]] = (np.inf, -np.inf) if where == "range" else (-np.inf, -np.inf)
+            r.arrays[where] = v
+        return r
+
+    monkeypatch.setattr(cls, "frame", poisoned)
+    suite = suite_from_dict({"suite": {"name": "nan", "size": "16x16", "spp": 4, "warmup": 0, "frames": 1},
+                             "run": [{"scene": "cornell", "effect": effect, "methods": [method], **extra}]},
+                            name="nan")
+    row = run_jobs(suite, tmp_path / "run", progress=False, report=False).iloc[0]
+    assert row["nonfinite"] == 2 and row["status"].startswith("degraded: 2 non-finite"), (row["status"],
+                                                                                        row["nonfinite"])
+    metrics = [c for c in ("psnr", "ssim", "relmse", "rmse", "hit_agreement") if c in row and row[c] == row[c]]
+    assert metrics and all(np.isfinite(row[c]) for c in metrics), {c: row[c] for c in metrics}

@@ -228,6 +228,13 @@ def test_fig8_ci_end_to_end(tmp_path, capsys):
     assert 'id="reproduce"' in html and "512.4 ms" in html
     assert (out_dir / "figures" / "time-vs-d_max.png").is_file()
     print(f"fig8 --scale ci took {took:.1f} s")
+    first = set(records.read_results(out_dir)["run_id"])
+    # the second night: the same --out is ldbench's own run (reproduce.json included), replaced whole
+    assert main(["reproduce", "aalund2015-fig8", "--scale", "ci", "--out", str(out_dir), "--no-progress"]) == 0
+    assert "Fig. 8(a) LDMs" in capsys.readouterr().out
+    second = set(records.read_results(out_dir)["run_id"])
+    assert len(second) == 1 and second != first and (out_dir / "reproduce.json").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig8"]
 
 
 @needs_shared_scenes

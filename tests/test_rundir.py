@@ -226,3 +226,60 @@ def test_every_file_ldbench_writes_into_a_run_keeps_it_replaceable(tmp_path):
         with RunDir(out) as tmp:
             make_run(tmp, "new")
         assert tag(out) == "new"
+
+
+# A run committed over an older one by a process that SIGKILLs itself at its STEP-th file-system change
+# inside RunDir.commit (a rename, an unlink, a rmdir: every one the commit and its clean-up make, counted).
+KILLED_COMMIT = """
+import json, os, signal, sys
+from pathlib import Path
+sys.path.insert(0, sys.argv[3])
+from test_rundir import make_run
+from ldbench.harness.rundir import RunDir
+
+step, out = int(sys.argv[1]), Path(sys.argv[2])
+rd = RunDir(out)
+make_run(rd.open(), "new")
+count = [0]
+def counted(f):
+    def g(*a, **k):
+        count[0] += 1
+        if count[0] == step:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return f(*a, **k)
+    return g
+for name in ("rename", "replace", "unlink", "rmdir"):
+    setattr(os, name, counted(getattr(os, name)))
+rd.commit()
+print(count[0])
+"""
+
+
+def test_a_commit_killed_at_any_step_leaves_the_old_run_or_the_new(tmp_path):
+    """SIGKILL at each file-system change of a commit in turn (marker removed, old run aside, new run in, each
+    file of the old run deleted): a reader finds the old run or the new one at DIR, or nothing, and never a
+    half; nothing else is visible; the next run into DIR sweeps what is left and finds the old run or the new
+    whole, and after its own commit nothing stale remains."""
+    def attempt(step: int, out: Path) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", KILLED_COMMIT, str(step), str(out), str(ROOT / "tests")],
+                              cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+    whole = attempt(0, make_run(tmp_path / "probe" / "run", "old"))  # step 0: never killed; counts the steps
+    assert whole.returncode == 0, whole.stderr[-2000:]
+    steps = int(whole.stdout.split()[-1])
+    assert steps >= 4, steps  # marker, old aside, new in, at least one file of the old run
+    for step in range(1, steps + 1):
+        parent = tmp_path / f"s{step}"
+        out = make_run(parent / "run", "old")
+        p = attempt(step, out)
+        assert p.returncode == -9, (step, p.stderr[-2000:])
+        if out.exists():
+            assert is_run_dir(out) and tag(out) in ("old", "new"), step
+        visible = [x.name for x in parent.iterdir() if not x.name.startswith(".")]
+        assert visible in ([], ["run"]), (step, visible)
+        rd = RunDir(out)
+        make_run(rd.open(), "next")  # sweeps first
+        assert is_run_dir(out) and tag(out) in ("old", "new"), step
+        rd.commit()
+        assert tag(out) == "next" and sorted(x.name for x in parent.iterdir()) == ["run"], (
+            step, sorted(x.name for x in parent.iterdir()))

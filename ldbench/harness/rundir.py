@@ -266,6 +266,8 @@ class RunDir:
                     _remove_run(p, self.kind)
                 else:
                     os.rename(p, self.out)
+            elif (p / MARKER).is_file() and not foreign_entries(p, self.kind.entries | {MARKER}):
+                shutil.rmtree(p, ignore_errors=True)  # a replaced run whose removal was killed midway
 
     # ---- life cycle --------------------------------------------------------------------------
     def open(self) -> Path:
@@ -345,6 +347,9 @@ class RunDir:
 def _remove_run(p: Path, kind: Kind = RUN) -> None:
     """Delete a replaced folder of this kind (rmtree) or an empty folder (rmdir); anything else is left alone."""
     if kind.is_ours(p) and not foreign_entries(p, kind.entries):
+        # Marked first: a removal killed midway leaves a folder no reader takes for a run, and the next
+        # sweep finishes it (rmtree's order would otherwise leave an unrecognisable half behind for good).
+        (p / MARKER).write_text(f"{os.getpid()}\n")
         shutil.rmtree(p, ignore_errors=True)
     else:
         try:
