@@ -410,6 +410,34 @@ def test_a_job_past_its_time_limit_is_one_row_and_the_run_goes_on(tmp_path, monk
     assert_one_line_error(rc, se, "job_timeout must be a number of seconds")
 
 
+def test_a_job_stuck_outside_python_is_named_on_stderr_then_stopped_on_return(monkeypatch, capsys):
+    """A job that does not come back to Python (SIGALRM blocked, as inside a hung driver call) cannot be stopped
+    in this process: past its limit and the notice delay, one line on stderr says so (and names the Ray
+    executor, which kills such a worker); once the call returns, the limit stops the job as usual."""
+    import signal
+    import time as _time
+
+    from ldbench.harness import runner
+
+    monkeypatch.setattr(runner, "STUCK_NOTICE_S", 0.3)
+    with pytest.raises(runner.JobTimeout, match="past its time limit of 0.2 s"):
+        with runner.time_limit(0.2):
+            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})
+            try:
+                _time.sleep(1.0)  # the alarm (0.2 s) and the notice (0.5 s) fall in here
+            finally:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGALRM})  # a pending alarm raises here
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "past its time limit of 0.2 s" in err and "--executor ray" in err, err
+    with runner.time_limit(5.0):  # a job in time, and one stopped in Python at its limit: no notice
+        pass
+    with pytest.raises(runner.JobTimeout):
+        with runner.time_limit(0.2):
+            _time.sleep(1.0)
+    _time.sleep(0.5)
+    assert capsys.readouterr().err == ""
+
+
 @pytest.fixture(scope="module")
 def finished_run(tmp_path_factory):
     """One tiny finished run (hbao, AO, 16x16) that tests copy and damage."""

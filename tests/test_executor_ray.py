@@ -441,3 +441,23 @@ def test_a_job_past_its_time_limit_on_ray_is_one_row_and_the_run_goes_on(cluster
     st = dict(zip(df["method"], df["status"]))
     assert st["forever"].startswith("error: the job ran past its time limit of 8 s"), st
     assert st["hbao"] == "ok" and time.perf_counter() - t0 < 60
+
+
+def test_a_job_stuck_outside_python_on_ray_is_killed_and_the_run_goes_on(cluster, tmp_path, monkeypatch):
+    """A job that never returns to Python (SIGALRM blocked, as inside a hung GPU driver call), so that the
+    worker's own time limit cannot stop it: the driver kills and restarts that worker once the call is past its
+    jobs' limits and the grace, the job's row says so, the job grouped with it runs again alone, and the run
+    completes well before the stuck call's ten minutes."""
+    monkeypatch.setenv("LDBENCH_FAULT", "stuck:hbao")
+    suite = suite_from_dict({"suite": {"name": "t", "size": "16x16", "spp": 1, "warmup": 0, "frames": 1,
+                                       "job_timeout": 8},  # as in the test above: room for a slow set-up
+                             "run": [{"scene": "cornell", "effect": "ao", "d_max": 0.5, "methods": ["ldm", "hbao"],
+                                      "params": {"ldm": {"directions": 16, "resolution": 32}}}]}, name="t")
+    ex = RayExecutor(group_size=2, retries=1)
+    ex.hung_grace_s = 4.0
+    t0 = time.perf_counter()
+    df = run_jobs(suite, tmp_path / "run", progress=False, report=False, executor=ex)
+    st = dict(zip(df["method"], df["status"]))
+    assert st["hbao"].startswith("error: the job ran past its time limit of 8 s and did not return"), st
+    assert st["ldm"] == "ok" and time.perf_counter() - t0 < 120, (st, time.perf_counter() - t0)
+    assert not list(tmp_path.glob(".run.*"))

@@ -302,13 +302,26 @@ def time_limit(seconds: float):
     def on_alarm(signum, frame):
         raise JobTimeout(f"the job ran past its time limit of {seconds:g} s (job_timeout, --job-timeout)")
 
+    def stuck():  # the alarm is handled only once the job is back in Python: say why the run waits
+        print(f"ldbench: a job has run {seconds + STUCK_NOTICE_S:g} s, past its time limit of {seconds:g} s, "
+              f"inside native code (the GPU driver?) that this process cannot stop; it goes on waiting. "
+              f"With --executor ray such a job's worker is killed and the run goes on", file=sys.stderr, flush=True)
+
+    notice = threading.Timer(seconds + STUCK_NOTICE_S, stuck)
+    notice.daemon = True
     old = signal.signal(signal.SIGALRM, on_alarm)
     signal.setitimer(signal.ITIMER_REAL, seconds)
+    notice.start()
     try:
         yield
     finally:
+        notice.cancel()
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
+
+
+#: Seconds past a job's time limit after which a local run says on stderr that the job is stuck outside Python.
+STUCK_NOTICE_S = 60.0
 
 
 def exit_text(e: SystemExit) -> str:

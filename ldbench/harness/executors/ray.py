@@ -52,7 +52,8 @@ The run directory (lock, partial folder, results, commit) stays with the driver
 
 Fault injection for tests: ``LDBENCH_FAULT=KIND:TARGET[:FILE]`` makes a worker about to run a job of method
 TARGET (or, with TARGET ``reference``, a reference) ``exit`` (the worker process dies), ``raise``
-(RuntimeError), ``sleep`` (ten minutes) or ``delay`` (two seconds, then on as usual); with FILE, only while FILE does not exist (the worker creates it,
+(RuntimeError), ``sleep`` (ten minutes), ``stuck`` (ten minutes with SIGALRM blocked, as a job stuck in native
+code, which the job's own time limit cannot stop) or ``delay`` (two seconds, then on as usual); with FILE, only while FILE does not exist (the worker creates it,
 writing its pid), so that a retry succeeds. The driver, rendering a reference, honours ``raise`` and ``sleep``
 (``exit`` would end the run's own process).
 """
@@ -173,6 +174,11 @@ def _inject_fault(name: str, *, driver: bool = False) -> None:
     if kind == "raise":
         raise RuntimeError(f"injected fault in {name}")
     if kind == "sleep":
+        time.sleep(600)
+    if kind == "stuck":  # like a call that never returns from native code: no alarm reaches Python
+        import signal
+
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})
         time.sleep(600)
     if kind == "delay":
         time.sleep(2)
@@ -425,6 +431,10 @@ class RayExecutor:
     """Runs a plan's jobs on Ray workers (see the module docstring)."""
 
     uses_driver_gpu = False
+    #: Seconds past its jobs' time limits (``job_timeout`` each) after which a call whose worker never came
+    #: back to Python (a job stuck in native code, e.g. the GPU driver, where the worker's own alarm cannot
+    #: stop it) has its worker killed and restarted; the margin covers the worker's GL start-up.
+    hung_grace_s = 60.0
 
     def __init__(self, address: str | None = None, retries: int = 1, group_size: int | None = None,
                  stage_in_run_dir: bool = True, driver_references: int | None = None):
@@ -592,6 +602,9 @@ class RayExecutor:
                     else:
                         ref = workers[w].jobs.remote(spec, [preps[work.key]], [j for _, j in work.items])
                         running[ref] = (w, work, None)
+                        if plan.job_timeout:
+                            deadlines[ref] = (time.monotonic() + plan.job_timeout * len(work.items)
+                                              + self.hung_grace_s)
                     calls += 1
 
             def failed(work, e):
@@ -617,6 +630,27 @@ class RayExecutor:
             # (ActorUnavailableError), and a job that never ran would be charged with it. So it takes calls
             # again only once it answers `ready`; a worker that never comes back leaves the others the queue.
             probing: dict = {}  # ready() ref -> (worker, attempts)
+            deadlines: dict = {}  # a jobs call's ref -> when its worker is deemed stuck (with a job_timeout)
+            hung: set = set()  # refs whose worker was killed for it
+
+            def kill_hung():
+                now = time.monotonic()
+                for ref, t in list(deadlines.items()):
+                    if now > t:
+                        del deadlines[ref]
+                        hung.add(ref)
+                        ray.kill(workers[running[ref][0]], no_restart=False)  # restarted; the call fails
+
+            def timed_out(work):
+                """A call whose worker was killed past its jobs' time limits: its jobs again one by one, the
+                stuck one (alone) an error row; never retried (it would hang again)."""
+                if len(work.items) > 1:
+                    for item in reversed(work.items):
+                        queue.appendleft(_Work(work.key, [item], work.tries))
+                else:
+                    settle(work.items, work.key, status=f"error: the job ran past its time limit of "
+                           f"{plan.job_timeout:g} s and did not return (stuck outside Python, e.g. in the GPU "
+                           f"driver): its Ray worker was killed and restarted (job_timeout, --job-timeout)")
 
             def probe(w, attempts=0):
                 if attempts < 60:
@@ -636,16 +670,25 @@ class RayExecutor:
                             probe(w, attempts)
                         continue
                     w, work, prep = running.pop(ref)
+                    deadlines.pop(ref, None)
+                    killed = ref in hung
+                    hung.discard(ref)
                     try:
                         value = ray.get(ref)
                     except Exception as e:  # raised, or the worker died (Ray restarts it)
-                        if _died(e):
+                        if _died(e) or killed:
                             probe(w)
                         else:
                             idle.append(w)
-                        failed(work, e)
+                        if killed:
+                            timed_out(work)
+                        else:
+                            failed(work, e)
                         continue
-                    idle.append(w)
+                    if killed:  # returned just as it was killed: its answer stands, its worker restarts
+                        probe(w)
+                    else:
+                        idle.append(w)
                     if work.items is None:
                         if "error" in value:  # bad input, as in a local run: the run stops
                             raise LdbenchError(value["error"])
@@ -656,6 +699,7 @@ class RayExecutor:
                         with phases("merge"):
                             self._merge(value, out)
                         settle(work.items, work.key, new_rows=value.rows)
+                kill_hung()
                 dispatch()
             for work in queue:  # every worker died and none came back
                 if work.items is not None:
