@@ -668,3 +668,115 @@ def test_non_finite_answers_of_an_in_tree_method_are_never_ok(tmp_path, monkeypa
                                                                                         row["nonfinite"])
     metrics = [c for c in ("psnr", "ssim", "relmse", "rmse", "hit_agreement") if c in row and row[c] == row[c]]
     assert metrics and all(np.isfinite(row[c]) for c in metrics), {c: row[c] for c in metrics}
+
+
+DEPTH_EFFECT = '''
+    """A new effect is this one module: its definition and parameters, its own result column, its ground
+    truth, and (here, to run it) a method that computes it; its shader sits beside it."""
+    from dataclasses import dataclass
+
+    import numpy as np
+
+    from ldbench.core.bindings import B
+    from ldbench.core.effects.base import ImageEffect
+    from ldbench.core.gpu import read_texture
+    from ldbench.core.params import ParamsBase
+    from ldbench.methods.base import Method, Result
+    from ldbench.methods.uniforms import set_uniforms
+    from ldbench.references.render import Reference
+
+
+    @dataclass(frozen=True)
+    class DepthParams(ParamsBase):
+        pass
+
+
+    class Depth(ImageEffect):
+        """The eye distance of the surface through each pixel's centre."""
+
+        name = "depth"
+        Params = DepthParams
+        channels = 1
+        units = "eye distance (scene units)"
+        columns = {**ImageEffect.columns, "depth_err_max": "float"}
+
+        def stochastic(self, params):
+            return False
+
+        def render_reference(self, scene, params, *, width, height, spp, seed, inputs, exact):
+            hits = exact.primary_hits(scene, width, height)
+            mean = np.where(hits["mask"], hits["distance"], 0.0).astype(np.float32)[..., None]
+            return Reference(mean=mean, variance=np.zeros_like(mean), mask=hits["mask"],
+                             meta={"spp": 1, "variant": "exact"})
+
+        def score(self, result, reference, *, scene, inputs, stage_ms):
+            m = super().score(result, reference, scene=scene, inputs=inputs, stage_ms=stage_ms)
+            img, covered = self.method_image(result, reference)
+            both = reference.mask & covered
+            m["depth_err_max"] = float(np.abs(img - reference.mean)[both].max()) if both.any() else float("nan")
+            return m
+
+
+    class GDepth(Method):
+        name = "g-depth"
+        paper = "example"
+        effects = frozenset({"depth"})
+
+        def setup(self, gpu, scene):
+            self.setup_scene(gpu, scene)
+            self.prog = gpu.compute(self.shader("depth.glsl"))
+            self._size = None
+
+        def frame(self, view, effect, inputs=None):
+            w, h = view.width, view.height
+            if self._size != (w, h):
+                self.out, self._size = self.res.texture("depth", (w, h), 1, "f4"), (w, h)
+            with self.gpu.stage("gbuffer"):
+                self.gbuf.render(view)
+            with self.gpu.stage("depth"):
+                set_uniforms(self.prog, g_position=0, eye=tuple(view.camera.origin))
+                self.gbuf.bind(0)
+                self.out.bind_to_image(B.OUT_IMAGE, read=False, write=True)
+                self.prog.run((w + 7) // 8, (h + 7) // 8)
+            self.gpu.ctx.memory_barrier()
+            out = self.out
+            return Result(image=lambda: read_texture(out, 1), mask=self.gbuf.mask, memory_bytes=self.res.by_buffer())
+'''
+
+DEPTH_GLSL = """#include "common/common.glsl"
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(r32f, binding = B_OUT_IMAGE) writeonly uniform image2D out_depth;
+uniform sampler2D g_position;  // world position, w = 1 where the pixel's view ray hits
+uniform vec3 eye;
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, imageSize(out_depth)))) return;
+    vec4 pos = texelFetch(g_position, p, 0);
+    imageStore(out_depth, p, vec4(pos.w < 0.5 ? 0.0 : distance(pos.xyz, eye)));
+}
+"""
+
+
+def test_a_new_effect_is_one_module(tmp_path, monkeypatch, capsys, clean_plugins):
+    """An effect module outside ldbench (an entry point of group ``ldbench.effects``, with a method for it):
+    ``run --effect depth`` renders its own ground truth, scores it with its own column, and the report
+    captions its error map in its own units; nothing of ldbench names the effect."""
+    from ldbench.harness import records
+
+    src = _module(tmp_path / "site", "depthfx", DEPTH_EFFECT)
+    (src / "depth.glsl").write_text(DEPTH_GLSL)
+    _fake_dist(src, "depth-effect", "0.1", "[ldbench.effects]\ndepth = depthfx:Depth\n"
+                                           "[ldbench.methods]\ng-depth = depthfx:GDepth\n")
+    monkeypatch.syspath_prepend(str(src))
+    out = tmp_path / "r"
+    rc = main(["run", "--scene", "cornell", "--method", "g-depth", "--effect", "depth", "--size", "24x24",
+               "--spp", "1", "--frames", "1", "--warmup", "0", "--no-progress", "--out", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    row = records.read_results(out).iloc[0]
+    assert (row["effect"], row["status"], row["coverage"]) == ("depth", "ok", 1.0), row["status"]
+    # the G-buffer's position against Mitsuba's hit through the same pixel centre: float rounding of a
+    # distance of about 3.5 (the test bound of the G-buffer's own exactness test, 2e-5 of the eye distance)
+    assert row["depth_err_max"] < 1e-4 and row["psnr"] > 60, (row["depth_err_max"], row["psnr"])
+    maps = [json.loads(p.read_text()) for p in out.rglob("maps.json")]
+    assert [m["abs"]["definition"] for m in maps] == ["|test − reference| (eye distance (scene units), mean over "
+                                                     "channels)"], maps

@@ -24,23 +24,9 @@ import numpy as np
 
 
 def answer_arrays(spec, result, reference, inputs) -> dict | None:
-    """{name: array} of one non-image result (module docstring); None for image effects."""
-    if spec.output == "rays":
-        b = inputs
-        t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)
-        return {"origin": b.origin, "direction": b.direction, "tmax": b.tmax, "normal": b.normal, "pixel": b.pixel,
-                "t": t, "t_ref": np.asarray(reference.t, np.float32), "width": b.width, "height": b.height,
-                "kind": b.kind}
-    if spec.output == "vpls":
-        b, r = inputs, inputs.rays
-        t = result.arrays.get("t")
-        t = np.full(len(r), np.nan, np.float32) if t is None else np.asarray(t, np.float32).reshape(-1)
-        return {"position": b.position, "normal": b.normal, "incident": b.incident, "flux": b.flux, "area": b.area,
-                "texel": b.texel, "ray_origin": r.origin, "ray_direction": r.direction, "ray_tmax": r.tmax,
-                "range": np.asarray(result.arrays.get("range"), np.float32).reshape(-1),
-                "range_ref": np.asarray(reference.range, np.float32), "t": t,
-                "t_ref": np.asarray(reference.t, np.float32), "cap": b.cap, "mode": b.mode, "rsm": b.rsm}
-    return None
+    """{name: array} of one non-image result (module docstring; the effect's ``answer_arrays``); None for
+    image effects."""
+    return spec.answer_arrays(result, reference, inputs)
 
 
 def save_arrays(path: Path, arrays: dict) -> Path:

@@ -216,25 +216,12 @@ def _write_question(question, scene, out: Path) -> None:
              "scene.xml": "Mitsuba 3 scene", "camera.json": "camera and pixel convention",
              "rays.npz": "every pixel's view ray", "light.json": "the lights"}
     spec = effect.spec
-    if spec.output in ("rays", "vpls"):
+    if spec.output != "image":
         from ldbench.references import EXACT
 
         batch = spec.inputs(scene, w, h, effect.params, question.seed, exact=EXACT)
-        if spec.output == "rays":
-            save_arrays(out / "batch.npz", dict(origin=batch.origin, direction=batch.direction, tmax=batch.tmax,
-                                                normal=batch.normal, pixel=batch.pixel, width=w, height=h,
-                                                kind=batch.kind, occlusion=batch.occlusion))
-            files["batch.npz"] = ("rays: origin, direction, tmax, normal, pixel (row-major, row 0 at the top); "
-                                  "answer: the hit distance t per ray, inf = miss (shadow rays: 0 = blocked)")
-        else:
-            r = batch.rays
-            save_arrays(out / "batch.npz", dict(position=batch.position, normal=batch.normal,
-                                                incident=batch.incident, flux=batch.flux, area=batch.area,
-                                                texel=batch.texel, rsm=batch.rsm, cap=batch.cap, mode=batch.mode,
-                                                ray_origin=r.origin, ray_direction=r.direction, ray_tmax=r.tmax,
-                                                ray_normal=r.normal))
-            files["batch.npz"] = ("VPLs and their 6 rays each (VPL-major); answer: range per VPL (and t per ray), "
-                                  "range = mode of min(t, cap) over the six rays")
+        arrays, files["batch.npz"] = spec.export_arrays(batch, w, h)
+        save_arrays(out / "batch.npz", arrays)
     info = ldbench_info()
     q = {"scene": question.scene, "scene_params": question.scene_params, "scene_name": scene.name,
          "scene_hash": scene.content_hash(), "effect": effect.key(), "width": w, "height": h,

@@ -46,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ldbench.core.device import classify_device  # noqa: F401 (the one rule; re-exported)
+from ldbench.core.effects.base import effect_columns
 from ldbench.core.errors import LdbenchError
 from ldbench.core.files import atomic_write
 from .naming import key_slug
@@ -77,11 +78,7 @@ COLUMN_TYPES: dict[str, str] = {
     "stage_ms": "json", "stage_iqr": "json", "raw_ms": "json",
     "memory_bytes": "int", "memory": "json", "counters": "json",
     "structure_bytes": "int",
-    "psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "coverage": "float", "nonfinite": "int",
-    "hit_agreement": "float", "false_hit_rate": "float", "false_miss_rate": "float",
-    "dist_err_p50": "float", "dist_err_p95": "float", "dist_err_p99": "float", "self_hit_rate": "float",
-    "rays": "int", "rays_per_s": "float", "oracle_rays_per_s": "float", "oracle_timing": "str",
-    "range_err_p50": "float", "range_err_p95": "float", "range_within_5pct": "float", "vpls": "int",
+    **effect_columns(),  # each effect's own metric columns (EffectSpec.columns), the in-tree effects' by name
     "metric_settings": "json",
     "ref_spp": "int", "ref_variant": "str", "ref_key": "str", "ref_noise": "json",
     "status": "str", "images": "json",

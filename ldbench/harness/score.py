@@ -252,7 +252,7 @@ def _result(question, answer: Answer, spec):
     if answer.mask is not None:
         raise LdbenchError(f"effect {question.effect.name!r}: a mask goes with images, not per-ray answers")
     arrays = read_arrays(answer.path)
-    key = "t" if spec.output == "rays" else "range"
+    key = spec.answer_key
     if key not in arrays:
         raise LdbenchError(f"{answer.path.name}: effect {question.effect.name!r} needs {key!r} in the answer")
     return Result(arrays=arrays)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import sys
 from types import SimpleNamespace
 
+from ldbench.core.effects.base import EffectSpec
 from ldbench.core.errors import LdbenchError
 
 from . import glossy_indirect, oit, rays, render as _render, soft_shadows, vpl_range
@@ -45,7 +46,11 @@ EXACT = SimpleNamespace(primary_hits=_render.primary_hits, rsm_hits=vpl_range.rs
 def render_effect(scene, effect, *, width: int, height: int, spp: int, seed: int = 0, inputs=None, cache: bool = True,
            progress: bool = True):
     """The ground truth of ``effect`` (an :class:`ldbench.core.effects.Effect`) on ``scene`` for ``inputs``."""
-    key = effect.spec.reference_key
+    spec = effect.spec
+    if type(spec).render_reference is not EffectSpec.render_reference:
+        return spec.render_reference(scene, effect.params, width=width, height=height, spp=spp, seed=seed,
+                                     inputs=inputs, exact=EXACT)  # an effect bringing its own ground truth
+    key = spec.reference_key
     if key not in RENDERERS:
         raise LdbenchError(f"no reference renders effect {effect.name!r} (reference key {key!r})")
     module, name, kind = RENDERERS[key]

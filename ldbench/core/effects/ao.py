@@ -49,6 +49,7 @@ class AO(ImageEffect):
     name = "ao"
     Params = AOParams
     channels = 1
+    units = "AO units"
     background = 1.0
     data_range = 1.0
     reference_backend = "Mitsuba 3: cosine rays from the exact primary hit, maxt = d_max"

@@ -9,9 +9,18 @@ An effect spec declares, as data and a few hooks:
 ``needs_light``        whether the definition involves the scene's light (:meth:`requires_light` may
                        refine it by parameter); :meth:`check_scene` is the one place that enforces it
 ``reference_key``      the key of its ground truth in the references' registry
-                       (:data:`ldbench.references.registry.RENDERERS`; the harness wires the two)
+                       (:data:`ldbench.references.registry.RENDERERS`; the harness wires the two), or
+``render_reference()`` the effect's own ground truth, for an effect whose reference no renderer there makes
+                       (a new effect then brings its ground truth in its own module)
 ``reference_backend``  the ground truth, in words (Mitsuba 3 integrator or oracle)
-``metrics``            the result columns the effect fills
+``metrics``            the result columns the effect's tables show
+``columns``            every result column the effect fills, with its type (``float``, ``int``, ``str``,
+                       ``json``): the results schema is the harness's columns plus these
+                       (:func:`effect_columns`)
+``units``              what its values are, in words (figure and viewer captions)
+``answer_key``         (non-image effects) the array an answer must hold (``ldbench score``)
+``figures``            the report's figures of this effect beyond those of every effect (``"rays"``:
+                       accuracy against rays per second)
 ``gate``               (non-image effects) the metrics the nightly gate checks: (column, "higher"|"lower"
                        is better, absolute tolerance, relative tolerance); image effects are gated on
                        PSNR/SSIM against their reference's noise (:mod:`ldbench.harness.compare`)
@@ -24,6 +33,11 @@ An effect spec declares, as data and a few hooks:
 ``score()``            the metric columns of one method result against the reference
 ``save()``             images of the result, the reference and the error, for reports
 ``noise()``            the reference's own noise (``rms_std_of_mean``, ``spp``), for the nightly gate
+``export_arrays()``    (non-image effects) the inputs ``ldbench export`` writes as ``batch.npz``, with their
+                       description
+``answer_arrays()``    (non-image effects) inputs and answers as ``run --save-arrays`` writes them
+``caption()``          the report grid's lines of headline metrics under a result's image
+``error_label()``      what the report's error map shows, in words
 =====================  ===========================================================================
 
 :class:`ImageEffect` implements the image effects (``ao``, ``direct``, ``indirect``): Mitsuba 3 reference
@@ -50,6 +64,9 @@ from ldbench.core.params import ParamsBase
 
 #: Image metrics (columns of the records).
 IMAGE_METRICS = ("psnr", "ssim", "flip", "relmse", "coverage")
+#: Every column an image effect fills, with its type.
+IMAGE_COLUMNS = {"psnr": "float", "ssim": "float", "flip": "float", "relmse": "float", "coverage": "float",
+                 "nonfinite": "int"}
 
 
 class EffectSpec:
@@ -62,6 +79,10 @@ class EffectSpec:
     reference_key: str = ""
     reference_backend: str = ""
     metrics: tuple = ()
+    columns: dict = {}
+    units: str = ""
+    answer_key: str = ""
+    figures: tuple = ()
     gate: tuple = ()
     supersedes: tuple = ()
 
@@ -121,6 +142,30 @@ class EffectSpec:
         """The reference's own noise, for the nightly gate's quality threshold."""
         raise NotImplementedError
 
+    def error_label(self) -> str:
+        """What the report's error map of this effect shows, in words (its colour bar's label)."""
+        return f"|test − reference| ({self.units or 'values'}, mean over channels)"
+
+    def caption(self, row, f) -> list:
+        """The lines under a result's image in the report's grid: this effect's headline metrics of ``row``,
+        each number written by ``f(value, digits)`` (none by default)."""
+        return []
+
+    def render_reference(self, scene, params, *, width: int, height: int, spp: int, seed: int, inputs, exact):
+        """The ground truth of this effect, made by the effect itself (``exact``: the exact geometry of the
+        module docstring); a spec that defines it is answered by it, whatever its ``reference_key``."""
+        raise NotImplementedError
+
+    def export_arrays(self, inputs, width: int, height: int) -> tuple[dict, str] | None:
+        """({name: array}, what they are in words) of the inputs ``ldbench export`` writes as ``batch.npz``
+        (None: the effect has none beyond the scene, camera and lights)."""
+        return None
+
+    def answer_arrays(self, result, reference, inputs) -> dict | None:
+        """{name: array} of one result's inputs and answers as ``run --save-arrays`` writes them (None: an
+        image effect, whose images are saved instead)."""
+        return None
+
     def problems(self, scores: dict) -> list:
         """Why a scored result is not ``ok`` (one line each; the row becomes ``degraded: ...``): answers
         that were NaN or ±inf where the format gives them no meaning (the ``nonfinite`` column), which the
@@ -139,11 +184,17 @@ class ImageEffect(EffectSpec):
 
     output = "image"
     channels = 3
+    units = "linear radiance"
     background = 0.0
     data_range: float | None = None
     reference_key = "image"
     reference_backend = "Mitsuba 3, ldbench.references.render_reference"
     metrics = IMAGE_METRICS
+    columns = IMAGE_COLUMNS
+
+    def caption(self, row, f):
+        return [f"PSNR {f(row['psnr'], 2)} dB · SSIM {f(row['ssim'], 3)}",
+                f"FLIP {f(row['flip'], 3)} · relMSE {f(row['relmse'], 4)}"]
 
     def method_image(self, result, reference):
         """(image, coverage mask): the method's image with its missing pixels set to ``background``, so
@@ -229,6 +280,19 @@ class ImageEffect(EffectSpec):
 _REGISTRY: dict | None = None
 
 
+def _in_tree() -> list:
+    """The spec classes of this package's effect modules (discovered, module order)."""
+    package = __name__.rpartition(".")[0]  # this package, whatever it is installed as
+    out = []
+    for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
+        if mod.name.startswith("_") or mod.name == "base":
+            continue
+        m = importlib.import_module(f"{package}.{mod.name}")
+        out += [obj for obj in vars(m).values() if isinstance(obj, type) and issubclass(obj, EffectSpec)
+                and obj.name and obj.__module__ == m.__name__]
+    return out
+
+
 def registry() -> dict:
     """{name: spec instance} for every effect module of this package (discovered) and every entry point
     of group ``ldbench.effects`` (:mod:`ldbench.core.plugins`); two specs with one name are one error."""
@@ -236,22 +300,37 @@ def registry() -> dict:
     if _REGISTRY is None:
         from ldbench.core import plugins
 
-        package = __name__.rpartition(".")[0]  # this package, whatever it is installed as
         found: dict[str, type[EffectSpec]] = {}
         sources: dict[str, str] = {}
-        for mod in pkgutil.iter_modules([str(Path(__file__).parent)]):
-            if mod.name.startswith("_") or mod.name == "base":
-                continue
-            m = importlib.import_module(f"{package}.{mod.name}")
-            for obj in vars(m).values():
-                if (isinstance(obj, type) and issubclass(obj, EffectSpec) and obj.name
-                        and obj.__module__ == m.__name__):
-                    plugins.add_unique(found, sources, obj, f"{obj.__module__}.{obj.__qualname__} (ldbench)",
-                                       "effect")
+        for obj in _in_tree():
+            plugins.add_unique(found, sources, obj, f"{obj.__module__}.{obj.__qualname__} (ldbench)", "effect")
         for obj, source in plugins.entry_point_classes(plugins.EFFECT_GROUP, EffectSpec):
             plugins.add_unique(found, sources, obj, source, "effect")
         _REGISTRY = {name: cls() for name, cls in sorted(found.items())}
     return _REGISTRY
+
+
+def effect_columns(specs=None) -> dict:
+    """{column: type} of every column the effects fill, in the order of ``specs`` (default: the effects of
+    this package, by name) and of each one's ``columns``; a column two effects type differently is an error.
+    The in-tree effects make the results schema (:data:`ldbench.harness.records.COLUMN_TYPES`), so that it
+    does not change with what is installed; a plugin effect's own columns are kept as extra columns
+    (:func:`ldbench.harness.records.make_row`)."""
+    if specs is None:
+        specs = sorted(_in_tree(), key=lambda c: c.name)
+    out: dict = {}
+    for spec in specs:
+        for col, kind in spec.columns.items():
+            if out.setdefault(col, kind) != kind:
+                raise TypeError(f"effect {spec.name!r} types column {col!r} as {kind!r}, another as {out[col]!r}")
+    return out
+
+
+def effect_units(name: str) -> str:
+    """The units of effect ``name``'s values, in words, for captions ("values" for an effect not installed:
+    a run written where a plugin effect was, read where it is not)."""
+    spec = registry().get(str(name))
+    return spec.units if spec is not None and spec.units else "values"
 
 
 def get_spec(name: str) -> EffectSpec:

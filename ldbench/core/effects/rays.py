@@ -265,6 +265,12 @@ class Rays(EffectSpec):
     reference_key = "rays"
     reference_backend = "Mitsuba 3 oracle: ray_intersect_preliminary / ray_test on the same rays"
     metrics = RAY_METRICS
+    columns = {"hit_agreement": "float", "false_hit_rate": "float", "false_miss_rate": "float",
+               "dist_err_p50": "float", "dist_err_p95": "float", "dist_err_p99": "float", "self_hit_rate": "float",
+               "coverage": "float", "nonfinite": "int", "rays": "int", "rays_per_s": "float",
+               "oracle_rays_per_s": "float", "oracle_timing": "str"}
+    units = "fraction of rays that hit"
+    answer_key = "t"
     # Exact answers on both sides: no reference noise, so fixed tolerances (absolute, relative).
     gate = (("hit_agreement", "higher", 0.002, 0.0), ("dist_err_p95", "lower", 1e-4, 0.10),
             ("self_hit_rate", "lower", 0.001, 0.0))
@@ -295,6 +301,28 @@ class Rays(EffectSpec):
 
     def input_bytes(self, params, width, height):
         return width * height * params.rays_per_pixel * RAY_BYTES
+
+    def error_label(self):
+        return "fraction of the pixel's rays where hit / miss disagree with the oracle"
+
+    figures = ("rays",)
+
+    def caption(self, row, f):
+        rate = row["rays_per_s"]
+        return [f"hit agreement {f(row['hit_agreement'], 4)} · p95 {f(row['dist_err_p95'], 4)}",
+                f"self hits {f(row['self_hit_rate'], 4)} · {f(rate / 1e6 if rate is not None else None, 3)} Mrays/s"]
+
+    def export_arrays(self, batch, width, height):
+        return (dict(origin=batch.origin, direction=batch.direction, tmax=batch.tmax, normal=batch.normal,
+                     pixel=batch.pixel, width=width, height=height, kind=batch.kind, occlusion=batch.occlusion),
+                "rays: origin, direction, tmax, normal, pixel (row-major, row 0 at the top); answer: the hit "
+                "distance t per ray, inf = miss (shadow rays: 0 = blocked)")
+
+    def answer_arrays(self, result, reference, batch):
+        t = np.asarray(result.arrays.get("t"), np.float32).reshape(-1)
+        return {"origin": batch.origin, "direction": batch.direction, "tmax": batch.tmax, "normal": batch.normal,
+                "pixel": batch.pixel, "t": t, "t_ref": np.asarray(reference.t, np.float32), "width": batch.width,
+                "height": batch.height, "kind": batch.kind}
 
     def _t(self, result, batch, count=False):
         """The answers, a -inf (no meaning: inf is a miss, NaN no answer) made NaN, i.e. unanswered;

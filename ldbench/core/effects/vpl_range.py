@@ -49,6 +49,7 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.params import ParamsBase, param
 
 from .base import EffectSpec
+from .rays import Rays
 
 RAYS_PER_VPL = 5 + 1
 #: Peak host memory per RSM texel (one VPL and its six rays): 700 B measured (maximum RSS of ``ldbench export``,
@@ -255,8 +256,15 @@ class VplRange(EffectSpec):
     reference_key = "vpl_range"
     reference_backend = "Mitsuba 3: RSM by ray_intersect from the light; oracle ray_intersect_preliminary on the same rays"
     metrics = VPL_METRICS
+    columns = {"range_err_p50": "float", "range_err_p95": "float", "range_within_5pct": "float", "vpls": "int",
+               **Rays.columns}
+    units = "range (scene units)"
+    answer_key = "range"
     gate = (("range_within_5pct", "higher", 0.002, 0.0), ("range_err_p95", "lower", 1e-4, 0.10))
     supersedes = ("rsm", "primary", "cone_angle", "range_mode", "miss_range")  # the VPLs are the harness's
+
+    def error_label(self):
+        return "relative range error per RSM texel"
 
     def stochastic(self, params):
         return False
@@ -270,6 +278,24 @@ class VplRange(EffectSpec):
 
     def input_bytes(self, params, width, height):
         return params.rsm * params.rsm * VPL_BYTES
+
+    def export_arrays(self, batch, width, height):
+        r = batch.rays
+        return (dict(position=batch.position, normal=batch.normal, incident=batch.incident, flux=batch.flux,
+                     area=batch.area, texel=batch.texel, rsm=batch.rsm, cap=batch.cap, mode=batch.mode,
+                     ray_origin=r.origin, ray_direction=r.direction, ray_tmax=r.tmax, ray_normal=r.normal),
+                "VPLs and their 6 rays each (VPL-major); answer: range per VPL (and t per ray), "
+                "range = mode of min(t, cap) over the six rays")
+
+    def answer_arrays(self, result, reference, batch):
+        r = batch.rays
+        t = result.arrays.get("t")
+        t = np.full(len(r), np.nan, np.float32) if t is None else np.asarray(t, np.float32).reshape(-1)
+        return {"position": batch.position, "normal": batch.normal, "incident": batch.incident, "flux": batch.flux,
+                "area": batch.area, "texel": batch.texel, "ray_origin": r.origin, "ray_direction": r.direction,
+                "ray_tmax": r.tmax, "range": np.asarray(result.arrays.get("range"), np.float32).reshape(-1),
+                "range_ref": np.asarray(reference.range, np.float32), "t": t,
+                "t_ref": np.asarray(reference.t, np.float32), "cap": batch.cap, "mode": batch.mode, "rsm": batch.rsm}
 
     def _arrays(self, result, batch, count=False):
         """(ranges, distances), the values with no meaning (a range of ±inf, a distance of -inf) made NaN,

@@ -38,6 +38,8 @@ from __future__ import annotations
 import traceback
 from pathlib import Path
 
+from ldbench.core.effects import registry
+
 from .plotting import Figure
 from .quality import figure_quality
 from .rays import figure_rays
@@ -75,7 +77,8 @@ def write_figures(run_dir: Path, df, problems: list) -> list[Figure]:
     for key, rows in groups.items():
         attempt(f"quality figure {key}", figure_quality, df, run_dir, key, rows)
     rays: dict = {}
-    for _, r in ok[ok["effect"] == "rays"].iterrows():
+    specs = registry()
+    for _, r in ok[[("rays" in specs[e].figures) if e in specs else False for e in ok["effect"]]].iterrows():
         rays.setdefault((str(r["scene"]), r["effect_text"], r["size"], r["effect_slug"]), []).append(r)
     for key, rows in rays.items():
         attempt(f"ray accuracy figure {key}", figure_rays, df, run_dir, key, rows)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ldbench.core import metrics
+from ldbench.core.effects import registry
 from ldbench.core.exr import read_answer_channels
 from ldbench.core.imageio import read_png, write_png
 from ldbench.core.unbiased import REJECT_COLOURS
@@ -108,6 +109,7 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
     vmax = max(vmaxes) if vmaxes else 0.0
     vmax = vmax if vmax > 0 else 1e-6
     cells = []
+    spec = registry().get(str(rows[0]["effect"]))  # None: an effect not installed here
     for i, (r, e) in enumerate(zip(rows, errs)):
         epath = None
         if e is not None:
@@ -118,14 +120,8 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
         if img and not (run_dir / img).is_file():
             problems.append(f"missing {img}")
             img = None
-        if r["effect"] == "rays":
-            cap = [f"hit agreement {_f(r['hit_agreement'], 4)} · p95 {_f(r['dist_err_p95'], 4)}",
-                   f"self hits {_f(r['self_hit_rate'], 4)} · {_f(r['rays_per_s'] / 1e6, 3)} Mrays/s",
-                   f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
-        else:
-            cap = [f"PSNR {_f(r['psnr'], 2)} dB · SSIM {_f(r['ssim'], 3)}",
-                   f"FLIP {_f(r['flip'], 3)} · relMSE {_f(r['relmse'], 4)}",
-                   f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
+        cap = [*(spec.caption(r, _f) if spec is not None else []),
+               f"{_f(r['total_ms'], 2)} ms · {_f(r['memory_mb'], 1)} MB"]
         cells.append(GridCell(_cell_label(r, diff), img, epath, cap))
         ub = r["images"].get("unbiased_reject")
         if ub and (run_dir / ub).is_file():
@@ -137,15 +133,11 @@ def make_grid(run_dir: Path, key, rows, *, matplotlib_grid: bool = True, values_
     if ref and not (run_dir / ref).is_file():
         problems.append(f"missing {ref}")
         ref = None
-    if rows[0]["effect"] == "rays":
-        err_label = "fraction of the pixel's rays where hit / miss disagree with the oracle"
-    else:
-        units = "AO units" if rows[0]["effect"] == "ao" else "linear radiance"
-        err_label = f"|test − reference| ({units}, mean over channels)"
+    err_label = spec.error_label() if spec is not None else "error"
     cbar = gdir / "colorbar.png"
     colorbar(cbar, "magma", 0.0, vmax, err_label)
-    ref_cap = (f"oracle ({rows[0].get('ref_variant')}): fraction of rays that hit" if rows[0]["effect"] == "rays"
-               else f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})")
+    ref_cap = (f"reference ({rows[0].get('ref_spp')} spp, {rows[0].get('ref_variant')})"
+               if spec is None or spec.output == "image" else f"oracle ({rows[0].get('ref_variant')}): {spec.units}")
     g = Grid(title=f"{scene} — {eff} — {size.replace('x', '×')}", anchor=f"grid-{tag}", reference=ref,
              reference_caption=ref_cap, cells=cells, colorbar=cbar.relative_to(run_dir).as_posix(),
              vmax=vmax, error_label=err_label, problems=problems)

@@ -8,16 +8,17 @@ import math
 import numpy as np
 
 from ldbench.core.effects import effect_from_key
+from ldbench.core.effects.base import effect_columns
 from ldbench.harness.records import effect_d_max, effect_param
 from ldbench.reports import labels
-from ldbench.reports.labels import as_number, fmt_value
+from ldbench.reports.labels import as_number
 
 #: 1 MB in the report: 2**20 bytes (MiB), as in ``summary.md``.
 MB = float(2**20)
 
-#: The ``rays`` effect's metric columns, read as numbers by :func:`prepare`.
-RAY_COLUMNS = ("hit_agreement", "false_hit_rate", "false_miss_rate", "dist_err_p50", "dist_err_p95",
-               "dist_err_p99", "self_hit_rate", "coverage", "rays", "rays_per_s", "oracle_rays_per_s")
+#: The effects' numeric metric columns (:attr:`~ldbench.core.effects.base.EffectSpec.columns`), read as
+#: numbers by :func:`prepare`.
+NUMERIC_COLUMNS = tuple(c for c, kind in effect_columns().items() if kind in ("int", "float"))
 
 
 def as_dict(v) -> dict:
@@ -42,10 +43,6 @@ def effect_text(r) -> str:
 def effect_slug(r) -> str:
     """Short file-name form of the effect: ``ao-quadratic-d10.32``, ``ao-step-dinf``, ``direct``,
     ``rays-diffuse-4`` (the effect's own label when the effect is registered)."""
-    if r["effect"] == "ao":
-        d = r["d_max"]
-        dist = "inf" if d is not None and math.isinf(d) else fmt_value(d)
-        return f"ao-{r['effect_params'].get('falloff', 'step')}-d{dist}"
     try:
         return effect_from_key({**r["effect_params"], "effect": r["effect"]}).label()
     except Exception:  # noqa: BLE001 - an unknown effect in an old table: its name
@@ -74,7 +71,7 @@ def prepare(df):
     df["pixels"] = [a * b for a, b in zip(w, h)]
     mem = df["memory_bytes"] if "memory_bytes" in df else [None] * len(df)
     df["memory_mb"] = [(as_number(m) / MB) if as_number(m) is not None else math.nan for m in mem]
-    for c in ("total_ms", "total_ms_iqr", "wall_ms", "psnr", "ssim", "flip", "relmse", *RAY_COLUMNS):
+    for c in ("total_ms", "total_ms_iqr", "wall_ms", *NUMERIC_COLUMNS):
         values = df[c] if c in df else [None] * len(df)
         df[c] = [(as_number(v) if as_number(v) is not None else math.nan) for v in values]
     q1, q3 = [], []

@@ -10,6 +10,7 @@ import numpy as np
 
 from ldbench.core import metrics
 from ldbench.core.effects import registry
+from ldbench.core.effects.base import effect_units
 from ldbench.core.exr import read_answer_channels
 from ldbench.core.imageio import read_png, save_values_js, write_png
 from ldbench.harness.naming import slug
@@ -90,7 +91,7 @@ def viewer_maps(run_dir: Path, g, rows, gdir: Path, budget: dict | None = None) 
         if fmap is not None:
             write_png(gdir / f"{stem}-flip.png", metrics.colorize(fmap, vmax=1.0, cmap=FLIP_CMAP))
             c.flip = rel(gdir / f"{stem}-flip.png")
-    units = {"ao": "AO units", "rays": "fraction of rays that hit"}.get(str(rows[0]["effect"]), "linear")
+    units = effect_units(rows[0]["effect"])
     colorbar(gdir / "colorbar-signed.png", SIGNED_CMAP, -g.signed_vmax, g.signed_vmax,
               f"test − reference ({units}, mean over channels)")
     g.signed_colorbar = rel(gdir / "colorbar-signed.png")
