@@ -90,6 +90,28 @@ def test_fig9_memory_ratio_is_a_premise_on_the_structure_alone(tmp_path, mb200, 
     assert p["verdict"] == PREMISE and p["ours"].endswith(f"= {shown}") and "16×" in p["why"]
 
 
+def test_the_html_report_shows_premises_apart_and_each_claims_reason(tmp_path):
+    """The run's report (index.html) shows an entry's premises in their own table with why each cannot fail,
+    never among the verdicts, and beside every claim the reason of its verdict."""
+    import json
+
+    from ldbench.reports.report import _Html, _reproduce_html, esc
+
+    rows = [_row(FIG9, "sponza-200", t=1.0, memory=_ldm_memory(int(320.0 * 2**20))),
+            _row(FIG9, "sponza-50", t=2.0, memory=_ldm_memory(int(20.0 * 2**20)))]
+    records.write_results(rows, tmp_path)
+    res = evaluate(FIG9, records.read_results(tmp_path), "paper")
+    (tmp_path / "reproduce.json").write_text(json.dumps(res, default=str))
+    h = _Html()
+    assert _reproduce_html(h, tmp_path)
+    html = str(h)
+    verdicts, _, premises = html.partition("Premises: ")
+    assert MEM_RATIO.replace("~", "") in premises.replace("~", "") and "16×" in premises
+    assert MEM_RATIO not in verdicts  # a premise is not in the claims' table
+    reasons = [c["reason"] for c in res["claims"] if c.get("reason")]
+    assert reasons and all(esc(r) in verdicts for r in reasons), reasons
+
+
 def test_fig9_hairball_claims_only_at_paper_scale(tmp_path):
     hair = "The hairball's LDMs take more memory than Sponza's (295.5 vs 204.1 MB)"
     rows = [_row(FIG9, "hairball-50", t=5.0, memory=_ldm_memory(2 << 20)),

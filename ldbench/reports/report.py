@@ -541,14 +541,26 @@ def _reproduce_html(h: _Html, run_dir: Path) -> bool:
                 + "</tr>")
         h.raw("</tbody></table>")
         h.raw("<table style=\"margin-top:8px\"><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
-              ("claim", "published", "ours", "verdict", "verdict rule and window")) + "</tr></thead><tbody>")
+              ("claim", "published", "ours", "verdict", "reason", "verdict rule and window"))
+              + "</tr></thead><tbody>")
         for c in entry.get("claims", []):
             v = str(c.get("verdict"))
             cls = "holds" if v == "holds" else ("fails" if v.startswith("does not") else "muted")
             h.raw(f"<tr><td>{esc(c.get('text'))}</td><td>{esc(c.get('published'))}</td>"
                   f'<td>{esc(c.get("ours"))}</td><td class="{cls}">{esc(v)}</td>'
+                  f'<td class="cap">{esc(c.get("reason") or "")}</td>'
                   f'<td class="cap">{esc(c.get("rule", ""))}</td></tr>')
         h.raw("</tbody></table>")
+        premises = entry.get("premises") or []
+        if premises:  # apart from the verdicts: our set-up decides them, so they are never judged
+            h.text("p", "Premises: the paper's statements that our set-up decides by construction (our numbers "
+                        "beside them, never a verdict).", cls="cap")
+            h.raw("<table><thead><tr>" + "".join(f"<th>{esc(c)}</th>" for c in
+                  ("premise", "published", "ours", "why it cannot fail")) + "</tr></thead><tbody>")
+            for c in premises:
+                h.raw("<tr>" + "".join(f"<td>{esc(c.get(k))}</td>" for k in ("text", "published", "ours"))
+                      + f'<td class="cap">{esc(c.get("why", ""))}</td></tr>')
+            h.raw("</tbody></table>")
         for n in entry.get("notes", []):
             h.text("p", n, cls="cap")
     h.raw('<p class="cap"><a href="reproduce.md">reproduce.md</a></p>')
