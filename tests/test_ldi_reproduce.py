@@ -1,5 +1,5 @@
-"""niessner2010-table1 (ldbench/reports/reproductions/niessner2010.py): rows find their jobs at both scales, the claims
-compare the right rows, and the one-row claims (LDI rays against the oracle's on the same rays, hit agreement,
+"""niessner2010-table1 (ldbench/reports/reproductions/niessner2010/table1/): rows find their jobs at both scales, the
+claims compare the right rows, and the one-row claims (LDI rays against the oracle's on the same rays, hit agreement,
 §1's and §7's memory) hold and fail on either side of their bounds — on synthetic result rows."""
 from __future__ import annotations
 

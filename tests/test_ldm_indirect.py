@@ -337,7 +337,7 @@ def test_overflow_is_reported(gpu):
 
 
 # ---------------------------------------------------------------------------------------------------
-# Figure 10 (ldbench/reports/reproductions/aalund2015.py, suites/aalund2015-fig10.toml)
+# Figure 10 (ldbench/reports/reproductions/aalund2015/fig10/: its entry and suite.toml)
 
 def test_fig10_published_numbers_and_ci_run(tmp_path):
     """The caption's numbers as data, and `ldbench reproduce aalund2015-fig10 --scale ci` end to end: every

@@ -103,6 +103,8 @@ def test_wheel_holds_every_adapter_glsl_and_suite(installed):
         assert installed_path(f"methods/{a}/__init__.py") in names
     registry_toml = next(PACKAGE.glob("*/scene_registry.toml")).relative_to(PACKAGE).as_posix()
     assert installed_path(registry_toml) in names and installed_path("harness/suites/default.toml") in names
+    # a paper table's suite rides in its own folder, beside the entry (ldbench/reports/reproductions/<paper>/<table>/)
+    assert installed_path("reports/reproductions/aalund2015/fig8/suite.toml") in names
     top = {n.split("/")[0] for n in names} - {n.split("/")[0] for n in names if ".dist-info/" in n}
     # nothing generic at the top of site-packages: one import name once the folders are mapped under it
     assert top == ({PREFIX[:-1]} if PREFIX else set(PACKAGES)), sorted(top)
@@ -118,6 +120,9 @@ def test_installed_ldbench_runs_outside_the_source_tree(installed):
     listed = {line.split()[0] for line in out.splitlines() if line and not line[0].isspace()}
     assert listed == set(registry()) and len(listed) >= 3, out  # every adapter of the checkout
     assert "sponza" in _run(installed, installed["ldbench"], "scenes")  # the registry is package data
+    table = _run(installed, installed["py"], "-c", "from ldbench.harness.resources import suite_path; "
+                 "print(suite_path('suites/aalund2015-fig8.toml'))").strip()  # a paper table's suite by its key
+    assert Path(table).is_file() and Path(table).is_relative_to(installed["purelib"]), table
 
     _run(installed, installed["ldbench"], "run", "--scene", "cornell", "--method", "direct-raster", "--effect",
          "direct", "--out", "r", *TINY)

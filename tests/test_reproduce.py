@@ -24,7 +24,7 @@ REGISTRY = registry()
 def test_registry_entries_are_complete():
     assert {"aalund2015-fig8", "aalund2015-fig9"} <= set(REGISTRY)
     for e in REGISTRY.values():
-        assert suite_file(e).is_file(), e.suite
+        assert suite_file(e).is_file(), e.folder
         assert e.hardware and e.resolution and e.paper and e.rows and e.claims
         ids = [r["id"] for r in e.rows]
         assert len(ids) == len(set(ids))
@@ -155,28 +155,105 @@ def test_gpu_timing_keeps_the_iqr_rule(tmp_path):
     assert _verdicts(rows, tmp_path)[REVERSE] == INCONCLUSIVE
 
 
-def test_a_paper_is_one_data_module(tmp_path, monkeypatch):
-    """Adding a paper is adding a module to ldbench/reports/reproductions/: found without engine changes."""
+_ZZ_TABLE = (
+    "from ldbench.reports.reproduce import Claim, Reproduction\n"
+    "from ldbench.reports.reproductions.zz2099 import GPU\n"
+    "REPRODUCTION = Reproduction(key={key!r}, paper='zz2099', title='t', source='Table 1',\n"
+    "    hardware=GPU, resolution='64x64', paper_scene='s',\n"
+    "    rows=({{'id': 'a', 'label': 'a', 'match': {{'method': 'hbao'}}, 'time_ms': 1.0}},\n"
+    "          {{'id': 'b', 'label': 'b', 'match': {{'method': 'ldm-ao'}}, 'time_ms': 2.0}}),\n"
+    "    claims=(Claim('a is faster', 'a', 'b'),), scales={{'paper': {{}}, 'ci': {{}}}})\n")
+_ZZ_SUITE = '[suite]\nname = "{key}"\n\n[[run]]\nscene = "cornell"\neffect = "ao"\nmethods = ["hbao"]\n'
+
+
+@pytest.fixture
+def zz_paper(tmp_path, monkeypatch):
+    """make(tables, paper_init=""): a paper package ``zz2099`` in tmp_path, on the path of
+    ldbench/reports/reproductions and out of sys.modules before and after; ``tables`` maps a table folder to
+    (its __init__.py, its suite.toml or None). Returns the paper's folder; the registry is rebuilt."""
     import ldbench.reports.reproductions as pkg
 
-    (tmp_path / "zz_test2099.py").write_text(
-        "from ldbench.reports.reproduce import Claim, Reproduction\n"
-        "REPRODUCTIONS = (Reproduction(key='zz-test2099-t1', paper='zz2099', title='t', source='Table 1',\n"
-        "    hardware='GPU', resolution='64x64', paper_scene='s', suite='suites/default.toml',\n"
-        "    rows=({'id': 'a', 'label': 'a', 'match': {'method': 'hbao'}, 'time_ms': 1.0},\n"
-        "          {'id': 'b', 'label': 'b', 'match': {'method': 'ldm-ao'}, 'time_ms': 2.0}),\n"
-        "    claims=(Claim('a is faster', 'a', 'b'),), scales={'paper': {}, 'ci': {}}),)\n")
     monkeypatch.setattr(pkg, "__path__", [*pkg.__path__, str(tmp_path)])
     monkeypatch.setattr(R, "_REGISTRY", None)
-    monkeypatch.delitem(sys.modules, "ldbench.reports.reproductions.zz_test2099", raising=False)
-    try:
-        reg = registry()
-        assert "zz-test2099-t1" in reg and "aalund2015-fig8" in reg
-        assert R.get_entry("zz-test2099-t1").paper == "zz2099"
-        assert "zz-test2099-t1" in R.list_text()
-    finally:
-        sys.modules.pop("ldbench.reports.reproductions.zz_test2099", None)
-        R._REGISTRY = None
+
+    def gone():
+        for name in [m for m in sys.modules if m.startswith("ldbench.reports.reproductions.zz2099")]:
+            del sys.modules[name]
+
+    def make(tables: dict, paper_init: str = ""):
+        paper = tmp_path / "zz2099"
+        paper.mkdir()
+        (paper / "__init__.py").write_text('"""zz2099: a paper of the tests."""\nGPU = "GPU"\n' + paper_init)
+        for table, (init, suite) in tables.items():
+            (paper / table).mkdir()
+            (paper / table / "__init__.py").write_text(init)
+            if suite is not None:
+                (paper / table / "suite.toml").write_text(suite)
+        return paper
+
+    gone()
+    yield make
+    gone()
+    R._REGISTRY = None
+
+
+def _zz(table: str, key: str | None = None) -> tuple:
+    key = key or f"zz2099-{table.replace('_', '-')}"
+    return _ZZ_TABLE.format(key=key), _ZZ_SUITE.format(key=key)
+
+
+def test_a_paper_table_is_one_folder(zz_paper):
+    """Adding a paper table is adding one folder to ldbench/reports/reproductions/<paper>/: its __init__.py
+    defines REPRODUCTION, its suite.toml lies beside it; found without engine changes, the paper's own
+    __init__.py sharing what its tables need."""
+    from ldbench.harness.suite import load_suite
+
+    paper = zz_paper({"table_1": _zz("table_1")})
+    reg = registry()
+    assert list(reg)[-1] == "zz2099-table-1" and "aalund2015-fig8" in reg  # papers in name order
+    e = R.get_entry("zz2099-table-1")
+    assert e.paper == "zz2099" and e.hardware == "GPU"  # a constant of the paper's package
+    assert suite_file(e) == (paper / "table_1" / "suite.toml").resolve() == e.folder / "suite.toml"
+    assert load_suite(suite_file(e)).name == "zz2099-table-1"
+    assert f"suite {suite_file(e)};" in R.list_text()  # outside the package: the whole path
+
+
+def test_a_papers_tables_come_in_its_order_then_by_name(zz_paper):
+    zz_paper({t: _zz(t) for t in ("b", "a", "c")}, paper_init='TABLES = ("c",)\n')
+    assert [k for k in registry() if k.startswith("zz2099")] == ["zz2099-c", "zz2099-a", "zz2099-b"]
+
+
+@pytest.mark.parametrize("tables, paper_init, error, words", [
+    ({"t1": _zz("t1", key="zz2099-other")}, "", ValueError, "a table's key is its folder's, 'zz2099-t1'"),
+    ({"t1": (_zz("t1")[0], None)}, "", ValueError, "has no suite.toml beside it"),
+    ({"t1": ("REPRODUCTIONS = ()\n", _zz("t1")[1])}, "", TypeError, "must define REPRODUCTION, a Reproduction"),
+    ({"t1": _zz("t1")}, 'TABLES = ("t1", "gone")\n', ValueError, "TABLES names 'gone', which is not a table"),
+], ids=["key", "suite", "entry", "order"])
+def test_the_registry_refuses_a_table_folder_it_cannot_use(zz_paper, tables, paper_init, error, words):
+    zz_paper(tables, paper_init)
+    with pytest.raises(error, match=re.escape(words)):
+        registry()
+
+
+def test_a_paper_module_instead_of_a_folder_is_refused(tmp_path, zz_paper):
+    """The layout before one folder per table (a module of REPRODUCTIONS per paper) is named, not skipped."""
+    (tmp_path / "zz2099.py").write_text("REPRODUCTIONS = ()\n")
+    with pytest.raises(TypeError, match="zz2099 is a module: a paper is a folder with one folder per table"):
+        registry()
+
+
+def test_a_table_suite_is_bundled_under_its_key():
+    """`ldbench run KEY`, and the `suites/KEY.toml` the docs and scripts used before the suites moved into
+    their tables' folders, find the table's suite.toml; every entry's key is its folder's."""
+    from ldbench.harness.resources import SUITES_DIR, bundled_suites, suite_path, table_key, table_suites
+
+    assert set(table_suites()) == set(REGISTRY) and len(REGISTRY) >= 15
+    for key, e in REGISTRY.items():
+        assert e.folder is not None and table_key(e.folder.parent.name, e.folder.name) == key
+        assert suite_path(key) == suite_path(f"{key}.toml") == suite_path(f"suites/{key}.toml") == suite_file(e)
+        assert key in bundled_suites()
+        assert not (SUITES_DIR / f"{key}.toml").exists()  # moved, not copied: one suite under each name
+    assert suite_path("default") == SUITES_DIR / "default.toml"  # the other bundled suites as before
 
 
 def test_missing_rows_are_not_measured(tmp_path, capsys):
@@ -281,7 +358,7 @@ def test_stage_and_counter_quantities_and_the_new_claim_kinds(tmp_path):
               Claim("the gap shrinks", "l1", "h1", ("time_ms",), "gap", c="l2", d="h2"),
               Claim("noise", "l1", "l1", ("stage:trace",), "greater", b_quantity="stage:build+trace"),
               Claim("missing stage", "l1", "l1", ("stage:nope",), "greater", b_quantity="stage:build"))
-    e = Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", "suites/aalund2015-fig8.toml", rows, claims)
+    e = Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", rows, claims)
     recs = [_staged("ldm-ao", 1.0, 10.0, {"build": 6.0, "count": 1.5, "fill": 2.0, "trace": 3.0},
                     {"fragments": 1000}),
             _staged("hbao", 1.0, 5.0, {"ao": 5.0}, {}),

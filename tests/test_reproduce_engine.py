@@ -59,7 +59,7 @@ def _gap_entry():
     rows = tuple({"id": k, "label": k, "match": {**m, "d_max": d}} for k, d in
                  (("a", 1.0), ("b", 2.0), ("c", 3.0), ("d", 4.0)))
     claims = (Claim("the gap grows", "a", "b", ("time_ms",), "gap", c="c", d="d"),)
-    return Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", "suites/aalund2015-fig8.toml", rows, claims)
+    return Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", rows, claims)
 
 
 def _gap_rows(ab, cd, rel_iqr, device="nvidia"):
@@ -214,8 +214,7 @@ def _premise_entry():
     claims = (Claim("a is faster", "a", "b", ("time_ms",), "less"),
               Claim("a is faster (our baseline)", "a", "b", ("time_ms",), "less", ours=True))
     premises = (Claim("b grows by construction", "b", "a", ("time_ms",), "greater", why="b does twice the work"),)
-    return Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", "suites/aalund2015-fig8.toml", rows, claims,
-                        premises=premises)
+    return Reproduction("syn", "syn", "t", "s", "gpu", "8x8", "atrium", rows, claims, premises=premises)
 
 
 @pytest.mark.parametrize("tb", [20.0, 5.0])  # the premise's order holds, then not: never a verdict either way

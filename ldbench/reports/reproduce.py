@@ -2,10 +2,11 @@
 
 This module is the engine (the :class:`Claim` and :class:`Reproduction` records, row matching,
 verdicts, printing, the command); the papers' numbers are data in :mod:`ldbench.reports.reproductions`, one
-module per paper, collected by :func:`registry`. An entry is data:
+folder per paper table, collected by :func:`registry`. An entry is data:
 
 * where the numbers come from (paper key, figure/table, the GPU and resolution the paper used),
-* the suite that reproduces it (``suites/<name>.toml``, one of the bundled suites),
+* the suite that reproduces it: ``suite.toml`` in the table's folder (:func:`suite_file`), bundled under the
+  entry's key (``ldbench run aalund2015-fig8``),
 * ``rows``: a list of dicts, one per published row (or one per row of ours that a claim needs), each
   with a ``match`` that selects our result row (scene, method, effect, size, params, scene_params;
   any other key is a parameter of the effect, e.g. d_max, falloff) and the published values under the
@@ -19,9 +20,11 @@ module per paper, collected by :func:`registry`. An entry is data:
   suite as written). A scale's parameter overrides are applied to the rows' ``match`` too, so the same
   rows find their counterparts at every scale.
 
-Adding a paper is a data addition (a suite and a module in :mod:`ldbench.reports.reproductions`, found by
-:func:`registry`; no engine change). The steps, the quantities a row may give and the timing verdict
-rules (and the measurements behind them) are in docs/reference/reports.md, "Reproducing a paper table".
+Adding a paper table is one folder, ``ldbench/reports/reproductions/<paper>/<table>/``: its ``__init__.py``
+defines ``REPRODUCTION`` (one :class:`Reproduction`) and ``suite.toml`` beside it is the suite; the paper's
+``__init__.py`` holds what its tables share. :func:`registry` finds it (no engine change). The steps, the
+quantities a row may give and the timing verdict rules (and the measurements behind them) are in
+docs/reference/reports.md, "Adding a table", and docs/how-to/reproduce-a-paper-table.md.
 """
 from __future__ import annotations
 
@@ -31,6 +34,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import ModuleType
 
 from ldbench.core.errors import LdbenchError
 from ldbench.harness.records import effect_d_max, effect_param
@@ -136,7 +140,6 @@ class Reproduction:
     hardware: str  # the paper's GPU
     resolution: str  # the paper's image size
     paper_scene: str
-    suite: str  # a bundled suite, "suites/<name>.toml"
     rows: tuple  # dicts, see the module docstring
     claims: tuple = ()
     scales: dict = field(default_factory=dict)
@@ -144,35 +147,70 @@ class Reproduction:
     #: statements of the paper that our set-up decides by construction (:class:`Claim` records whose ``why``
     #: says why): printed apart from the claims with our numbers, never a verdict
     premises: tuple = ()
+    #: the table's folder, which holds its ``suite.toml`` (:func:`suite_file`): filled in by :func:`registry`
+    #: from where the entry's module lies, never written by hand (None: an entry made outside the registry)
+    folder: Path | None = None
 
 
 def registry() -> dict[str, Reproduction]:
-    """{key: entry} of every ``REPRODUCTIONS`` in the modules of :mod:`ldbench.reports.reproductions`, in
-    module order (found with pkgutil; modules starting with ``_`` are skipped)."""
+    """{key: entry} of every paper table in :mod:`ldbench.reports.reproductions`: each folder
+    ``<paper>/<table>/`` (found with pkgutil; names starting with ``_`` are skipped) whose ``__init__.py``
+    defines ``REPRODUCTION`` and which holds the table's ``suite.toml``. The entry's key must be the folder's
+    (:func:`~ldbench.harness.resources.table_key`: ``aalund2015/fig8_real`` is ``aalund2015-fig8-real``), the
+    name under which ``ldbench run`` finds the same suite; :attr:`Reproduction.folder` is set here.
+
+    Papers come in name order, a paper's tables in the order of its ``TABLES`` (the order ``--list`` has
+    always shown), then any table it does not name, by name: a new table is one new folder."""
     global _REGISTRY
     if _REGISTRY is None:
         import importlib
         import pkgutil
 
+        from ldbench.harness.resources import TABLE_SUITE, table_key
+
         from . import reproductions
 
         found: dict[str, Reproduction] = {}
-        for mod in sorted(pkgutil.iter_modules(reproductions.__path__), key=lambda m: m.name):
-            if mod.name.startswith("_"):
+        for paper in sorted(pkgutil.iter_modules(reproductions.__path__), key=lambda m: m.name):
+            if paper.name.startswith("_"):
                 continue
-            m = importlib.import_module(f"{reproductions.__name__}.{mod.name}")
-            entries = getattr(m, "REPRODUCTIONS", None)
-            if not isinstance(entries, tuple) or not all(isinstance(e, Reproduction) for e in entries):
-                raise TypeError(f"{m.__name__} must define REPRODUCTIONS, a tuple of Reproduction entries")
-            for e in entries:
-                if e.key in found:
-                    raise ValueError(f"reproduction {e.key!r} is defined twice ({m.__name__})")
-                found[e.key] = e
+            name = f"{reproductions.__name__}.{paper.name}"
+            if not paper.ispkg:
+                raise TypeError(f"{name} is a module: a paper is a folder with one folder per table, each with an "
+                                f"__init__.py defining REPRODUCTION and its {TABLE_SUITE}")
+            pkg = importlib.import_module(name)
+            for table in _tables(pkg):
+                m = importlib.import_module(f"{name}.{table}")
+                e = getattr(m, "REPRODUCTION", None)
+                if not isinstance(e, Reproduction):
+                    raise TypeError(f"{m.__name__} must define REPRODUCTION, a Reproduction entry")
+                key = table_key(paper.name, table)
+                if e.key != key:
+                    raise ValueError(f"{m.__name__} defines {e.key!r}: a table's key is its folder's, {key!r} "
+                                     "(the name ldbench run finds its suite by)")
+                folder = Path(m.__path__[0]).resolve()
+                if not (folder / TABLE_SUITE).is_file():
+                    raise ValueError(f"{m.__name__} has no {TABLE_SUITE} beside it ({folder})")
+                found[key] = dataclasses.replace(e, folder=folder)
         _REGISTRY = found
     return _REGISTRY
 
 
 _REGISTRY: dict | None = None
+
+
+def _tables(paper: ModuleType) -> list[str]:
+    """The table folders (sub-packages) of a paper package: those its ``TABLES`` names, in that order, then
+    the others by name. A name in ``TABLES`` without its folder is an error (a table renamed or removed)."""
+    import pkgutil
+
+    names = sorted(m.name for m in pkgutil.iter_modules(paper.__path__) if m.ispkg and not m.name.startswith("_"))
+    order = tuple(getattr(paper, "TABLES", ()))
+    gone = [t for t in order if t not in names]
+    if gone:
+        raise ValueError(f"{paper.__name__}.TABLES names {gone[0]!r}, which is not a table folder of it "
+                         f"(its tables: {', '.join(names)})")
+    return [*order, *(t for t in names if t not in order)]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -838,11 +876,22 @@ def format_markdown(res: dict) -> str:
 
 
 def suite_file(entry: Reproduction) -> Path:
-    """The entry's suite among the bundled suites (``suites/`` of a checkout, ``ldbench/harness/suites`` of an
-    installed package)."""
-    from ldbench.harness.resources import SUITES_DIR
+    """The entry's suite: ``suite.toml`` in the table's folder (:attr:`Reproduction.folder`, which
+    :func:`registry` sets; an installed package carries the file as package data)."""
+    from ldbench.harness.resources import TABLE_SUITE
 
-    return SUITES_DIR / Path(entry.suite).name
+    if entry.folder is None:
+        raise ValueError(f"{entry.key} has no folder: only the entries of registry() know their suite")
+    return entry.folder / TABLE_SUITE
+
+
+def suite_label(entry: Reproduction) -> str:
+    """Where the entry's suite is, as a user finds it: relative to the folder that holds the ldbench package
+    (the checkout, or site-packages), e.g. ``ldbench/reports/reproductions/aalund2015/fig8/suite.toml``; the
+    whole path for a table folder elsewhere."""
+    path = suite_file(entry)
+    root = Path(__file__).resolve().parents[2]
+    return path.relative_to(root).as_posix() if path.is_relative_to(root) else str(path)
 
 
 def get_entry(key: str) -> Reproduction:
@@ -907,7 +956,7 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
 
         path = suite_file(entry)
         if not path.is_file():
-            raise LdbenchError(f"the suite of {key} is missing: {entry.suite}")
+            raise LdbenchError(f"the suite of {key} is missing: {path}")
         suite = scale_suite(load_suite(path), entry.scales[scale], size)
         suite, not_run = without_unfetched_scenes(suite, key)
         run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
@@ -963,7 +1012,7 @@ def list_text() -> str:
     lines = []
     for e in registry().values():
         lines.append(f"{e.key:<18} {e.title}")
-        lines.append(f"{'':<18} {e.paper} {e.source}; {e.hardware}, {e.resolution}; suite {e.suite}; "
+        lines.append(f"{'':<18} {e.paper} {e.source}; {e.hardware}, {e.resolution}; suite {suite_label(e)}; "
                      f"scales: {', '.join(e.scales)}")
     return "\n".join(lines)
 

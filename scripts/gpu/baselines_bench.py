@@ -40,7 +40,7 @@ from ldbench.core.files import atomic_write, atomic_write_text, check_output_pat
 
 DEFAULT_SIZES = "512,800,1024,2048,3840x2160"
 DEFAULT_SCENE = "atrium:triangles=260000"
-FIG8_D_MAX = 10.32  # aalund2015-fig8's d_max on the atrium (suites/aalund2015-fig8.toml)
+FIG8_D_MAX = 10.32  # aalund2015-fig8's d_max on the atrium (FIG8_D_MAX, ldbench/reports/reproductions/aalund2015)
 GTAO_MODES = {"none": {}, "mip-32": {"prefilter": "mip"}, "mip-16": {"prefilter": "mip", "depth_precision": "16"}}
 GTAO_PRESETS = ("low", "medium", "high", "ultra")
 HBAO_SAMPLINGS = {"fixed": {}, "pixel_step": {"sampling": "pixel_step", "step_px": 4.0, "steps": 512,
