@@ -279,3 +279,22 @@ def test_jobs_on_an_unfetched_scene_are_left_out_with_the_fetch_command(tmp_path
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "nothing to run" in err[0] and "fetch sponza" in err[0] and "fetch sibenik" in err[0]
     assert not (tmp_path / "r").exists()
+
+
+def test_the_verdicts_page_counts_every_verdict_reproduce_writes():
+    """scripts/gpu/reproduce_all.py's table counts each claim under its verdict's column (a failed claim reads
+    "does not hold on this machine", not "fails"), and a verdict without a column is an error, never dropped."""
+    import importlib.util
+    from pathlib import Path
+
+    from ldbench.reports import reproduce as R
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "gpu" / "reproduce_all.py"
+    spec = importlib.util.spec_from_file_location("reproduce_all", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    claims = [{"verdict": v} for v in (R.HOLDS, R.FAILS, R.FAILS, R.INCONCLUSIVE, R.NOT_MEASURABLE, R.NOT_MEASURED,
+                                       R.NOT_AT_SCALE.format(scale="ci"))]
+    assert mod.verdict_counts(claims) == [1, 2, 1, 1, 1, 1]
+    with pytest.raises(ValueError, match="no column"):
+        mod.verdict_counts([{"verdict": "a verdict nobody wrote", "text": "x"}])

@@ -19,10 +19,25 @@ import json
 import subprocess
 import sys
 import time
-from collections import Counter
 from pathlib import Path
 
-VERDICTS = ("holds", "fails", "inconclusive", "not measurable here", "not measured")
+#: The page's columns: (heading, the verdict's words as reproduce writes them, matched at their start).
+VERDICTS = (("holds", "holds"), ("fails", "does not hold"), ("inconclusive", "inconclusive"),
+            ("not measurable here", "not measurable"), ("not measured", "not measured"),
+            ("not at this scale", "not comparable at scale"))
+
+
+def verdict_counts(claims) -> list[int]:
+    """How many of ``claims`` fall under each column of :data:`VERDICTS`; a verdict none names is an error
+    (a new verdict must get a column, not vanish from the table)."""
+    n = [0] * len(VERDICTS)
+    for c in claims:
+        v = str(c.get("verdict", ""))
+        i = next((i for i, (_, words) in enumerate(VERDICTS) if v.startswith(words)), None)
+        if i is None:
+            raise ValueError(f"verdict {v!r} of claim {c.get('text')!r} has no column on the page")
+        n[i] += 1
+    return n
 
 
 def _ldbench(*args: str) -> list[str]:
@@ -85,13 +100,13 @@ def page(outs: list[Path]) -> str:
              *[f"- command: `{m['command']}`, started {m['started']}, budget {m['budget_s']:.0f} s" for m in metas],
              f"- device: {first.get('our_setup', 'unknown')}",
              f"- run: {first.get('run', 'unknown')}", "",
-             "| entry | status | s | " + " | ".join(VERDICTS) + " |",
+             "| entry | status | s | " + " | ".join(h for h, _ in VERDICTS) + " |",
              "|---|---|---|" + "---|" * len(VERDICTS)]
     for e in meta["entries"]:
         d = docs.get(e["key"])
-        n = Counter(c.get("verdict", "") for c in (d or {}).get("claims", []))
+        n = verdict_counts((d or {}).get("claims", []))
         lines.append(f"| {e['key']} | {e['status']}{': ' + _cell(e['reason']) if e.get('reason') else ''} | "
-                     f"{e.get('seconds', '–')} | " + " | ".join(str(n.get(v, 0)) for v in VERDICTS) + " |")
+                     f"{e.get('seconds', '–')} | " + " | ".join(map(str, n)) + " |")
     not_run = [e["key"] for e in meta["entries"] if e["status"] != "ran"]
     if not_run:
         lines += ["", "Not run or stopped: " + ", ".join(not_run) + " (the status column says why)."]
