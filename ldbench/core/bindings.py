@@ -51,6 +51,10 @@ _TABLE = {
     "GBUF_WIDE": _b("ssbo", 4, "raster", "compute G-buffer: wide triangles, their tile counts and dispatches",
                     "GbufWide"),
     "GBUF_TILES": _b("ssbo", 5, "raster", "compute G-buffer: the wide triangles' tiles", "GbufTiles"),
+    "GBUF_CLIP": _b("ssbo", 6, "raster", "compute G-buffer: the clipped triangles' pieces, in clip space",
+                    "GbufClip"),
+    "GBUF_CLIP_LIST": _b("ssbo", 7, "raster", "compute G-buffer: the triangles to clip and their dispatch",
+                         "GbufClipList"),
     # -- one-kernel utilities, each alone in its program
     "FILL": _b("ssbo", 0, "fill_uint", "the uint buffer common/fill_uint.glsl clears", "FillData"),
     "SCAN_DATA": _b("ssbo", 0, "scan", "values scanned in place (ldbench/methods/scan.py)", "ScanData"),

@@ -24,6 +24,13 @@ LARGE_CMD_WORDS = 8  # DrawElementsIndirectCommand (5 words) padded; the compute
 WIDE_HEADER = np.array([0, 0, 0, 1, 1, 0, 1, 1], np.uint32)
 WIDE_TILE = 16  # pixels: gbuffer/wide_list.glsl's GB_TILE
 WIDE_TILE_GROUPS, WIDE_LIST_GROUPS = 8, 20  # byte offsets of the two dispatches in that header
+#: gbuffer/wide_list.glsl's GbufClip: a count (padded to 16 bytes), then per clipped triangle its polygon,
+#: set up for the tile raster (GbPiece: 144 bytes)
+CLIP_HEADER_BYTES, CLIP_PIECE_BYTES = 16, 144
+CLIP_CAPACITY = 16384  # polygons per frame; a clipped triangle that finds no room goes to the hardware
+#: gbuffer/wide_list.glsl's GbufClipList header: triangles listed, the clipper's indirect dispatch (x, y, z)
+CLIP_LIST_HEADER = np.array([0, 0, 1, 1], np.uint32)
+CLIP_LIST_GROUPS = 4  # byte offset of that dispatch
 
 
 def face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -142,7 +149,8 @@ class GBuffer:
     depth texture, so the compute G-buffer has none. ``max_pixels``: a triangle whose viewport-clamped
     bounding box holds more pixel centres than this (or is wider or taller than 64 pixels) is rasterized in
     16 × 16 tiles by workgroups (``gbuffer/wide.glsl``) rather than by one invocation; triangles crossing
-    the near or far plane go to the hardware (``gbuffer/large.glsl``)."""
+    the near or far plane are clipped (``gbuffer/clip.glsl``) and their pieces rasterized by tiles; what finds
+    no room in the tile list or among ``clip_capacity`` pieces goes to the hardware (``gbuffer/large.glsl``)."""
 
     def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
         if raster not in RASTERS:
@@ -163,9 +171,14 @@ class GBuffer:
         self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl")
         self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl")
         self.wide_cs = gpu.compute(GLSL_DIR / "gbuffer/wide.glsl", rule)
-        self.expand_cs = gpu.compute(GLSL_DIR / "gbuffer/wide_expand.glsl")
+        self.expand_cs = gpu.compute(GLSL_DIR / "gbuffer/wide_expand.glsl", rule)
         n = geometry.triangles
-        self.wide = res.buffer("gbuffer.wide", reserve=WIDE_HEADER.nbytes + 16 * n)
+        self.clip_cs = gpu.compute(GLSL_DIR / "gbuffer/clip.glsl", rule)
+        self.clip_capacity = CLIP_CAPACITY
+        self.clip = res.buffer("gbuffer.clip", reserve=CLIP_HEADER_BYTES + CLIP_PIECE_BYTES * self.clip_capacity)
+        self.clip_list = res.buffer("gbuffer.clip_list", reserve=CLIP_LIST_HEADER.nbytes + 4 * n)
+        # a list entry per wide triangle or piece
+        self.wide = res.buffer("gbuffer.wide", reserve=WIDE_HEADER.nbytes + 16 * (n + self.clip_capacity))
         self.large = res.buffer("gbuffer.large", reserve=4 * (LARGE_CMD_WORDS + 3 * n))
         cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)
         cmd[1], cmd[2] = 1, LARGE_CMD_WORDS  # one instance; the indices follow the command
@@ -213,7 +226,8 @@ class GBuffer:
             for p in (0, 1):
                 self.compute_pass(p, vp)
                 if p == 0:
-                    self.expand_pass()
+                    self.clip_pass(vp)
+                    self.expand_pass(vp)
                 self.wide_pass(p, vp)
                 self.large_pass(p, vp)
             self.resolve(view, vp)
@@ -239,10 +253,13 @@ class GBuffer:
         fill_uint(self.gpu, self.vis, 2 * w * h, 0xFFFFFFFF)
         fill_uint(self.gpu, self.large, 1, 0)
         self.wide.write(WIDE_HEADER.tobytes())
+        self.clip.write(bytes(CLIP_HEADER_BYTES))
+        self.clip_list.write(CLIP_LIST_HEADER.tobytes())
 
     def compute_pass(self, p: int, vp: bytes):
-        """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the triangles
-        it leaves to the hardware."""
+        """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the wide
+        triangles, clips those that need it and lists their pieces, and lists the triangles it leaves to the
+        hardware."""
         ctx, (w, h) = self.gpu.ctx, self._allocated_size()
         cs = self.raster_cs
         cs["view_proj"].write(vp)
@@ -255,15 +272,37 @@ class GBuffer:
         self.vis.bind_to_storage_buffer(B.GBUF_VIS)
         self.large.bind_to_storage_buffer(B.GBUF_LARGE)
         self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
+        self.clip_list.bind_to_storage_buffer(B.GBUF_CLIP_LIST)
         cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT)))
         ctx.memory_barrier()
 
-    def expand_pass(self):
-        """The tile list of the wide triangles pass 0 listed (one indirect dispatch)."""
-        cs = self.expand_cs
+    def clip_pass(self, vp: bytes):
+        """The clipper: the triangles pass 0 listed to clip, cut into pieces listed for the tile raster (one
+        indirect dispatch)."""
+        (w, h), cs = self._allocated_size(), self.clip_cs
+        cs["view_proj"].write(vp)
+        cs["vis_size"].value = (w, h)
         cs["tile_capacity"].value = self.tile_capacity
+        cs["clip_capacity"].value = self.clip_capacity
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
+        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
+        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
+        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
+        self.clip_list.bind_to_storage_buffer(B.GBUF_CLIP_LIST)
+        cs.run_indirect(self.clip_list, CLIP_LIST_GROUPS)
+        self.gpu.ctx.memory_barrier()
+
+    def expand_pass(self, vp: bytes):
+        """The tile list of the wide triangles and polygons pass 0 and the clipper listed, without the tiles
+        outside them (one indirect dispatch)."""
+        (w, h), cs = self._allocated_size(), self.expand_cs
+        cs["view_proj"].write(vp)
+        cs["vis_size"].value = (w, h)  # (max_pixels only sorts triangles, which pass 0 did)
+        cs["tile_capacity"].value = self.tile_capacity
+        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
         self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
         self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
+        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
         cs.run_indirect(self.wide, WIDE_LIST_GROUPS)
         self.gpu.ctx.memory_barrier()
 
@@ -278,6 +317,7 @@ class GBuffer:
         self.vis.bind_to_storage_buffer(B.GBUF_VIS)
         self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
         self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
+        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
         cs.run_indirect(self.wide, WIDE_TILE_GROUPS)
         self.gpu.ctx.memory_barrier()
 
@@ -318,6 +358,18 @@ class GBuffer:
         head = np.frombuffer(self.gpu.read(self.wide, WIDE_HEADER.nbytes), np.uint32)
         listed = np.frombuffer(self.gpu.read(self.wide, 16 * int(head[1]), offset=WIDE_HEADER.nbytes), np.uint32)
         return int(np.count_nonzero(listed[0::4] != 0xFFFFFFFF)), int(min(head[0], self.tile_capacity))
+
+    def skipped_tiles(self) -> int:
+        """Tiles of the last compute frame's tile list that the tile raster skips: outside their triangle or
+        polygon, or without room (a read-back; tests and the bench)."""
+        n = self.wide_triangles()[1]
+        tiles = np.frombuffer(self.gpu.read(self.tiles, 8 * n), np.uint32) if n else np.zeros(2, np.uint32)
+        return int(np.count_nonzero(tiles[0::2] == 0xFFFFFFFF))
+
+    def clipped_pieces(self) -> int:
+        """Clipped triangles (their polygons) the last compute frame recorded (a read-back; tests and the
+        bench)."""
+        return min(int(np.frombuffer(self.gpu.read(self.clip, 4), np.uint32)[0]), self.clip_capacity)
 
     def bind(self, first_unit: int = 0):
         """Bind position/normal/albedo to texture units first_unit.. (for sampler2D reads)."""

@@ -43,7 +43,7 @@ def passes(g: GBuffer, view, vp):
     out = [("clear", g.clear)]
     for p in (0, 1):
         out += [(f"compute{p}", lambda p=p: g.compute_pass(p, vp))]
-        out += [("expand", g.expand_pass)] if p == 0 else []
+        out += [("clip", lambda: g.clip_pass(vp)), ("expand", lambda: g.expand_pass(vp))] if p == 0 else []
         out += [(f"wide{p}", lambda p=p: g.wide_pass(p, vp)), (f"hardware{p}", lambda p=p: g.large_pass(p, vp))]
     return out + [("resolve", lambda: g.resolve(view, vp))]
 
@@ -101,8 +101,8 @@ def main(argv=None):
             for name, fn in passes(g, view, vp):
                 split.setdefault(name, []).append(timed(gpu, fn))
         wide, tiles = g.wide_triangles()
-        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}: {wide} triangles in {tiles} tiles, "
-              f"{g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
+        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}: {wide} triangles and polygons in {tiles} "
+              f"tiles ({g.skipped_tiles()} skipped), {g.clipped_pieces()} polygons of clipped triangles, {g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
         print("          " + differences(ref, g.read(), np.array(scene.camera.origin), g.view_proj(view)))
 
 

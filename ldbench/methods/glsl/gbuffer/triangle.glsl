@@ -4,20 +4,20 @@
 //
 // The triangle is projected with view_proj. Outside one clip plane with all three vertices: nothing.
 // Crossing the near or far plane (or w <= 0 at a vertex), or a window coordinate beyond GB_WIDE_LIMIT
-// pixels: left to the hardware, which clips it. Otherwise window coordinates (c.xy / c.w, viewport
-// transform) are snapped to the hardware's sub-pixel grid, and a pixel centre is covered by the hardware's
-// fill rule (gbuffer/fill_rule.glsl): in int32 for small triangles, whose coordinate differences stay
-// below 2^14, in double for wide ones (exact below GB_WIDE_LIMIT). The window depth z = z_ndc / 2 + 1/2 is
-// affine in window coordinates; it is the plane through the three vertices at the pixel centre, through
-// the snapped ones with SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones (llvmpipe), as the hardware
-// interpolates. The depth is `precise`: a fragment is found again in pass 1 by its depth bits.
+// pixels: clipped (gbuffer/clip.glsl); not finite: left to the hardware. Otherwise window coordinates (c.xy / c.w, viewport transform) are
+// snapped to the hardware's sub-pixel grid, and a pixel centre is covered by the hardware's fill rule
+// (gbuffer/fill_rule.glsl): in int32 for small triangles, whose coordinate differences stay below 2^14, in
+// double for wide ones (exact below GB_WIDE_LIMIT). The window depth z = z_ndc / 2 + 1/2 is affine in window
+// coordinates; it is the plane through the three vertices at the pixel centre, through the snapped ones
+// with SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones (llvmpipe), as the hardware interpolates. The
+// depth is `precise`: a fragment is found again in pass 1 by its depth bits.
 #include "gbuffer/position.glsl"
 #include "gbuffer/fill_rule.glsl"
 #include "gbuffer/vis.glsl"
 uniform mat4 view_proj;
 uniform int max_pixels;   // pixel centres of the (viewport-clamped) box rasterized by one invocation
 
-const int GB_OUTSIDE = 0, GB_HARDWARE = 1, GB_SMALL = 2, GB_WIDE = 3;
+const int GB_OUTSIDE = 0, GB_HARDWARE = 1, GB_SMALL = 2, GB_WIDE = 3, GB_CLIP = 4;
 const float GB_MAX_EXTENT = 64.0;                                  // pixels: int32 edge functions
 const float GB_WIDE_LIMIT = float(1 << (24 - LS_SUBPIXEL_BITS));   // pixels: |fixed point| < 2^24
 
@@ -30,20 +30,29 @@ struct GbTri {
 
 bool gb_outside(float a, float b, float c) { return a > 0.0 && b > 0.0 && c > 0.0; }
 
+void gb_clip_coords(uint t, out vec4 c0, out vec4 c1, out vec4 c2) {
+    c0 = view_proj * vec4(gb_vertex(3u * t), 1.0);
+    c1 = view_proj * vec4(gb_vertex(3u * t + 1u), 1.0);
+    c2 = view_proj * vec4(gb_vertex(3u * t + 2u), 1.0);
+}
+
+bool gb_finite(vec4 c) { return !any(isnan(c)) && !any(isinf(c)); }
+
 int gb_setup(uint t, out GbTri g) {
-    vec3 v0 = gb_vertex(3u * t), v1 = gb_vertex(3u * t + 1u), v2 = gb_vertex(3u * t + 2u);
-    vec4 c0 = view_proj * vec4(v0, 1.0), c1 = view_proj * vec4(v1, 1.0), c2 = view_proj * vec4(v2, 1.0);
+    vec4 c0, c1, c2;
+    gb_clip_coords(t, c0, c1, c2);
     if (gb_outside(c0.x - c0.w, c1.x - c1.w, c2.x - c2.w) || gb_outside(-c0.x - c0.w, -c1.x - c1.w, -c2.x - c2.w)
         || gb_outside(c0.y - c0.w, c1.y - c1.w, c2.y - c2.w) || gb_outside(-c0.y - c0.w, -c1.y - c1.w, -c2.y - c2.w)
         || gb_outside(c0.z - c0.w, c1.z - c1.w, c2.z - c2.w) || gb_outside(-c0.z - c0.w, -c1.z - c1.w, -c2.z - c2.w))
         return GB_OUTSIDE;
+    if (!(gb_finite(c0) && gb_finite(c1) && gb_finite(c2))) return GB_HARDWARE;
     if (min(min(c0.w, c1.w), c2.w) <= 0.0 || abs(c0.z) > c0.w || abs(c1.z) > c1.w || abs(c2.z) > c2.w)
-        return GB_HARDWARE;   // crosses the near or far plane: the hardware clips
+        return GB_CLIP;   // crosses the near or far plane
     vec2 hs = vec2(vis_size) * 0.5;
     vec2 w0 = c0.xy / c0.w * hs + hs, w1 = c1.xy / c1.w * hs + hs, w2 = c2.xy / c2.w * hs + hs;
     vec2 lo = min(w0, min(w1, w2)), hi = max(w0, max(w1, w2));
     if (!(all(greaterThan(lo, vec2(-GB_WIDE_LIMIT))) && all(lessThan(hi, vec2(GB_WIDE_LIMIT)))))
-        return GB_HARDWARE;   // (or not finite)
+        return GB_CLIP;
     const float S = float(SP_ONE);
     ivec2 f0 = ivec2(roundEven(w0 * S)), f1 = ivec2(roundEven(w1 * S)), f2 = ivec2(roundEven(w2 * S));
     ivec2 a = f1 - f0, b = f2 - f0;

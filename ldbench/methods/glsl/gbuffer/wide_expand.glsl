@@ -1,13 +1,61 @@
-// The compute G-buffer's tile list (gbuffer/wide_list.glsl): a workgroup per listed wide triangle writes its
-// tile entries (triangle, k), k = 0 .. tiles - 1, at its reserved range (grid-stride over the list).
+// The compute G-buffer's tile list (gbuffer/wide_list.glsl): a workgroup per listed wide triangle or clipped
+// polygon writes its tile entries (id, k), k = 0 .. tiles - 1, at its reserved range (grid-stride over the
+// list). A tile whose pixel centres all lie outside one edge is written skipped (GB_NONE), so that the tile
+// raster (gbuffer/wide.glsl) spends no workgroup on it: a long thin triangle, or a clipped floor, fills few
+// of its box's tiles. Exact: an edge function is affine, and a tile's pixel centres lie in the rectangle of
+// its corner pixels' centres, so its largest value over the tile is at one of those four.
 layout(local_size_x = 256) in;
+#include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"
+
+// whether every pixel centre of the tile lo .. hi (texels) is outside the edge from f along e
+bool gb_tile_outside(ivec2 f, ivec2 e, int bias, ivec2 lo, ivec2 hi) {
+    if (e == ivec2(0)) return false;   // (a clipped polygon's edge of no length decides nothing)
+    ivec2 a = lo * SP_ONE + SP_HALF, b = hi * SP_ONE + SP_HALF;
+    double m = max(max(sp_edge_wide(e, f, a), sp_edge_wide(e, f, ivec2(b.x, a.y))),
+                   max(sp_edge_wide(e, f, ivec2(a.x, b.y)), sp_edge_wide(e, f, b)));
+    return m < double(bias);
+}
 
 void main() {
     uint n = gw_triangles;
     for (uint s = gl_WorkGroupID.x; s < n; s += gl_NumWorkGroups.x) {
         uvec4 e = gw_list[s];
-        for (uint k = gl_LocalInvocationID.x; k < e.z && e.y + k < tile_capacity; k += gl_WorkGroupSize.x)
-            gt_map[e.y + k] = uvec2(e.x, k);
+        // the box and the edges of the listed triangle or polygon (none for a skipped entry)
+        GbTri g;
+        GbPiece r;
+        ivec2 i0 = ivec2(0), i1 = ivec2(0);
+        bool piece = e.x != GB_NONE && (e.x & GB_PIECE) != 0u;
+        if (piece) {
+            r = gc_piece[e.x & ~GB_PIECE];
+            i0 = r.box.xy;
+            i1 = r.box.zw;
+        } else if (e.x != GB_NONE) {
+            gb_setup(e.x, g);   // as pass 0 set it up
+            i0 = g.i0;
+            i1 = g.i1;
+        }
+        int tiles_x = (i1.x - i0.x + GB_TILE) / GB_TILE;
+        for (uint k = gl_LocalInvocationID.x; k < e.z && e.y + k < tile_capacity; k += gl_WorkGroupSize.x) {
+            uint id = e.x;
+            if (id != GB_NONE) {
+                ivec2 lo = i0 + GB_TILE * ivec2(int(k) % tiles_x, int(k) / tiles_x);
+                ivec2 hi = min(lo + GB_TILE - 1, i1);
+                bool out_ = false;
+                if (piece) {
+                    int m = int(r.meta.y);
+                    for (int j = 0; j < m && !out_; ++j) {
+                        ivec2 d = r.f[j + 1 < m ? j + 1 : 0] - r.f[j];
+                        out_ = gb_tile_outside(r.f[j], d, sp_bias(d), lo, hi);
+                    }
+                } else {
+                    out_ = gb_tile_outside(g.tri.f0, g.tri.e0, g.tri.b0, lo, hi)
+                        || gb_tile_outside(g.tri.f1, g.tri.e1, g.tri.b1, lo, hi)
+                        || gb_tile_outside(g.tri.f2, g.tri.e2, g.tri.b2, lo, hi);
+                }
+                if (out_) id = GB_NONE;
+            }
+            gt_map[e.y + k] = uvec2(id, k);
+        }
     }
 }
