@@ -197,8 +197,9 @@ class GBuffer:
             self.fbo = self.gpu.ctx.framebuffer([self.position, self.normal, self.albedo], self.depth)
         else:
             self.vis = r.buffer("gbuffer.visibility", reserve=8 * w * h)
-            # room for 4 viewports of tiles (wide triangles overlap), at least 65536; more goes to the hardware
-            self.tile_capacity = max(65536, 4 * -(-w // WIDE_TILE) * -(-h // WIDE_TILE))
+            # room for 8 viewports of tiles that hold pixels of theirs (wide triangles and the polygons of
+            # clipped ones overlap), at least 65536; a triangle with a tile beyond goes to the hardware
+            self.tile_capacity = max(65536, 8 * -(-w // WIDE_TILE) * -(-h // WIDE_TILE))
             self.tiles = r.buffer("gbuffer.tiles", reserve=8 * self.tile_capacity)
             self.fbo = self.gpu.ctx.empty_framebuffer((w, h))  # the hardware path's, attachment-less
         self.size = (w, h)
@@ -267,7 +268,6 @@ class GBuffer:
         cs["vis_pass"].value = p
         cs["n_triangles"].value = self.geo.triangles
         cs["max_pixels"].value = self.max_pixels
-        cs["tile_capacity"].value = self.tile_capacity
         self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
         self.vis.bind_to_storage_buffer(B.GBUF_VIS)
         self.large.bind_to_storage_buffer(B.GBUF_LARGE)
@@ -282,7 +282,6 @@ class GBuffer:
         (w, h), cs = self._allocated_size(), self.clip_cs
         cs["view_proj"].write(vp)
         cs["vis_size"].value = (w, h)
-        cs["tile_capacity"].value = self.tile_capacity
         cs["clip_capacity"].value = self.clip_capacity
         self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
         self.large.bind_to_storage_buffer(B.GBUF_LARGE)
@@ -293,8 +292,8 @@ class GBuffer:
         self.gpu.ctx.memory_barrier()
 
     def expand_pass(self, vp: bytes):
-        """The tile list of the wide triangles and polygons pass 0 and the clipper listed, without the tiles
-        outside them (one indirect dispatch)."""
+        """The tile list: the tiles of the wide triangles and polygons pass 0 and the clipper listed that hold
+        pixels of theirs (one indirect dispatch)."""
         (w, h), cs = self._allocated_size(), self.expand_cs
         cs["view_proj"].write(vp)
         cs["vis_size"].value = (w, h)  # (max_pixels only sorts triangles, which pass 0 did)
@@ -303,6 +302,7 @@ class GBuffer:
         self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
         self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
         self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
+        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
         cs.run_indirect(self.wide, WIDE_LIST_GROUPS)
         self.gpu.ctx.memory_barrier()
 
@@ -354,17 +354,19 @@ class GBuffer:
         return int(np.frombuffer(self.gpu.read(self.large, 4), np.uint32)[0]) // 3
 
     def wide_triangles(self) -> tuple[int, int]:
-        """(triangles, tiles) the last compute frame rasterized by tiles (a read-back; tests and the bench)."""
+        """(triangles and polygons, tiles) the last compute frame rasterized by tiles (a read-back; tests and
+        the bench)."""
         head = np.frombuffer(self.gpu.read(self.wide, WIDE_HEADER.nbytes), np.uint32)
-        listed = np.frombuffer(self.gpu.read(self.wide, 16 * int(head[1]), offset=WIDE_HEADER.nbytes), np.uint32)
-        return int(np.count_nonzero(listed[0::4] != 0xFFFFFFFF)), int(min(head[0], self.tile_capacity))
+        return int(head[1]), int(min(head[0], self.tile_capacity))
 
     def skipped_tiles(self) -> int:
-        """Tiles of the last compute frame's tile list that the tile raster skips: outside their triangle or
-        polygon, or without room (a read-back; tests and the bench)."""
-        n = self.wide_triangles()[1]
-        tiles = np.frombuffer(self.gpu.read(self.tiles, 8 * n), np.uint32) if n else np.zeros(2, np.uint32)
-        return int(np.count_nonzero(tiles[0::2] == 0xFFFFFFFF))
+        """Tiles of the listed boxes that the last compute frame's tile list left out, as holding none of
+        their triangle's or polygon's pixel centres (a read-back; tests and the bench)."""
+        head = np.frombuffer(self.gpu.read(self.wide, WIDE_HEADER.nbytes), np.uint32)
+        n = int(head[1])
+        listed = np.frombuffer(self.gpu.read(self.wide, 16 * n, offset=WIDE_HEADER.nbytes), np.uint32) if n else \
+            np.zeros(4, np.uint32)
+        return int(listed[2::4].astype(np.int64).sum()) - int(head[0])
 
     def clipped_pieces(self) -> int:
         """Clipped triangles (their polygons) the last compute frame recorded (a read-back; tests and the

@@ -7,8 +7,8 @@
 // clipped triangle ends too. The convex polygon is recorded whole in gc_piece, set up for the tile raster
 // (gbuffer/wide.glsl): its vertices snapped, counter-clockwise, its texel box and its depth plane. The
 // hardware fans it into triangles whose inner edges share their pixels by the fill rule, so their union is
-// the polygon; one polygon rather than a fan also keeps the tile count to one box. A triangle without room
-// among clip_capacity records or in the tile list goes to the hardware.
+// the polygon; one polygon rather than a fan also keeps the tiles to one box. A triangle without room among
+// clip_capacity records goes to the hardware.
 //
 // A pass of its own, an invocation per listed triangle: the clipper's arrays stay out of the registers of
 // the per-triangle raster, which runs on every triangle. A point on a clipped edge is interpolated from the
@@ -118,7 +118,7 @@ void gb_to_polygon(uint t) {
     for (int i = 0; i < 10; ++i) rec.f[i] = ivec2(0);
     for (int i = 0; i < n; ++i) rec.f[i] = f[area > 0.0 ? i : n - 1 - i];   // counter-clockwise
     gc_piece[r] = rec;
-    if (!gb_to_wide(r | GB_PIECE, g)) gb_to_hardware(t);
+    gb_to_wide(r | GB_PIECE, g);
 }
 
 void main() {

@@ -1,6 +1,6 @@
 // The compute G-buffer's lists (gbuffer/wide_list.glsl), filled by its per-triangle raster (gbuffer/raster.glsl)
 // and its clipper (gbuffer/clip.glsl): the triangles left to the hardware, an index list of one indirect draw
-// (gb_cmd, gb_cmd[0] counts the indices; gbuffer/large.glsl), and the wide triangles and pieces the tile
+// (gb_cmd, gb_cmd[0] counts the indices; gbuffer/large.glsl), and the wide triangles and polygons the tile
 // raster draws (gbuffer/wide.glsl).
 layout(std430, binding = B_GBUF_LARGE) buffer GbufLarge { uint gb_cmd[8]; uint gb_large[]; };
 
@@ -11,18 +11,11 @@ void gb_to_hardware(uint t) {
     gb_large[i + 2u] = 3u * t + 2u;
 }
 
-// Lists a wide triangle (or a piece: id = its record | GB_PIECE) and reserves its tiles; false when they do
-// not fit below tile_capacity (the check before the reservation keeps the count from wrapping around).
-// Tiles reserved without room are listed under GB_NONE, so that gbuffer/wide_expand.glsl marks them skipped.
-bool gb_to_wide(uint id, GbTri g) {
+// Lists a wide triangle (or a polygon: id = its record | GB_PIECE) with the tiles of its box; the tile list
+// keeps those of its tiles that hold one of its pixel centres (gbuffer/wide_expand.glsl).
+void gb_to_wide(uint id, GbTri g) {
     ivec2 tiles = (g.i1 - g.i0 + GB_TILE) / GB_TILE;
-    uint n = uint(tiles.x * tiles.y);
-    bool reserved = n <= tile_capacity && gw_tiles <= tile_capacity - n;
-    uint base = reserved ? atomicAdd(gw_tiles, n) : 0u;
-    bool fits = reserved && base <= tile_capacity - n;
     uint slot = atomicAdd(gw_triangles, 1u);
-    gw_list[slot] = uvec4(fits ? id : GB_NONE, base, reserved ? n : 0u, 0u);
+    gw_list[slot] = uvec4(id, 0u, uint(tiles.x * tiles.y), 0u);
     atomicMax(gw_list_groups[0], min(slot + 1u, 65535u));
-    if (reserved) atomicMax(gw_tile_groups[0], min(base + n, 65535u));
-    return fits;
 }

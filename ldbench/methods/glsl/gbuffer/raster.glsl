@@ -8,9 +8,9 @@
 // - crossing the near or far plane, or beyond the exact range: listed by pass 0 for the clipper
 //   (gbuffer/clip.glsl), which records its pieces in gc_piece (at most clip_capacity) and lists them for the
 //   tile raster;
-// - not finite, or wide (or a piece) without room in the tile list or among the pieces: appended by pass 0
-//   to gb_large, the index list of one indirect draw (gb_cmd, gb_cmd[0] counts the indices) that the
-//   hardware rasterizes in both passes (gbuffer/large.glsl).
+// - not finite: appended by pass 0 to gb_large, the index list of one indirect draw (gb_cmd, gb_cmd[0]
+//   counts the indices) that the hardware rasterizes in both passes (gbuffer/large.glsl); so are the
+//   triangles the clipper or the tile list find no room for.
 //
 // Defines: LS_SUBPIXEL_BITS, SPLAT_TOP / BOTTOM / LEFT / RIGHT, SPLAT_SNAPPED_PLANE (the probe's rule).
 layout(local_size_x = 64) in;
@@ -33,7 +33,8 @@ void gb_triangle(uint t) {
     if (kind == GB_HARDWARE || kind == GB_WIDE || kind == GB_CLIP) {
         if (vis_pass != 0) return;   // pass 0 listed it; pass 1 draws the same lists again
         if (kind == GB_CLIP) gb_to_clip(t);
-        else if (kind == GB_HARDWARE || !gb_to_wide(t, g)) gb_to_hardware(t);
+        else if (kind == GB_HARDWARE) gb_to_hardware(t);
+        else gb_to_wide(t, g);
         return;
     }
     if (kind != GB_SMALL) return;

@@ -23,7 +23,6 @@ void main() {
     uint total = min(gw_tiles, tile_capacity);
     for (uint v = gl_WorkGroupID.x; v < total; v += gl_NumWorkGroups.x) {
         uvec2 e = gt_map[v];
-        if (e.x == GB_NONE) continue;
         if ((e.x & GB_PIECE) != 0u) {   // a clipped triangle's polygon
             GbPiece r = gc_piece[e.x & ~GB_PIECE];
             int tiles_x = (r.box.z - r.box.x + GB_TILE) / GB_TILE;

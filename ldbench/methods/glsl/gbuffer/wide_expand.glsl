@@ -1,12 +1,14 @@
 // The compute G-buffer's tile list (gbuffer/wide_list.glsl): a workgroup per listed wide triangle or clipped
-// polygon writes its tile entries (id, k), k = 0 .. tiles - 1, at its reserved range (grid-stride over the
-// list). A tile whose pixel centres all lie outside one edge is written skipped (GB_NONE), so that the tile
-// raster (gbuffer/wide.glsl) spends no workgroup on it: a long thin triangle, or a clipped floor, fills few
-// of its box's tiles. Exact: an edge function is affine, and a tile's pixel centres lie in the rectangle of
-// its corner pixels' centres, so its largest value over the tile is at one of those four.
+// polygon appends an entry (id, k) for each tile k of its box that holds a pixel centre of it (grid-stride
+// over the list). A tile whose pixel centres all lie outside one edge gets no entry, so the tile raster
+// (gbuffer/wide.glsl) spends no workgroup on it: a long thin triangle, or a clipped floor seen from above,
+// fills few of its box's tiles. Exact: an edge function is affine, and a tile's pixel centres lie in the
+// rectangle of its corner pixels' centres, so its largest value over the tile is at one of those four. A
+// triangle with a tile beyond tile_capacity goes to the hardware path, once.
 layout(local_size_x = 256) in;
 #include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"
+#include "gbuffer/lists.glsl"
 
 // whether every pixel centre of the tile lo .. hi (texels) is outside the edge from f along e
 bool gb_tile_outside(ivec2 f, ivec2 e, int bias, ivec2 lo, ivec2 hi) {
@@ -21,41 +23,41 @@ void main() {
     uint n = gw_triangles;
     for (uint s = gl_WorkGroupID.x; s < n; s += gl_NumWorkGroups.x) {
         uvec4 e = gw_list[s];
-        // the box and the edges of the listed triangle or polygon (none for a skipped entry)
+        // the box and the edges of the listed triangle or polygon
         GbTri g;
         GbPiece r;
-        ivec2 i0 = ivec2(0), i1 = ivec2(0);
-        bool piece = e.x != GB_NONE && (e.x & GB_PIECE) != 0u;
+        bool piece = (e.x & GB_PIECE) != 0u;
         if (piece) {
             r = gc_piece[e.x & ~GB_PIECE];
-            i0 = r.box.xy;
-            i1 = r.box.zw;
-        } else if (e.x != GB_NONE) {
+            g.i0 = r.box.xy;
+            g.i1 = r.box.zw;
+        } else {
             gb_setup(e.x, g);   // as pass 0 set it up
-            i0 = g.i0;
-            i1 = g.i1;
         }
-        int tiles_x = (i1.x - i0.x + GB_TILE) / GB_TILE;
-        for (uint k = gl_LocalInvocationID.x; k < e.z && e.y + k < tile_capacity; k += gl_WorkGroupSize.x) {
-            uint id = e.x;
-            if (id != GB_NONE) {
-                ivec2 lo = i0 + GB_TILE * ivec2(int(k) % tiles_x, int(k) / tiles_x);
-                ivec2 hi = min(lo + GB_TILE - 1, i1);
-                bool out_ = false;
-                if (piece) {
-                    int m = int(r.meta.y);
-                    for (int j = 0; j < m && !out_; ++j) {
-                        ivec2 d = r.f[j + 1 < m ? j + 1 : 0] - r.f[j];
-                        out_ = gb_tile_outside(r.f[j], d, sp_bias(d), lo, hi);
-                    }
-                } else {
-                    out_ = gb_tile_outside(g.tri.f0, g.tri.e0, g.tri.b0, lo, hi)
-                        || gb_tile_outside(g.tri.f1, g.tri.e1, g.tri.b1, lo, hi)
-                        || gb_tile_outside(g.tri.f2, g.tri.e2, g.tri.b2, lo, hi);
+        int tiles_x = (g.i1.x - g.i0.x + GB_TILE) / GB_TILE;
+        for (uint k = gl_LocalInvocationID.x; k < e.z; k += gl_WorkGroupSize.x) {
+            ivec2 lo = g.i0 + GB_TILE * ivec2(int(k) % tiles_x, int(k) / tiles_x);
+            ivec2 hi = min(lo + GB_TILE - 1, g.i1);
+            bool out_ = false;
+            if (piece) {
+                int m = int(r.meta.y);
+                for (int j = 0; j < m && !out_; ++j) {
+                    ivec2 d = r.f[j + 1 < m ? j + 1 : 0] - r.f[j];
+                    out_ = gb_tile_outside(r.f[j], d, sp_bias(d), lo, hi);
                 }
-                if (out_) id = GB_NONE;
+            } else {
+                out_ = gb_tile_outside(g.tri.f0, g.tri.e0, g.tri.b0, lo, hi)
+                    || gb_tile_outside(g.tri.f1, g.tri.e1, g.tri.b1, lo, hi)
+                    || gb_tile_outside(g.tri.f2, g.tri.e2, g.tri.b2, lo, hi);
             }
-            gt_map[e.y + k] = uvec2(id, k);
+            if (out_) continue;
+            uint slot = gw_tiles < tile_capacity ? atomicAdd(gw_tiles, 1u) : tile_capacity;
+            if (slot < tile_capacity) {
+                gt_map[slot] = uvec2(e.x, k);
+                atomicMax(gw_tile_groups[0], min(slot + 1u, 65535u));
+            } else if (atomicExchange(gw_list[s].w, 1u) == 0u) {
+                gb_to_hardware(piece ? r.meta.x : e.x);   // no room: the whole triangle, once
+            }
         }
     }
 }
