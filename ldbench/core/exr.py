@@ -17,6 +17,9 @@ import numpy as np
 from ldbench.core.errors import LdbenchError
 from ldbench.core.files import atomic_write
 
+# Lazy: OpenEXR is imported by _openexr() alone, which turns a broken install into an LdbenchError and keeps the
+# native library out of processes that never touch an EXR.
+
 __all__ = ["write_exr", "read_exr", "read_exr_header", "write_image", "read_image", "image_channels"]
 
 

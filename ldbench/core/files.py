@@ -6,6 +6,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from ldbench.core.errors import LdbenchError
+
 
 def atomic_write(path, write, *, suffix: str = "") -> Path:
     """Call ``write(tmp)`` with a new temporary path in ``path``'s folder, then rename it over ``path``.
@@ -55,8 +57,6 @@ def check_output_path(path, *, into: bool = False, extra: int = TEMP_EXTRA, flag
     ------
     LdbenchError
         naming ``flag``, the path and what is wrong."""
-    from ldbench.core.errors import LdbenchError
-
     p = Path(os.path.abspath(os.fspath(path)))
     anc = p if into else p.parent
     while not os.path.lexists(anc) and anc != anc.parent:
@@ -89,8 +89,6 @@ def check_replaceable(path, ours) -> None:
     ------
     LdbenchError
         naming the path and what to do."""
-    from ldbench.core.errors import LdbenchError
-
     path = Path(path)
     check_output_path(path, flag="output")
     if not os.path.lexists(path):

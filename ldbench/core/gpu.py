@@ -13,7 +13,9 @@ etc. (as moderngl-window does), ``#include "file.glsl"`` resolved beside the fil
 """
 from __future__ import annotations
 
+import ctypes
 import logging
+import os
 import re
 import time
 from contextlib import contextmanager
@@ -22,12 +24,15 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from . import bindings
+from . import bindings, egl
 from .device import classify_device  # noqa: F401 (the one rule; re-exported)
 from .errors import LdbenchError
 
 if TYPE_CHECKING:
     import moderngl
+
+# Lazy: moderngl is imported when a Gpu opens (Gpu.__init__ turns its absence into an LdbenchError); a process that
+# only reads this module's constants and host checks never loads the GL library.
 
 log = logging.getLogger(__name__)
 
@@ -254,12 +259,11 @@ class Gpu:
             import moderngl
         except ImportError as e:  # pragma: no cover - packaging error
             raise LdbenchError(f"moderngl is not installed: {e}")
-        from .egl import Selection, select_device, visible_gpu
 
         try:
-            self.selection = select_device()
+            self.selection = egl.select_device()
         except Exception:  # a broken EGL install: no choice, the default device as before
-            self.selection = Selection(None, visible_gpu(), None, "default")
+            self.selection = egl.Selection(None, egl.visible_gpu(), None, "default")
         # str and int values; moderngl's stub types each setting as a dict, so the mapping is typed loosely
         settings: dict[str, Any] = {"backend": "egl"}
         if self.selection.egl_device is not None:
@@ -438,11 +442,9 @@ class Gpu:
         if self.device == "cpu-software" or "GL_NVX_gpu_memory_info" not in self.ctx.extensions:
             return None
         try:
-            import ctypes
-
-            egl = ctypes.CDLL("libEGL.so.1")
-            egl.eglGetProcAddress.restype = ctypes.c_void_p
-            addr = egl.eglGetProcAddress(b"glGetIntegerv")  # this thread's current context (ours)
+            libegl = ctypes.CDLL("libEGL.so.1")
+            libegl.eglGetProcAddress.restype = ctypes.c_void_p
+            addr = libegl.eglGetProcAddress(b"glGetIntegerv")  # this thread's current context (ours)
             if not addr:
                 return None
             get = ctypes.CFUNCTYPE(None, ctypes.c_uint, ctypes.POINTER(ctypes.c_int))(addr)
@@ -477,7 +479,6 @@ def host_available_bytes() -> int | None:
     except (OSError, ValueError, IndexError):
         pass
     try:
-        import os
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):
         return None

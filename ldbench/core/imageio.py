@@ -2,13 +2,20 @@
 report colours them on one scale per grid), and float values for the report's image viewer."""
 from __future__ import annotations
 
+import base64
 import json
 from pathlib import Path
 
 import numpy as np
 
+from ldbench.core.exr import write_exr
 from ldbench.core.files import atomic_write, atomic_write_text
 
+from .metrics import to_srgb8
+from .signals import deferred_interrupt
+
+# Heavy: Pillow, matplotlib and Mitsuba are imported in the readers and writers that use them; this module is on the
+# CLI's start path (through ldbench.core.effects), and `ldbench --help` starts without them.
 
 #: zlib level of the PNG previews (docs/reference/reports.md, "Images": the time it saves)
 PNG_COMPRESS_LEVEL = 1
@@ -46,8 +53,6 @@ def read_png(path: Path) -> np.ndarray:
         raise ValueError("not a PNG file")
     depth, colour_type = head[24], head[25]
     if depth == 16 and colour_type in _PNG_16BIT_LOSSY:
-        from .signals import deferred_interrupt
-
         with deferred_interrupt():  # Mitsuba's start-up is not safe to interrupt (ldbench/core/signals.py)
             import mitsuba as mi
 
@@ -72,10 +77,6 @@ def read_png(path: Path) -> np.ndarray:
 
 def save_image(path_noext: Path, img: np.ndarray, *, png_scale: float | None = None):
     """EXR (linear float) + PNG preview (sRGB; ``png_scale`` maps that value to white)."""
-    from ldbench.core.exr import write_exr
-
-    from .metrics import to_srgb8
-
     path_noext = Path(path_noext)
     chans = {"Y": img[..., 0]} if img.shape[-1] == 1 else dict(zip("RGB", np.moveaxis(img[..., :3], -1, 0)))
     write_exr(str(path_noext) + ".exr", chans)
@@ -88,8 +89,6 @@ def save_map(path_noext: Path, emap: np.ndarray, mask: np.ndarray) -> float:
     """A scalar H×W map as EXR; returns its 99th percentile over ``mask``, the scale a colourised view
     shows as white. No PNG: the report colours the maps of a grid on one scale
     (:func:`ldbench.reports.figures.make_grid`), so a PNG per map on its own scale would be seen by no one."""
-    from ldbench.core.exr import write_exr
-
     path_noext = Path(path_noext)
     vmax = float(np.percentile(emap[mask], 99)) if mask.any() else 1.0
     write_exr(str(path_noext) + ".exr", {"Y": np.asarray(emap, np.float32)})
@@ -109,8 +108,6 @@ def save_values_js(path: Path, key: str, values: np.ndarray) -> bool:
     exact values reach the page opened straight from disk. Images over :data:`VALUES_MAX_PIXELS`
     are skipped (returns False): the viewer then shows coordinates only.
     """
-    import base64
-
     a = np.asarray(values, dtype="<f4")
     if a.ndim == 2:
         a = a[..., None]

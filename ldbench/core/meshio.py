@@ -16,6 +16,9 @@ import numpy as np
 
 from .errors import LdbenchError
 
+# Heavy: trimesh (0.4 s) is imported by the functions that read or build meshes, so importing this module (every scene
+# module does) stays light.
+
 DISK_SEGMENTS = 64
 SPHERE_SUBDIVISIONS = 4  # icosphere: 20 · 4^4 = 5120 triangles
 

@@ -24,6 +24,10 @@ import numpy as np
 
 from .errors import LdbenchError
 
+# Lazy: scikit-image (it imports scipy) and matplotlib are heavy and this module is on the CLI's start path (through
+# ldbench.core.effects); flip_evaluator loads libgomp, which reads OMP_NUM_THREADS once, so it loads only after the
+# writer processes set that (ldbench.harness.writers).
+
 #: Default settings of :func:`flip` (recorded by :func:`all_metrics` as ``metric_settings["flip"]``).
 #: LDR-FLIP on linear values clipped to [0, 1] (``inputsRGB=False``: FLIP is told the values are
 #: linear, not sRGB-encoded), 67 pixels per degree (FLIP's default: 0.7 m from a 0.7 m wide

@@ -43,6 +43,7 @@ Mitsuba's own errors are reduced to one line.
 """
 from __future__ import annotations
 
+import importlib
 import math
 import os
 import re
@@ -54,6 +55,9 @@ import numpy as np
 from . import meshio
 from .errors import LdbenchError
 from .scene import Camera, Mesh, Scene, SpotLight
+from .signals import deferred_interrupt
+
+# Heavy: Mitsuba is imported by _mitsuba() alone, when a Mitsuba XML scene is read.
 
 SUPPORTED_SHAPES = ("obj", "ply", "rectangle", "cube", "sphere", "disk", "cylinder")
 DEFAULT_FILM = (768, 576)  # Mitsuba's hdrfilm default
@@ -72,11 +76,7 @@ _TAGS = {"Scene": "scene", "Sensor": "sensor", "Film": "film", "Emitter": "emitt
 def _mitsuba():
     """(mitsuba, its parser module) with the ``scalar_rgb`` types registered, without setting a variant
     (the references choose theirs; a scalar variant's module does not start the LLVM backend)."""
-    from .signals import deferred_interrupt
-
     try:
-        import importlib
-
         with deferred_interrupt():  # a Ctrl-C inside the extension's start-up would read as "not installed"
             import mitsuba as mi
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -221,8 +222,6 @@ def _coerce(kind, v, name):
     of a command line), an int from an integer (not a bool) or integral text, a float from an int or
     float (not a bool) or numeric text (``inf``), a str from a str. Anything else is an error naming
     the parameter, never a silent conversion (``directions = true`` is not 1)."""
-    import numbers
-
     bad = LdbenchError(f"parameter {name}={v!r} is not a valid {kind.__name__}")
     if kind is bool:
         if isinstance(v, (bool, np.bool_)):

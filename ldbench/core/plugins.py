@@ -28,6 +28,7 @@ import json
 import os
 import subprocess
 import sys
+import tomllib
 from functools import lru_cache
 from pathlib import Path
 
@@ -315,8 +316,6 @@ def ldbench_version() -> str | None:
     """ldbench's version: pyproject.toml's in a checkout (the tree you run), else the installed metadata."""
     pp = LDBENCH_ROOT / "pyproject.toml"
     if pp.is_file():
-        import tomllib
-
         try:
             project = tomllib.loads(pp.read_text()).get("project", {})
             if project.get("name") == "ldbench" and project.get("version"):

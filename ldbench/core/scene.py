@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -296,8 +296,6 @@ def without_duplicate_triangles(scene: "Scene") -> "Scene":
     lists store both copies (an OIT composite applies the opacity twice), depth peeling keeps one, and
     the OIT reference (which finds one hit per surface along a ray) counts it once. Copies in *different*
     meshes stay: they are distinct surfaces (materials), ordered by the effect's tie rule."""
-    from dataclasses import replace
-
     meshes, removed = [], []
     for m in scene.meshes:
         dup = duplicate_faces(m.vertices, m.faces)

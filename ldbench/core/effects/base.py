@@ -59,7 +59,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ldbench.core import metrics, plugins
 from ldbench.core.errors import LdbenchError
+from ldbench.core.imageio import save_image, save_map
 from ldbench.core.params import ParamsBase
 
 #: Image metrics (columns of the records).
@@ -234,8 +236,6 @@ class ImageEffect(EffectSpec):
         return img, covered & finite, nonfinite
 
     def score(self, result, reference, *, scene, inputs, stage_ms):
-        from ldbench.core import metrics
-
         img, covered = self.method_image(result, reference)
         mask = reference.mask
         if not mask.any():
@@ -254,9 +254,6 @@ class ImageEffect(EffectSpec):
         return float(np.percentile(reference.mean[reference.mask], 99) or 1.0) if reference.mask.any() else 1.0
 
     def save(self, result, reference, inputs, folder, label, ref_label):
-        from ldbench.core import metrics
-        from ldbench.core.imageio import save_image, save_map
-
         img, _ = self.method_image(result, reference)
         scale = self.preview_scale(reference)
         if not (folder / f"{ref_label}.exr").exists():
@@ -298,8 +295,6 @@ def registry() -> dict:
     of group ``ldbench.effects`` (:mod:`ldbench.core.plugins`); two specs with one name are one error."""
     global _REGISTRY
     if _REGISTRY is None:
-        from ldbench.core import plugins
-
         found: dict[str, type[EffectSpec]] = {}
         sources: dict[str, str] = {}
         for obj in _in_tree():

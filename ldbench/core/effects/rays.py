@@ -68,6 +68,7 @@ import numpy as np
 
 from ldbench.core import conventions as conv
 from ldbench.core.errors import LdbenchError
+from ldbench.core.imageio import save_image, save_map
 from ldbench.core.params import ParamsBase, param
 
 from .base import EffectSpec
@@ -353,8 +354,6 @@ class Rays(EffectSpec):
         return m
 
     def save(self, result, reference, inputs, folder, label, ref_label):
-        from ldbench.core.imageio import save_image, save_map
-
         batch = inputs
         t = self._t(result, batch)
         W, H = batch.width, batch.height

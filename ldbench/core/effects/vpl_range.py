@@ -46,10 +46,12 @@ import numpy as np
 from ldbench.core import conventions as conv
 from ldbench.core.conventions import hash01, hash32, tangent_frame as frame  # noqa: F401 (re-exported)
 from ldbench.core.errors import LdbenchError
+from ldbench.core.imageio import save_image, save_map
 from ldbench.core.params import ParamsBase, param
+from ldbench.core.scene import Camera
 
 from .base import EffectSpec
-from .rays import Rays
+from .rays import Rays, RayBatch, ray_metrics
 
 RAYS_PER_VPL = 5 + 1
 #: Peak host memory per RSM texel (one VPL and its six rays): 700 B measured (maximum RSS of ``ldbench export``,
@@ -124,8 +126,6 @@ def rsm_up(light) -> tuple:
 
 def rsm_camera(light):
     """The RSM's view: from the light along its axis, square, vertical field of view 2 × cut-off."""
-    from ldbench.core.scene import Camera
-
     if light.is_point or light.cutoff_angle >= 80.0:
         raise LdbenchError(f"a reflective shadow map needs a spot light with a cut-off below 80° (one "
                            f"perspective view); this light's is {light.cutoff_angle:g}°")
@@ -198,8 +198,6 @@ class VplRangeReference:
 def make_vpls(scene, params: VplRangeParams, seed: int, exact) -> VplBatch:
     """The :class:`VplBatch` of ``params`` (an ``rsm``² RSM, six rays per VPL), from the exact first hits
     of the RSM rays and the ray epsilon of ``exact`` (:mod:`ldbench.core.effects.base`)."""
-    from .rays import RayBatch
-
     if exact is None:
         raise LdbenchError("the vpl_range effect builds its VPLs from exact RSM hits: pass exact=")
     if not scene.lights:
@@ -312,8 +310,6 @@ class VplRange(EffectSpec):
         return (r, t, int(np.count_nonzero(bad_r) + np.count_nonzero(bad_t))) if count else (r, t)
 
     def score(self, result, reference, *, scene, inputs, stage_ms):
-        from .rays import ray_metrics
-
         batch = inputs
         r, t, nonfinite = self._arrays(result, batch, count=True)
         m = range_metrics(r, reference.range)
@@ -335,8 +331,6 @@ class VplRange(EffectSpec):
         return m
 
     def save(self, result, reference, inputs, folder, label, ref_label):
-        from ldbench.core.imageio import save_image, save_map
-
         batch = inputs
         r, _ = self._arrays(result, batch)
         step = max(1, batch.rsm // 512)  # previews of at most 512² texels
