@@ -19,9 +19,11 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
+from ldbench.core import plugins
 from ldbench.core.errors import LdbenchError
 from ldbench.core.scene import Camera, Scene
 from ldbench.core.params import ParamsBase, group, param  # noqa: F401 (re-exported)
+from ldbench.methods.gbuffer import GBuffer, SceneGeometry
 
 if TYPE_CHECKING:
     from ldbench.core.effects.rays import RayBatch
@@ -131,8 +133,6 @@ class Method:
         """The common part of ``setup``: ``self.res`` (memory-accounted allocations), the scene's
         triangles on the GPU (``self.geo``) and a G-buffer pass (``self.gbuf``, rasterized by ``gbuffer``:
         ``hardware`` or ``compute``, :class:`~ldbench.methods.gbuffer.GBuffer`)."""
-        from ldbench.methods.gbuffer import GBuffer, SceneGeometry
-
         self.gpu, self.scene = gpu, scene
         self.res = gpu.resources()
         self.geo = SceneGeometry(gpu, scene, self.res)
@@ -161,8 +161,6 @@ def registry() -> dict[str, type[Method]]:
     """{name: Method subclass}: every adapter package under ``methods/`` (discovered), every entry point
     of group ``ldbench.methods``, and the ``package.module:Class`` references registered in this process
     or its driver (:mod:`ldbench.core.plugins`). Two classes with one name are one error naming both."""
-    from ldbench.core import plugins
-
     key = plugins.discovery_key(plugins.METHOD_GROUP)
     if key not in _REGISTRY:
         reg = _discover()
@@ -172,8 +170,6 @@ def registry() -> dict[str, type[Method]]:
 
 
 def _discover() -> dict[str, type[Method]]:
-    from ldbench.core import plugins
-
     package = __name__.rpartition(".")[0]  # the methods package, whatever it is installed as
     found: dict[str, type[Method]] = {}
     sources: dict[str, str] = {}
@@ -200,16 +196,12 @@ def aliases() -> dict:
 def canonical_name(name: str) -> str:
     """The registered name of a method given by name or alias (unknown names are returned as given);
     a ``package.module:Class`` reference is imported, registered (:mod:`ldbench.core.plugins`) and named."""
-    from ldbench.core import plugins
-
     if plugins.is_reference(name):
         return plugins.register_reference(name, Method).name
     return aliases().get(name, name)
 
 
 def get_method(name: str) -> type[Method]:
-    from ldbench.core import plugins
-
     if plugins.is_reference(name):
         name = canonical_name(name)
     reg = registry()

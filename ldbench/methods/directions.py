@@ -45,6 +45,8 @@ from functools import lru_cache
 
 import numpy as np
 
+# Heavy: scipy.spatial is imported by nearest_axis_table() alone, the one function that needs it.
+
 
 def _mround(x: float) -> int:
     """Matlab ``round``: halves away from zero."""

@@ -41,6 +41,10 @@ import numpy as np
 from ldbench.core import conventions as conv
 from ldbench.core.errors import LdbenchError
 
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them.
+
 RENDERABLE = ("ao", "direct", "indirect")
 
 

@@ -11,16 +11,15 @@ same statistics as :func:`ldbench.references.render_reference`. Background pixel
 """
 from __future__ import annotations
 
+from ldbench.core.effects.rays import RaysParams
 from ldbench.core.errors import LdbenchError
 from ldbench.core.mc import ao_values, pixel_mean_variance
+
+from .rays import make_batch, trace_oracle
 
 
 def render_mc_ao(scene, effect, *, width: int, height: int, spp: int, seed: int = 0):
     """(mean, variance of the mean, mask) of the ``ao`` ``effect`` on ``scene``: H×W×1, H×W×1, H×W bool."""
-    from ldbench.core.effects.rays import RaysParams
-
-    from .rays import make_batch, trace_oracle
-
     if effect.name != "ao":
         raise LdbenchError(f"the Monte Carlo oracle estimator renders ao, not {effect.name}")
     if isinstance(spp, bool) or not isinstance(spp, int) or not 2 <= spp <= 1024:

@@ -26,10 +26,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ldbench.core.effects import Effect
+from ldbench.core.effects.oit import BACKGROUND
 from ldbench.core.errors import LdbenchError
 
+from . import integrators as _int
 from .render import Reference
 from .variant import choose_variant, variant_active
+
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them.
 
 MAX_LAUNCHES = 100_000  # per mesh: a bound on the depth complexity (never reached by a sane scene)
 
@@ -65,8 +72,6 @@ def _mesh_scene(mi, m):
 def intersections(scene, width: int, height: int) -> Intersections:
     """All surfaces along every pixel-centre ray (see the module docstring)."""
     import drjit as dr
-
-    from . import integrators as _int
 
     o32, d32 = _int.primary_rays(scene, width, height)
     o64, d64 = o32.astype(np.float64), d32.astype(np.float64)
@@ -129,8 +134,6 @@ def intersections(scene, width: int, height: int) -> Intersections:
 def composite_hits(scene, hits: Intersections, max_layers: int = 0, background=None) -> np.ndarray:
     """(H, W, 3) float64: each pixel's hits sorted by (depth, mesh) and composited front to back
     (``max_layers`` > 0: the first n only) over the background."""
-    from ldbench.core.effects.oit import BACKGROUND
-
     bg = np.asarray(BACKGROUND if background is None else background, np.float64)
     npix = hits.width * hits.height
     o = np.lexsort((hits.mesh, hits.depth, hits.pixel))  # by pixel, then the tie rule
@@ -170,7 +173,6 @@ def render_oit(scene, width: int, height: int, max_layers: int = 0) -> Reference
     counts = hits.counts()
     mask = counts > 0
     seconds = time.perf_counter() - t0
-    from ldbench.core.effects import Effect
 
     meta = {"variant": hits.variant, "spp": 1, "spp_requested": 1, "seconds": seconds, "key": None,
             "cached": False, "effect": Effect("oit").key(), "width": int(width), "height": int(height),

@@ -13,13 +13,21 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
+from ldbench.core.effects import rays
+from ldbench.core.effects.rays import RaysReference
 from ldbench.core.errors import LdbenchError
 
 from . import integrators as _int
+from .render import primary_hits
 from .variant import choose_variant, variant_active
+
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them.
 
 
 def epsilons():
@@ -31,19 +39,12 @@ def epsilons():
 
 def make_batch(scene, width: int, height: int, params, seed: int):
     """:func:`ldbench.core.effects.rays.make_batch` from Mitsuba's exact primary hits (what the harness hands in)."""
-    from types import SimpleNamespace
-
-    from ldbench.core.effects import rays
-
-    from .render import primary_hits
-
     return rays.make_batch(scene, width, height, params, seed, SimpleNamespace(primary_hits=primary_hits,
                                                                               epsilons=epsilons))
 
 
 def trace_oracle(scene, batch):
     """:class:`~ldbench.core.effects.rays.RaysReference`: exact answers and the oracle's time on ``batch``."""
-    from ldbench.core.effects.rays import RaysReference
     import drjit as dr
 
     variant = choose_variant()

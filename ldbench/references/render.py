@@ -29,6 +29,11 @@ from . import cache as _cache
 from . import integrators as _int
 from .variant import choose_variant, mitsuba_version, variant_active
 
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them. tqdm is optional here (no progress bar
+# without it).
+
 # Samples (secondary rays) per wavefront, by variant. On the CPU 2^22 keeps the indirect wavefront (full
 # surface interactions plus shadow rays) well under 1 GB at no loss of speed; on a GPU 2^24 is about
 # twice as fast as 2^22 (measured on an H200: ~1.9 G AO rays/s).

@@ -21,6 +21,10 @@ import sys
 from contextlib import contextmanager
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.signals import deferred_interrupt
+
+# Lazy: drjit and mitsuba are imported by _choose() alone, under deferred_interrupt and after setup_llvm_env(), which
+# must come before their first import; the other functions import them once a variant is chosen.
 
 MIN_LLVM = 17
 VARIANTS = ("cuda_ad_rgb", "llvm_ad_rgb")
@@ -107,7 +111,6 @@ def choose_variant() -> str:
     forced = os.environ.get("LDBENCH_MITSUBA_VARIANT", "").strip()
     if forced and forced not in VARIANTS:
         raise LdbenchError(f"LDBENCH_MITSUBA_VARIANT={forced!r}: must be one of {', '.join(VARIANTS)}")
-    from ldbench.core.signals import deferred_interrupt
 
     with deferred_interrupt():  # a Ctrl-C inside Dr.Jit's start-up would fake "no usable variant" or abort
         return _choose(forced)

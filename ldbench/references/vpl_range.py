@@ -9,21 +9,27 @@ position, geometric normal flipped to face the light, albedo.
 """
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
+from ldbench.core.effects import vpl_range
+from ldbench.core.effects.vpl_range import VplRangeReference, reduce_ranges, rsm_camera
 from ldbench.core.errors import LdbenchError
 
 from . import integrators as _int
 from .rays import epsilons, trace_oracle
 from .variant import choose_variant, variant_active
 
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them.
+
 
 def rsm_hits(scene, R: int) -> dict:
     """Mitsuba's first hits of the RSM rays: ``mask``, ``position``, ``spawn`` (its crease point, where the
     VPL's rays start before their offset), ``normal`` (facing the light),
     ``albedo``, ``direction`` (light → texel centre), each (R², ·), row-major, row 0 at the top."""
-    from ldbench.core.effects.vpl_range import rsm_camera
-
     if not scene.lights:
         raise LdbenchError(f"scene {scene.name!r} has no light: no reflective shadow map")
     cam = rsm_camera(scene.lights[0])
@@ -44,18 +50,12 @@ def rsm_hits(scene, R: int) -> dict:
 
 def make_vpls(scene, params, seed: int):
     """:func:`ldbench.core.effects.vpl_range.make_vpls` from Mitsuba's exact RSM hits (what the harness hands in)."""
-    from types import SimpleNamespace
-
-    from ldbench.core.effects import vpl_range
-
     return vpl_range.make_vpls(scene, params, seed, SimpleNamespace(rsm_hits=rsm_hits, epsilons=epsilons))
 
 
 def exact_ranges(scene, batch):
     """:class:`~ldbench.core.effects.vpl_range.VplRangeReference`: Mitsuba's distances on the batch's rays
     (``trace_oracle``, timed as for the ``rays`` effect) and the ranges they give."""
-    from ldbench.core.effects.vpl_range import VplRangeReference, reduce_ranges
-
     ref = trace_oracle(scene, batch.rays)
     return VplRangeReference(range=reduce_ranges(ref.t, batch.cap, batch.mode), t=ref.t, seconds=ref.seconds,
                              timing=ref.timing, meta={**ref.meta, "vpls": len(batch)})

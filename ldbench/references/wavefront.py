@@ -23,6 +23,10 @@ from . import integrators as _int
 from .render import BATCH_RAYS, Reference, cached_render, mix_seed, progress_bar
 from .variant import choose_variant
 
+# Lazy: drjit and mitsuba are imported in the functions that trace, after choose_variant()
+# (ldbench.references.variant) has set up libLLVM, which must come before their first import, and chosen the variant;
+# importing this package (the harness, every worker) stays without them.
+
 
 def _render(scene, effect, width, height, spp, seed, progress, batch_rays, estimator, needs_direct):
     import drjit as dr

@@ -65,6 +65,8 @@ from ldbench.methods.invariants import layered_invariants
 from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, bounding_sphere, make_structure,
                                         ortho_layers)
 
+from .lighting import VplLighting
+
 RAY_BYTES = 48
 MAX_GROUPS = 65535  # workgroups of one dispatch dimension (the shaders loop grid-stride beyond)
 
@@ -358,8 +360,6 @@ class CdiVpl(Method):
                       memory_bytes=self.res.by_buffer(), counters=self._counters, invariants=self._invariants)
 
     def _indirect(self, view):
-        from .lighting import VplLighting
-
         if self._geometry_released:
             raise LdbenchError("method 'cdi-vpl': a static CDI that answered rays no longer holds the scene")
         if self.lighting is None:

@@ -14,6 +14,7 @@ import numpy as np
 
 from ldbench.core.bindings import B
 from ldbench.core.conventions import RAY_EPSILON
+from ldbench.core.effects.rays import RayBatch
 from ldbench.core.effects.vpl_range import (RAYS_PER_VPL, ray_origins, reduce_ranges, rsm_camera,
                                             vpl_directions)
 from ldbench.core.errors import LdbenchError
@@ -213,8 +214,6 @@ class VplLighting:
 
     # ---- the exact baseline: Mitsuba on the same six rays, once (the scene and the light are static) -----
     def _exact_table(self, scene):
-        from ldbench.core.effects.rays import RayBatch
-
         self.render_rsm()
         pos = read_texture(self.rsm_pos)      # row 0 = top, as the harness's RSM
         nrm = read_texture(self.rsm_nrm)

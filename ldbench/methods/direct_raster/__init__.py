@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ldbench.core.bindings import B
+from ldbench.core.effects import Effect
 from ldbench.core.gpu import read_texture
 from ldbench.core.params import ParamsBase, param
 from ldbench.methods.base import Method, Result
@@ -33,8 +34,6 @@ class DirectRaster(Method):
     Params = DirectRasterParams
 
     def setup(self, gpu, scene):
-        from ldbench.core.effects import Effect
-
         Effect("direct").check_scene(scene)  # the one rule for "needs a light"
         self.light = scene.lights[0]
         self.setup_scene(gpu, scene)

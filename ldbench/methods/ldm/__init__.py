@@ -67,6 +67,10 @@ from ldbench.methods.structures import (StructureSpec, bind_ortho_layers, boundi
                                         ortho_layers)
 from ldbench.methods.scan import groups_2d
 
+from .indirect import IndirectLight
+
+# Heavy: scipy.spatial is imported by one_way_axis_table() alone, the one function that needs it.
+
 LUT_RES = 128
 FAR = 3.0e38
 
@@ -374,8 +378,6 @@ class Ldm(Method):
             raise LdbenchError("method 'ldm': trace.prefetch applies to the ao effect only")
 
     def _indirect(self, view):
-        from .indirect import IndirectLight
-
         t = self.params.trace
         if (t.query, t.walk) != ("two_way", "early_stop"):
             raise LdbenchError("method 'ldm': trace.query and trace.walk apply to the ao and rays effects only "

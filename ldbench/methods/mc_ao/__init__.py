@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ldbench.core.effects.rays import RaysParams, make_batch
 from ldbench.core.errors import LdbenchError
 from ldbench.core.mc import ao_values, pixel_mean_variance
 from ldbench.core.params import ParamsBase, param
@@ -48,8 +49,6 @@ class McAo(Method):
             raise LdbenchError("method 'mc-ao' needs the harness's ray oracle and exact primary hits")
 
     def frame(self, view, effect, inputs=None):
-        from ldbench.core.effects.rays import RaysParams, make_batch
-
         spp = int(self.params.spp)
         d_max, falloff = float(effect.d_max), str(effect.falloff)
         with self.gpu.stage("trace"):
