@@ -22,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ldbench.core.files import atomic_write
+
 
 def answer_arrays(spec, result, reference, inputs) -> dict | None:
     """{name: array} of one non-image result (module docstring; the effect's ``answer_arrays``); None for
@@ -31,6 +33,4 @@ def answer_arrays(spec, result, reference, inputs) -> dict | None:
 
 def save_arrays(path: Path, arrays: dict) -> Path:
     """``arrays`` as ``path`` (.npz), written under a temporary name and renamed."""
-    from ldbench.core.files import atomic_write
-
     return atomic_write(path, lambda t: np.savez(t, **arrays), suffix=".npz")

@@ -49,7 +49,13 @@ import numpy as np
 
 from ldbench.core.errors import LdbenchError
 from ldbench.core.files import atomic_write_text
+from ldbench.core.plugins import ldbench_info
+from ldbench.core.scenes import load_scene
+from ldbench.harness.rundir import QUESTION, RunDir
+from ldbench.references import EXACT
 from .arrays import save_arrays
+
+# Heavy: trimesh (0.4 s) is imported by _write_question() alone, which writes the scene's meshes.
 
 PIXEL_CONVENTION = ("pixel (i, j): column i from the left, row j from the top; its ray goes through the "
                     "pixel centre (i + 0.5, j + 0.5): d = normalize(x right + y up + forward), "
@@ -173,8 +179,6 @@ def export_question(question, out) -> Path:
     that then replaces ``out`` at once. ``out`` may be new, empty, or an earlier export holding nothing but
     what export writes; anything else (a user's folder, an export beside which an answer was saved) is
     refused before any work."""
-    from ldbench.harness.rundir import QUESTION, RunDir
-
     rd = RunDir(out, QUESTION)
     rd.check()
     scene = _load(question)
@@ -184,8 +188,6 @@ def export_question(question, out) -> Path:
 
 
 def _load(question):
-    from ldbench.core.scenes import load_scene
-
     scene = load_scene(question.scene, **question.scene_params)
     question.effect.check_scene(scene)
     return scene
@@ -193,8 +195,6 @@ def _load(question):
 
 def _write_question(question, scene, out: Path) -> None:
     import trimesh
-
-    from ldbench.core.plugins import ldbench_info
 
     effect, w, h = question.effect, question.width, question.height
     (out / "meshes").mkdir(parents=True, exist_ok=True)
@@ -217,8 +217,6 @@ def _write_question(question, scene, out: Path) -> None:
              "rays.npz": "every pixel's view ray", "light.json": "the lights"}
     spec = effect.spec
     if spec.output != "image":
-        from ldbench.references import EXACT
-
         batch = spec.inputs(scene, w, h, effect.params, question.seed, exact=EXACT)
         arrays, files["batch.npz"] = spec.export_arrays(batch, w, h)
         save_arrays(out / "batch.npz", arrays)

@@ -40,13 +40,20 @@ Change-point detection (:func:`detect_change_points`)
 """
 from __future__ import annotations
 
+import fcntl
 import math
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ldbench.core.errors import LdbenchError
-from ldbench.core.files import atomic_write
+from ldbench.core.files import atomic_write, check_output_path
+
+# Start-up: the CLI imports this module while it builds its parser, so records (about 7 ms) is imported where used;
+# compare.match (pandas) and scipy are heavy.
 
 DEFAULT_HISTORY_DIR = "history"
 LOCK_NAME = ".lock"
@@ -98,9 +105,6 @@ class _Lock:
         self.fd = None
 
     def __enter__(self):
-        import fcntl
-        import time
-
         try:
             self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as e:
@@ -128,7 +132,6 @@ def add_run(run, history_dir=DEFAULT_HISTORY_DIR) -> list[dict]:
 
     Returns one dict per machine touched: ``{"machine_key", "path", "added", "rows", "runs"}``.
     """
-    from ldbench.core.files import check_output_path
     from .compare.match import load_results
 
     check_output_path(history_dir, into=True, flag="--history-dir")  # before reading the run
@@ -204,8 +207,6 @@ class ChangePoint:
 
 
 def _shift(left, right, relative: bool) -> float:
-    import numpy as np
-
     mb, ma = float(np.median(left)), float(np.median(right))
     if relative:
         return ma / mb - 1.0 if mb != 0 else (0.0 if ma == 0 else math.inf)
@@ -215,8 +216,6 @@ def _shift(left, right, relative: bool) -> float:
 def _rank_z(ranks, ties_term, i, j):
     """Normal-approximation z of the Mann-Whitney U statistic of the points ``[i, j)`` of a segment
     against the rest of it, for arrays of interval bounds ``i``, ``j`` (vectorized)."""
-    import numpy as np
-
     n = ranks.size
     c = np.concatenate([[0.0], np.cumsum(ranks)])
     n1 = (j - i).astype(float)
@@ -264,7 +263,6 @@ def detect_change_points(y, *, alpha: float = 0.01, min_size: int = 3, min_effec
     -------
     list of ChangePoint (``index`` = first point after the change), sorted by index.
     """
-    import numpy as np
     from scipy.stats import mannwhitneyu, rankdata
 
     y = np.asarray(list(y), float)

@@ -16,12 +16,16 @@ effect), the smallest complete example of the contract in docs/reference/adapter
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import keyword
 import os
 import re
 from pathlib import Path
 
+import ldbench.methods
 from ldbench.core.errors import LdbenchError
+from ldbench.core.files import check_output_path
+from ldbench.methods.base import aliases, registry
 
 PYPROJECT = '''[build-system]
 requires = ["setuptools>=64"]
@@ -165,11 +169,6 @@ def check_free(n: dict, in_tree: bool) -> None:
     has, and a module name that would shadow one (an in-tree module of ``ldbench/methods/``, or an importable
     top-level module such as ``json`` for a package of its own): the template would never be the method
     that name runs, or would break the one it hides."""
-    import importlib.util
-
-    import ldbench.methods
-    from ldbench.methods.base import aliases, registry
-
     reg = registry()
     taken = n["name"] if n["name"] in reg else aliases().get(n["name"])
     if taken:
@@ -196,13 +195,9 @@ def write_template(name: str, *, out=None, in_tree: bool = False) -> list:
     """Write the template (module docstring); returns the files written. Everything is checked first (the
     name, the output folder, that no file exists); a write that fails midway removes what it wrote, so a
     failure leaves nothing behind."""
-    from ldbench.core.files import check_output_path
-
     n = names(name)
     check_free(n, in_tree)
     if in_tree:
-        import ldbench.methods
-
         pkg = Path(ldbench.methods.__path__[0]) / n["module"]
         files = [(pkg / "__init__.py", INIT), (pkg / f"{n['module']}.glsl", GLSL)]
         check_output_path(pkg, into=True, flag="--in-tree")

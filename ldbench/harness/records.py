@@ -51,6 +51,10 @@ from ldbench.core.errors import LdbenchError
 from ldbench.core.files import atomic_write
 from .naming import key_slug
 from ldbench.core.plugins import LDBENCH_ROOT, git_info, git_info_from_env  # noqa: F401 (re-exported: records' git columns)
+from ldbench.core.plugins import ldbench_version, provenance
+
+# Heavy: pandas and pyarrow are imported where a table is built or read, so importing this module stays light;
+# pynvml is optional (NVIDIA machines only).
 
 RESULTS_PARQUET = "results.parquet"
 RESULTS_CSV = "results.csv"
@@ -265,8 +269,6 @@ def method_columns(cls, git: dict | None = None) -> dict:
     """Row fields of where a method's class comes from (:func:`ldbench.core.plugins.provenance`):
     ``ldbench_version`` (the running ldbench's), ``method_module``, ``method_dist``, ``method_version``, ``method_commit``, ``method_dirty``
     (``git``: ldbench's own :func:`git_info`, for ldbench's built-in methods)."""
-    from ldbench.core.plugins import ldbench_version, provenance
-
     p = provenance(cls, git)
     return {"ldbench_version": ldbench_version(), "method_module": p["module"], "method_dist": p["dist"], "method_version": p["dist_version"],
             "method_commit": p["commit"], "method_dirty": p["dirty"]}

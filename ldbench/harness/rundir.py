@@ -39,13 +39,17 @@ from __future__ import annotations
 
 import errno
 import fcntl
+import json
 import os
 import re
 import shutil
 from pathlib import Path
 
 from ldbench.core.errors import LdbenchError
-from .records import PARTIAL_MARKER as MARKER  # noqa: F401 (records refuses what carries it)
+from ldbench.core.files import check_output_path
+from .records import PARTIAL_MARKER as MARKER, check_columns  # noqa: F401 (records refuses what carries it)
+
+# Heavy: pyarrow is imported by is_run_dir() alone, to read a results file's schema.
 
 RUN_FILES = ("results.parquet", "suite.json")
 #: Every top-level entry that ldbench writes into a run directory (the runner, ``report``, ``compare``,
@@ -73,8 +77,6 @@ def is_run_dir(path) -> bool:
     the ``suite.json`` ldbench writes (a JSON object with :data:`SUITE_KEYS`) and a ``results.parquet``
     whose Parquet schema has the results columns (:func:`ldbench.harness.records.check_columns`). Only the
     files' headers are read."""
-    import json
-
     p = Path(path)
     if not p.is_dir() or p.is_symlink() or (p / MARKER).exists():
         return False
@@ -85,8 +87,6 @@ def is_run_dir(path) -> bool:
         if not isinstance(suite, dict) or not all(k in suite for k in SUITE_KEYS):
             return False
         import pyarrow.parquet as pq
-
-        from .records import check_columns
 
         check_columns(pq.read_schema(p / "results.parquet").names, str(p))
     except (OSError, ValueError, LdbenchError):  # unreadable, not JSON, not Parquet (ArrowInvalid), foreign
@@ -113,8 +113,6 @@ QUESTION_KEYS = ("scene", "effect", "width", "height", "spp", "seed", "files", "
 def is_question_dir(path) -> bool:
     """True if ``path`` is a finished ``ldbench export`` folder: a directory (not a link, no :data:`MARKER`)
     whose ``question.json`` is the JSON object export writes (:data:`QUESTION_KEYS`)."""
-    import json
-
     p = Path(path)
     if not p.is_dir() or p.is_symlink() or (p / MARKER).exists():
         return False
@@ -175,8 +173,6 @@ class RunDir:
     def check(self) -> None:
         """Refuse an ``--out`` that is not ours to replace, or where nothing can be written (raises
         LdbenchError). Creates nothing (what :func:`~ldbench.core.files.check_output_path` probes is removed)."""
-        from ldbench.core.files import check_output_path
-
         out = self.out
         if not out.name or out.name in (".", ".."):
             raise LdbenchError(f"--out {out}: not a usable run directory name")

@@ -20,7 +20,9 @@ directory stays with :func:`ldbench.harness.executors.run_jobs`, in this process
 from __future__ import annotations
 
 import logging
+import signal
 import sys
+import threading
 import time
 import uuid
 from contextlib import contextmanager, suppress
@@ -29,16 +31,25 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ldbench.core.errors import LdbenchError, Terminated
+from ldbench.core.plugins import ldbench_info
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import View, get_method
+from ldbench.references import EXACT, render_effect, trace
+from . import records
+from .arrays import answer_arrays, save_arrays
 from .naming import slug as _slug
 from .checks import camera_sees_geometry, finite_reference, unique_scene_names
 from .phases import Phases
 from .suite import Job, Suite, resolve_sizes
+from .unbiased_score import method_test
 
 if TYPE_CHECKING:
     from ldbench.core.effects.base import EffectSpec
     from ldbench.core.gpu import Gpu
     from ldbench.core.scene import Scene
     from ldbench.methods.base import Result
+
+# Heavy: tqdm is imported by progress_bar() alone, and only for a progress bar on a terminal.
 
 
 
@@ -124,17 +135,12 @@ def prepare_key(job: Job) -> tuple:
 
 def machine_of(gpu) -> dict:
     """:func:`records.machine_info` of this process's context, with the device it opened on."""
-    from . import records
-
     return {**records.machine_info(gpu.info), **gpu.device_columns}
 
 
 def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
     """Load and check every scene, resolve sizes and check them against ``gpu``: the last chance to
     reject bad input (one line, exit 2) before anything is rendered."""
-    from . import records
-    from ldbench.core.scenes import load_scene
-
     scenes = {}
     for job in suite.jobs:
         if job.scene_key not in scenes:
@@ -153,8 +159,6 @@ def plan_run(suite: Suite, gpu, *, reference_cache: bool = True) -> RunPlan:
 
 def _ldbench_git() -> dict:
     """ldbench's commit: git in a checkout, else the one an installed wheel's build recorded."""
-    from ldbench.core.plugins import ldbench_info
-
     info = ldbench_info()
     return {"commit": info["commit"], "dirty": info["dirty"], "branch": None}
 
@@ -162,8 +166,6 @@ def _ldbench_git() -> dict:
 def prepare(scene, key: tuple, *, cache: bool = True, progress: bool = False, phases: Phases | None = None) -> Prepared:
     """The effect's inputs and reference of one :func:`prepare_key` (the reference from the cache, or
     rendered into it); its phases timed into ``phases`` (ldbench/harness/phases.py) when given."""
-    from ldbench.references import EXACT, render_effect
-
     ph = phases if phases is not None else Phases()
     _, effect, w, h, spp, seed = key
     with ph("inputs"):
@@ -227,8 +229,6 @@ def start_job(ctx: RunContext, job: Job, prep: Prepared) -> dict | Finish:
     release. Returns the job's row when it ends there (an error), else its :class:`Finish`. Errors become
     the row's status, as in :func:`run_job`; the time limit covers this part, and what is left of it goes
     to :func:`finish_job` (``Finish.seconds_left``)."""
-    from . import records
-
     ph = ctx.phases if ctx.phases is not None else Phases()
     t0, before = time.perf_counter(), ph.total()
     try:
@@ -277,8 +277,6 @@ def finish_job(task: Finish, prep: Prepared, phases: Phases | None = None, *, ro
 
 def error_row(task: Finish, status: str) -> dict:
     """The row of a job whose :func:`finish_job` failed: the job's columns and ``status``, no metrics."""
-    from . import records
-
     return records.make_row(**{**task.fields, "status": status})
 
 
@@ -292,9 +290,6 @@ def time_limit(seconds: float):
     a method stuck in Python code (a plugin's endless loop) is stopped there and its row says so. Where no
     signal can be delivered (not the main thread, no SIGALRM) the block runs unlimited; a call blocked inside
     the GPU driver is stopped only when it returns to Python."""
-    import signal
-    import threading
-
     if not seconds or not hasattr(signal, "setitimer") or threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -336,11 +331,6 @@ def error_text(e: BaseException) -> str:
 
 
 def _start_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict | Finish:
-    from ldbench.methods.base import View, get_method
-    from ldbench.references import EXACT, trace
-
-    from . import records
-
     cls = get_method(job.method)
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     method = cls(params)
@@ -395,8 +385,6 @@ def _start_job(ctx: RunContext, job: Job, prep: Prepared, ph: Phases) -> dict | 
 
 
 def _finish_job(task: Finish, prep: Prepared, ph: Phases) -> dict:
-    from . import records
-
     spec, result, ref, folder = task.spec, task.result, prep.reference, task.folder
     row = dict(task.fields)
     with ph("score"):
@@ -410,8 +398,6 @@ def _finish_job(task: Finish, prep: Prepared, ph: Phases) -> dict:
         images = {k: (rel + v if isinstance(v, str) and v.endswith((".png", ".exr")) else v)
                   for k, v in images.items()}
         if task.save_arrays:
-            from .arrays import answer_arrays, save_arrays
-
             arrays = answer_arrays(spec, result, ref, prep.inputs)
             if arrays is not None:
                 name = f"{task.label}-arrays.npz"
@@ -422,8 +408,6 @@ def _finish_job(task: Finish, prep: Prepared, ph: Phases) -> dict:
                counters={k: (v.item() if hasattr(v, "item") else v) for k, v in result.counters.items()},
                ref_noise=spec.noise(ref), images=images, **scores)
     if task.test:  # a suite's test = "unbiased" (ldbench/harness/unbiased_score.py)
-        from .unbiased_score import method_test
-
         with ph("score"):
             cols, maps = method_test(task.test, result, ref, spec, folder, task.label)
         row.update(cols)
@@ -433,10 +417,6 @@ def _finish_job(task: Finish, prep: Prepared, ph: Phases) -> dict:
 
 def _job_fields(run_id, suite_name, git, machine, job: Job, scene, ref_meta, status) -> dict:
     """The columns that name a job and where it ran (every row has them, failed ones too)."""
-    from ldbench.methods.base import get_method
-
-    from . import records
-
     cls = get_method(job.method)
     params = cls.Params.from_dict(dict(job.params), method=job.method)
     meta = ref_meta or {}
@@ -469,8 +449,6 @@ def params_used(cls, params, effect) -> dict:
 def failed_row(plan: RunPlan, job: Job, status: str, ref_meta: dict | None = None) -> dict:
     """The row of a job that could not run to its end elsewhere (a Ray task that died): ``status``
     says why; the machine columns are the driver's, the device columns empty."""
-    from . import records
-
     machine = {**plan.machine, "egl_device": None, "cuda_device": None, "pci_bus_id": None}
     return records.make_row(**_job_fields(plan.run_id, plan.suite_name, plan.git, machine, job,
                                           plan.scenes[job.scene_key], ref_meta, status))

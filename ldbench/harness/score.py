@@ -47,9 +47,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ldbench.core.errors import LdbenchError
+from ldbench.core.effects.base import effect_from_key
+from ldbench.core.errors import Interrupted, LdbenchError
+from ldbench.core.exr import read_answer_channels, read_exr
+from ldbench.core.imageio import read_png
+from ldbench.core.plugins import ldbench_info
+from ldbench.core.scenes import load_scene
+from ldbench.methods.base import Result
 
-from . import defaults
+from . import defaults, records
+from .naming import slug
+from .records import checked_memory
+from .rundir import MARKER, STALE_NAME, RunDir, is_run_dir
+from .runner import Prepared, job_label, prepare, progress_bar, reference_label, release_inputs, scene_dir
+from .suite import MAX_SEED, MAX_SPP, Job, check_budget, checked_int, parse_size
+from .unbiased_score import VARIANCE_NAMES, check_test_args, run_test, save_maps
+
+# Heavy: pandas (a CSV answer) and the report module (scipy) are imported where used.
 
 TRANSFERS = ("srgb", "linear")
 ANSWER_NAMES = ("answer.exr", "answer.png", "answer.npy", "answer.npz", "answer.csv")
@@ -75,9 +89,6 @@ class Question:
         spp and seed whole numbers in range: ``256.5``, ``"256"`` or ``true`` is no size) and its size within
         this machine's budget (:func:`~ldbench.harness.suite.check_budget`), before any work: one line naming
         ``where``."""
-        from ldbench.core.effects.base import effect_from_key
-        from .suite import MAX_SEED, MAX_SPP, check_budget, checked_int, parse_size
-
         if not isinstance(d, dict):
             raise LdbenchError(f"{where}: not an ldbench question (a JSON object with scene, effect, width, height)")
         try:
@@ -135,13 +146,11 @@ def read_image(path: Path, channels: int, *, transfer: str | None, png_scale: fl
     if suffix == ".exr":
         if transfer not in (None, "linear"):
             raise LdbenchError(f"{path.name}: an EXR is linear; --transfer {transfer} applies to PNG only")
-        from ldbench.core.exr import read_answer_channels
 
         img = read_answer_channels(path)
     elif suffix == ".png":
         if transfer not in TRANSFERS:
             raise LdbenchError(f"{path.name}: a PNG answer needs its transfer curve: --transfer srgb|linear")
-        from ldbench.core.imageio import read_png
 
         try:
             raw = read_png(path)  # [0, 1], exact for 8- and 16-bit PNGs
@@ -176,12 +185,8 @@ def read_mask(path: Path, shape: tuple) -> np.ndarray:
         if s == ".npy":
             m = np.load(path, allow_pickle=False)
         elif s == ".png":
-            from ldbench.core.imageio import read_png
-
             m = read_png(path)
         elif s == ".exr":
-            from ldbench.core.exr import read_exr
-
             ch = read_exr(path)
             m = np.asarray(ch.get("Y", next(iter(ch.values()))))
         else:
@@ -240,8 +245,6 @@ def _numeric(path: Path, arrays: dict) -> dict:
 
 # ---- scoring -----------------------------------------------------------------------------------------
 def _result(question, answer: Answer, spec):
-    from ldbench.methods.base import Result
-
     if spec.output == "image":
         img = read_image(answer.path, spec.channels, transfer=answer.transfer, png_scale=answer.png_scale)
         if img.shape[:2] != (question.height, question.width):
@@ -260,13 +263,6 @@ def _result(question, answer: Answer, spec):
 
 def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = False) -> list:
     """Rows of (question, answer) pairs, images written under ``out``; references shared by equal questions."""
-    from . import records
-    from .naming import slug
-    from ldbench.core.plugins import ldbench_info
-    from .runner import Prepared, job_label, prepare, progress_bar, reference_label, release_inputs, scene_dir
-    from ldbench.core.scenes import load_scene
-    from .suite import Job
-
     info = ldbench_info()
     git = {"commit": info["commit"], "dirty": info["dirty"]}
     scenes, prepared, rows = {}, {}, []
@@ -299,8 +295,6 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
                       for k, v in images.items()}
             images["answer_source"] = str(Path(a.path).resolve())  # the user's file, where it was scored from
             if a.test:  # --test unbiased: columns and maps of ldbench/harness/unbiased_score.py
-                from .unbiased_score import run_test, save_maps
-
                 ures, ucols = run_test(a.test, q, a, result, prep.reference, spec, alpha=a.alpha,
                                        correction=a.correction)
                 scores = {**scores, **ucols}
@@ -332,9 +326,6 @@ def score_rows(items, out, *, run_id: str, suite_name: str, progress: bool = Fal
 def score_into_run(items, run_dir, *, report: bool = True, progress: bool = False) -> list:
     """Score ``items`` and add their rows to the run directory ``run_dir`` (created when missing);
     returns the new rows."""
-    from . import records
-    from .rundir import RunDir, is_run_dir
-
     run_dir = Path(run_dir)
     rd = RunDir(run_dir)
     rd.check()  # a path no write can succeed at (too long, under a file) before reading it
@@ -366,7 +357,6 @@ def score_into_run(items, run_dir, *, report: bool = True, progress: bool = Fals
         rd.abort()
         raise
     if report:  # as `ldbench report RUN` would, over the old rows and the new
-        from ldbench.core.errors import Interrupted
         from ldbench.reports.report import write_report
 
         try:
@@ -409,12 +399,9 @@ def _answer_meta(folder: Path) -> dict:
 
 def items_from_folder(root) -> list:
     """(question, answer) pairs of every answered question under ``root`` (module docstring)."""
-    from .unbiased_score import VARIANCE_NAMES
-
     root = Path(root)
     if not root.is_dir():
         raise LdbenchError(f"not a folder: {root}")
-    from .rundir import MARKER, STALE_NAME
 
     out = []
     for qf in sorted(root.rglob("question.json")):
@@ -449,8 +436,6 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
                 stage_ms=None, memory=None, method_version=None, method_commit=None, test=None, variance=None,
                 second_moment=None, samples=None, alpha=0.01, correction="sidak") -> Answer:
     """An :class:`Answer` with its values checked (one line for each bad one: a wrong type too)."""
-    from .unbiased_score import check_test_args
-
     for name, v in (("method", method), ("paper", paper), ("method_version", method_version),
                     ("method_commit", method_commit)):
         if v is not None and not isinstance(v, str):
@@ -483,7 +468,6 @@ def make_answer(path, *, method=EXTERNAL, params=None, paper="", mask=None, tran
     if len({len(v) for v in stages.values()}) > 1:
         raise LdbenchError("stage times: give every stage the same number of frames "
                            f"({', '.join(f'{k}: {len(v)}' for k, v in stages.items())})")
-    from .records import checked_memory
 
     mem = checked_memory(memory or {})  # whole bytes, >= 0, within the int64 of the memory columns
     return Answer(Path(path), method=str(method or EXTERNAL), params=dict(params or {}), paper=str(paper or ""),

@@ -31,17 +31,21 @@ before anything is rendered, so bad input fails before a run directory exists.
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ldbench.core import gpu
 from ldbench.core.effects import Effect
 from ldbench.core.effects.base import effects_from_user
 from ldbench.core.errors import LdbenchError
+from ldbench.methods.base import canonical_name, registry
 
 from . import defaults
+from .resources import bundled_suites, suite_path
 
 SUITE_KEYS = {"name", "size", "spp", "warmup", "frames", "description", "job_timeout"}
 RUN_KEYS = {"scene", "scene_params", "effect", "d_max", "falloff", "effect_params", "seed", "methods", "params",
@@ -103,8 +107,6 @@ MAX_INT_PARAM = (1 << 31) - 1
 def method_params(cls, values: dict, method: str):
     """``cls.Params`` from ``values`` (validated by the adapter's declared ranges), with every parameter
     without a declared maximum checked as :data:`MAX_INT_PARAM` says."""
-    import dataclasses
-
     params = cls.Params.from_dict(values, method=method)
     todo = [(params, "")]
     while todo:  # a parameter group (structure.source) is checked as its own fields, named group.field
@@ -177,13 +179,11 @@ def check_budget(width: int, height: int, spp: int, effect=None) -> None:
     ``rays_per_pixel`` for every pixel, the VPLs of an RSM). Every command checks the sizes it accepts here,
     from a flag or from a file; the GPU's own limits are checked when its context exists
     (:meth:`ldbench.core.gpu.Gpu.check_image_size`)."""
-    from ldbench.core.gpu import HOST_BYTES_PER_PIXEL, host_available_bytes
-
     if width * height * spp > MAX_REFERENCE_SAMPLES:
         raise LdbenchError(f"a {width}x{height} reference at spp {spp} is {width * height * spp:.3g} samples, "
                            f"more than the limit of 2^40 ({MAX_REFERENCE_SAMPLES:.3g}); lower --spp or --size")
     inputs = effect.spec.input_bytes(effect.params, width, height) if effect is not None else 0
-    need, host = width * height * HOST_BYTES_PER_PIXEL + inputs, host_available_bytes()
+    need, host = width * height * gpu.HOST_BYTES_PER_PIXEL + inputs, gpu.host_available_bytes()
     if host is not None and need > host:
         what = f" with the inputs of {effect.text()} ({inputs / 2**30:.1f} GiB)" if inputs else ""
         raise LdbenchError(f"size {width}x{height}{what} needs about {need / 2**30:.1f} GiB of memory, this machine "
@@ -195,8 +195,6 @@ def resolve_sizes(jobs: list, scenes: dict) -> list:
     """Jobs with no size (none in the suite or on the command line) take their scene's film size
     (``scene.params['film']``, Mitsuba XML scenes), else the default size
     (:func:`ldbench.harness.defaults.image_size`). ``scenes`` maps ``job.scene_key`` to the loaded scene."""
-    import dataclasses
-
     out = []
     for j in jobs:
         if j.width is None or j.height is None:
@@ -211,8 +209,6 @@ def resolve_sizes(jobs: list, scenes: dict) -> list:
 def override(suite: "Suite", *, size=None, spp=None, warmup=None, frames=None, job_timeout=None) -> "Suite":
     """``suite`` with the command line's --size/--spp/--warmup/--frames/--job-timeout (None = keep), validated
     as strictly as the suite file's own values."""
-    import dataclasses
-
     wh = parse_size(size) if size is not None else None
     spp = None if spp is None else checked_int(spp, "spp", 1, MAX_SPP)
     warmup = None if warmup is None else checked_int(warmup, "warmup", 0, MAX_WARMUP)
@@ -267,8 +263,6 @@ def float_or_inf(v):
 def expand_run(run: dict, suite_values: dict, base_dir: Path | None = None) -> list[Job]:
     """Validate one ``[[run]]`` table and expand it into jobs; ``suite_values``: the ``[suite]`` table's size,
     spp, warmup and frames (the defaults where it gives none), which the run's own values override."""
-    from ldbench.methods.base import registry
-
     unknown = set(run) - RUN_KEYS
     if unknown:
         raise LdbenchError(f"unknown key {sorted(unknown)[0]!r} in a [[run]] table")
@@ -317,7 +311,6 @@ def expand_run(run: dict, suite_values: dict, base_dir: Path | None = None) -> l
     params = run.get("params", {}) or {}
     if not isinstance(params, dict) or not all(isinstance(v, dict) for v in params.values()):
         raise LdbenchError("params must be a table of tables ([run.params.METHOD])")
-    from ldbench.methods.base import canonical_name  # earlier names (aliases) select the same adapter
 
     if methods != "all":
         methods = [canonical_name(m) for m in _listify(methods)]
@@ -359,11 +352,8 @@ def expand_run(run: dict, suite_values: dict, base_dir: Path | None = None) -> l
 
 def load_suite(path) -> Suite:
     """Read and validate a suite TOML file: a path, or a bundled suite by name (``default``)."""
-    from .resources import suite_path
-
     path = suite_path(path)
     if not path.exists():  # neither a file nor a bundled suite: say which names would work
-        from .resources import bundled_suites
         raise LdbenchError(f"no suite file {str(path)!r} and no bundled suite of that name "
                            f"(bundled: {', '.join(bundled_suites())})")
     try:

@@ -17,6 +17,12 @@ from pathlib import Path
 import numpy as np
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.exr import read_answer_channels, write_exr
+from ldbench.core.imageio import write_png
+from ldbench.core.metrics import colorize
+
+# Heavy: ldbench.core.unbiased imports scipy.stats; it is imported by the functions that run the test, so the runner
+# and the scoring modules that import this one start without it.
 
 TESTS = ("unbiased",)
 #: Files of the folder layout (``ldbench score --from``) that state an answer's variance.
@@ -44,8 +50,6 @@ def check_test_args(test, variance, second_moment, samples, alpha, correction) -
 
 def read_exr_image(path, channels: int) -> np.ndarray:
     """H×W×channels float32 of a linear EXR (channel ``Y``, or ``R, G, B``; grey repeated for colour)."""
-    from ldbench.core.exr import read_answer_channels
-
     path = Path(path)
     if not path.is_file():
         raise LdbenchError(f"file not found: {path}")
@@ -126,9 +130,6 @@ def save_maps(res, folder: Path, label: str) -> dict:
     """Write ``<label>-unbiased-p.exr`` (per-pixel p, NaN = not tested), ``<label>-unbiased-p.png``
     (−log10 p, magma, white = the corrected per-pixel threshold) and ``<label>-unbiased-reject.png``
     (:data:`ldbench.core.unbiased.REJECT_COLOURS`); returns their names for the row's ``images``."""
-    from ldbench.core.exr import write_exr
-    from ldbench.core.imageio import write_png
-    from ldbench.core.metrics import colorize
     from ldbench.core.unbiased import reject_map_rgb, sidak_threshold
 
     folder = Path(folder)

@@ -33,11 +33,13 @@ starts, one warning says so, and every job is finished in this process.
 """
 from __future__ import annotations
 
+import ctypes
 import logging
 import multiprocessing
 import os
 import pickle
 import signal
+import threading
 import time
 from collections.abc import Callable
 from contextlib import suppress
@@ -48,6 +50,10 @@ from typing import Any
 from ldbench.core.errors import exit_on_sigterm
 
 from .phases import Phases
+from .runner import error_row, error_text, finish_job
+
+# Worker entry: _warm_up() imports the scoring libraries in the writer process, after _writer_main() has set
+# OMP_NUM_THREADS for flip_evaluator's libgomp; the main process never loads them for the writers' sake.
 
 #: Prepare keys (inputs + reference) a writer keeps; jobs come grouped by key, so two cover a change of key.
 HELD = 2
@@ -89,8 +95,6 @@ def usable_cpus() -> int:
 
 
 def _finish_job(task, prep, phases: Phases, *, row_calls: int = 1) -> dict:
-    from .runner import finish_job
-
     return finish_job(task, prep, phases, row_calls=row_calls)
 
 
@@ -150,8 +154,6 @@ class Writers:
         return _Writer(proc, here)
 
     def __enter__(self) -> Writers:
-        import threading
-
         if threading.current_thread() is threading.main_thread() and \
                 signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
             # SIGTERM -> SystemExit: the pool closes and the partial run directory is deleted
@@ -347,8 +349,6 @@ def _pickled(obj) -> bytes | None:
 
 
 def _error_row(task, status: str) -> dict:
-    from .runner import error_row
-
     return error_row(task, status)
 
 
@@ -362,8 +362,6 @@ class _Unreadable:
 def _end_with_parent(parent: int) -> None:
     """Ask Linux to send this process SIGTERM when its parent dies (a killed run leaves no writer behind)."""
     try:
-        import ctypes
-
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # not Linux: the writer ends when its pipe closes
         pass
@@ -393,7 +391,6 @@ def _writer_main(conn: Connection, finish: Finisher, parent: int, threads: int) 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole process group: the main process decides
     _end_with_parent(parent)
     os.environ.setdefault("OMP_NUM_THREADS", str(threads))  # before flip_evaluator loads libgomp
-    from .runner import error_text
 
     with suppress(Exception):
         _warm_up()

@@ -48,10 +48,12 @@ from ldbench.core.conventions import hash01, hash32, tangent_frame as frame  # n
 from ldbench.core.errors import LdbenchError
 from ldbench.core.imageio import save_image, save_map
 from ldbench.core.params import ParamsBase, param
-from ldbench.core.scene import Camera
 
 from .base import EffectSpec
-from .rays import Rays, RayBatch, ray_metrics
+from .rays import RayBatch, Rays, ray_metrics
+
+# Start-up: ldbench.core.scene (about 8 ms) is imported by rsm_camera() alone; the CLI imports every effect module
+# while it builds its parser, and nothing else here needs the scene module.
 
 RAYS_PER_VPL = 5 + 1
 #: Peak host memory per RSM texel (one VPL and its six rays): 700 B measured (maximum RSS of ``ldbench export``,
@@ -126,6 +128,8 @@ def rsm_up(light) -> tuple:
 
 def rsm_camera(light):
     """The RSM's view: from the light along its axis, square, vertical field of view 2 × cut-off."""
+    from ldbench.core.scene import Camera
+
     if light.is_point or light.cutoff_angle >= 80.0:
         raise LdbenchError(f"a reflective shadow map needs a spot light with a cut-off below 80° (one "
                            f"perspective view); this light's is {light.cutoff_angle:g}°")

@@ -15,14 +15,25 @@ results files, commit or abort) stays with :func:`run_jobs`, whatever the execut
 from __future__ import annotations
 
 import json
+import signal
+import threading
 from typing import TYPE_CHECKING
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.gpu import Gpu
+
+from .. import records
+from ..rundir import RunDir
+from ..runner import plan_run
+from .local import LocalExecutor
+from .ray import RayExecutor
 
 if TYPE_CHECKING:  # pandas is imported where the table is built (a fast CLI start)
     import pandas as pd
 
     from ..suite import Suite
+
+# Heavy: run_jobs imports the report module (scipy) only when it writes a report.
 
 EXECUTORS = ("local", "ray")
 
@@ -33,13 +44,11 @@ def get_executor(executor=None, **options):
         writers = options.pop("writers", None)
         if options:
             raise LdbenchError(f"--executor local takes no {', '.join('--' + k for k in options)}")
-        from .local import LocalExecutor
         return LocalExecutor(writers=writers)
     if executor == "ray":
         if options.get("writers") is not None:
             raise LdbenchError("--writers goes with the local executor; Ray workers score and save their own jobs")
         options.pop("writers", None)
-        from .ray import RayExecutor
         return RayExecutor(**options)
     if isinstance(executor, str):
         raise LdbenchError(f"unknown executor {executor!r} (known: {', '.join(EXECUTORS)})")
@@ -54,11 +63,6 @@ def run_jobs(suite: "Suite", out_dir, *, progress: bool = True, report: bool = T
     executor object (:mod:`ldbench.harness.executors`). Whatever runs the jobs, this process holds the run
     directory's lock, writes the results and commits the folder, or deletes it on any failure.
     """
-    from .. import records
-    from ldbench.core.gpu import Gpu
-    from ..rundir import RunDir
-    from ..runner import plan_run
-
     ex = get_executor(executor)  # before the run directory: a missing extra is one line, nothing written
     rundir = RunDir(out_dir)  # refuses a DIR that is not an ldbench run; lock; partial folder
     tmp = rundir.open()
@@ -109,9 +113,6 @@ class _Interrupts:
         self._prev = None
 
     def __enter__(self):
-        import signal
-        import threading
-
         prev = signal.getsignal(signal.SIGINT)
         if threading.current_thread() is threading.main_thread() and callable(prev):
             self._prev = prev
@@ -124,8 +125,6 @@ class _Interrupts:
 
     def __exit__(self, *exc):
         if self._prev is not None:
-            import signal
-
             signal.signal(signal.SIGINT, self._prev)
             self._prev = None
         return False

@@ -11,6 +11,8 @@ import json
 import sys
 from pathlib import Path
 
+from ..records import read_results
+
 #: Columns that legitimately differ between two runs of the same jobs.
 TIMED = frozenset({"run_id", "time", "total_ms", "total_ms_iqr", "wall_ms", "stage_ms", "stage_iqr", "raw_ms",
                    "rays_per_s", "oracle_rays_per_s", "machine", "egl_device", "cuda_device", "pci_bus_id"})
@@ -28,8 +30,6 @@ def image_files(run) -> dict:
 
 def differences(a_dir, b_dir, *, ignore=TIMED) -> list[str]:
     """What differs between runs ``a_dir`` and ``b_dir`` (an empty list: the same results)."""
-    from ..records import read_results
-
     a, b = read_results(a_dir), read_results(b_dir)
     out = []
     if list(a.columns) != list(b.columns):

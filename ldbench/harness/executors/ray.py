@@ -64,11 +64,13 @@ import math
 import os
 import shutil
 import signal
+import socket
 import sys
 import tempfile
 import threading
 import time
 import uuid
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
@@ -76,7 +78,13 @@ from typing import Any, Callable
 
 from ldbench.core.errors import LdbenchError, exit_on_sigterm
 from ldbench.core.files import atomic_write
+from ldbench.core.gpu import Gpu
+from ldbench.references.variant import choose_variant
 from ..phases import Phases
+from ..runner import RunContext, failed_row, machine_of, prepare, prepare_key, progress_bar, release_inputs, run_job
+
+# Optional: ray is imported by import_ray() and the worker's jobs() alone; without it, only --executor ray fails (with
+# one line).
 
 INSTALL_HINT = "the Ray executor needs Ray: pip install 'ldbench[ray]'"
 STAGE = ".stage"  # inside the partial run directory; gone before the commit
@@ -134,8 +142,6 @@ def group_jobs(jobs: list, workers: int, group_size: int | None = None) -> list:
     """Jobs as ``[(prepare_key, [(index, job), ...]), ...]``: jobs sharing a reference together, in suite
     order, at most ``group_size`` per group (default: ceil(jobs / (2 * workers)), so that every worker
     gets about two tasks and a slow group does not leave the others idle)."""
-    from ..runner import prepare_key
-
     if group_size is None:
         group_size = max(1, math.ceil(len(jobs) / (2 * max(1, workers))))
     by_key: dict = {}
@@ -176,8 +182,6 @@ def _inject_fault(name: str, *, driver: bool = False) -> None:
     if kind == "sleep":
         time.sleep(600)
     if kind == "stuck":  # like a call that never returns from native code: no alarm reaches Python
-        import signal
-
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGALRM})
         time.sleep(600)
     if kind == "delay":
@@ -235,9 +239,6 @@ class Worker:
         """Open the GL context and choose Mitsuba's variant (its device context, a first kernel) now, while
         the driver renders references, instead of in the first call. Best effort: what fails here is
         tried again, and reported, by the call that needs it."""
-        from ldbench.core.gpu import Gpu
-        from ..runner import machine_of
-
         try:
             gpu = Gpu()
         except Exception:  # noqa: BLE001 - the first jobs call opens it again and reports why not
@@ -249,8 +250,6 @@ class Worker:
                 gpu.release()
         self.warmed["gl"] = self.gpu is not None
         try:
-            from ldbench.references.variant import choose_variant
-
             self.warmed["mitsuba"] = choose_variant()
         except Exception:  # noqa: BLE001 - the first reference or trace reports it
             self.warmed["mitsuba"] = None
@@ -268,8 +267,6 @@ class Worker:
 
     def reference(self, scene, key, cache):
         """Inputs and reference of one prepare key: (small summary for the driver, Prepared for the jobs)."""
-        from ..runner import prepare
-
         t0 = self._begin()
         _inject_fault("reference")
         try:
@@ -295,11 +292,6 @@ class Worker:
             self._end(t0)
 
     def _jobs(self, spec: TaskSpec, prep, jobs: list) -> TaskResult:
-        import socket
-
-        from ldbench.core.gpu import Gpu
-        from ..runner import RunContext, machine_of, release_inputs, run_job
-
         if self.gpu is None:
             try:
                 self.gpu = Gpu()
@@ -459,8 +451,6 @@ class RayExecutor:
     def _reachable(self) -> None:
         """Refuse an ``--address HOST:PORT`` (or ``ray://HOST:PORT``) nothing answers within
         :data:`CONNECT_TIMEOUT_S`: ``ray.init`` would otherwise retry for minutes."""
-        import socket
-
         addr = self.address or ""
         hostport = addr[len("ray://"):] if addr.startswith("ray://") else addr
         host, sep, port = hostport.rpartition(":")
@@ -505,10 +495,6 @@ class RayExecutor:
 
     # -- run
     def run(self, plan, out, *, gpu=None, progress: bool = True) -> list[dict]:
-        from collections import deque
-
-        from ..runner import failed_row, progress_bar
-
         ray = import_ray()
         out = Path(out)
         keys = plan.keys()
@@ -764,8 +750,6 @@ class RayExecutor:
         else runs meanwhile): ``keys`` in order until ``worker_ready()`` (asked before each, so that it asks
         for the workers as soon as the cluster is up; the first is always rendered). Returns ({key: Prepared}, {key: the exception of a reference that failed}); bad input
         (LdbenchError) stops the run, as in a local run."""
-        from ..runner import prepare
-
         local: dict = {}
         local_failed: dict = {}
         for key in keys:
