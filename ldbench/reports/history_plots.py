@@ -6,12 +6,19 @@ from __future__ import annotations
 
 import math
 import os
+from html import escape
 from pathlib import Path
 
+import numpy as np
+
 from ldbench.core.errors import LdbenchError
-from ldbench.core.files import atomic_write, atomic_write_text, check_replaceable
+from ldbench.core.files import atomic_write, atomic_write_text, check_output_path, check_replaceable
 from ldbench.harness.history import DEFAULT_HISTORY_DIR, detect_change_points, load_history
 from ldbench.harness.naming import slug
+from ldbench.harness.records import summarize_samples
+
+# Heavy: matplotlib, pandas and the compare modules (pandas, scipy) are imported by the functions that plot or
+# tabulate, so importing this module stays light.
 
 
 #: A benchmark's identity over time: the suite entry, not the method's parameters, so that a commit
@@ -25,10 +32,8 @@ def _series(df):
     Benchmarks are keyed by :data:`HISTORY_MATCH`; if a run holds several rows of one such key (a
     parameter sweep), the method parameters join the key (:data:`ldbench.harness.compare.match.DEFAULT_MATCH`).
     """
-    import numpy as np
     import pandas as pd
     from ldbench.harness.compare.match import DEFAULT_MATCH, canonical, row_value, row_key, benchmark_labels
-    from ldbench.harness.records import summarize_samples
 
     match = HISTORY_MATCH
     pairs = [(row_value(r, "run_id"), row_key(r, match)) for _, r in df.iterrows()]
@@ -98,7 +103,6 @@ def plot_history(history_dir=DEFAULT_HISTORY_DIR, out_dir=None, *, machine: str 
     for name, v in (("min-effect", min_effect), ("min-db", min_db)):
         if not (math.isfinite(v) and v >= 0):
             raise LdbenchError(f"--{name} must be a finite number >= 0, got {v}")
-    from ldbench.core.files import check_output_path
 
     out = Path(out_dir) if out_dir else Path(history_dir) / "plots"
     check_output_path(out, into=True)  # under a file, /proc, read-only, too long: one line before any work
@@ -195,8 +199,6 @@ def _fmt_last(v, unit="") -> str:
 
 def _index_html(entries, cps, out: Path, alpha, min_effect, min_db, min_size) -> str:
     """The static page over all machines and benchmarks (relative links into ``out``)."""
-    from html import escape
-
     def rel(path) -> str:
         return escape(Path(os.path.relpath(path, out)).as_posix(), quote=True)
 

@@ -11,6 +11,9 @@ from __future__ import annotations
 import functools
 import math
 
+from ldbench.core.effects import effect_from_key
+from ldbench.methods.base import get_method
+
 #: the value :func:`param_value` gives for a parameter the row's method does not have
 ABSENT = object()
 
@@ -48,8 +51,6 @@ def defaults(method: str) -> tuple:
     """(defaults dict, renamed dict) of an adapter's ``Params``; ({}, {}) for a method this version
     does not know (then only what a row stores is known of it)."""
     try:
-        from ldbench.methods.base import get_method
-
         cls = get_method(str(method)).Params
         return cls().to_dict(), dict(getattr(cls, "renamed", None) or {})
     except Exception:  # noqa: BLE001 - an old table may name a method that no longer exists
@@ -72,8 +73,6 @@ def effect_text(effect: str, effect_params: dict) -> str:
     """An effect as tables and figures write it, e.g. ``ao (quadratic, d_max = 10.3)``: its spec's
     :meth:`~ldbench.core.effects.base.EffectSpec.text`; for an effect this version does not know, its name
     and parameters."""
-    from ldbench.core.effects import effect_from_key
-
     try:
         return effect_from_key({**(effect_params or {}), "effect": effect}).text()
     except Exception:  # noqa: BLE001 - an unknown effect or old parameters in an old table

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import html
 import json
+import logging
 import math
 import sys
 import urllib.parse
@@ -37,8 +38,11 @@ from .figures.viewer_values import VALUES_BUDGET_BYTES
 from . import labels
 from .leaderboard import leaderboards
 from ldbench.core.device import MACHINE_FIELDS
-from ldbench.core.effects import get_spec
+from ldbench.core.effects import get_spec, registry
 from ldbench.core.files import atomic_write_text
+from ldbench.harness.records import read_results
+
+# Heavy: pandas is imported by terminal_table() alone.
 
 # --------------------------------------------------------------------------------------------------
 # formatting
@@ -287,16 +291,12 @@ def _img(run_dir: Path, rel: str | None, alt: str, cls: str = "") -> str:
 
 def image_rows(df):
     """Rows of image effects (and of effects this version does not know)."""
-    from ldbench.core.effects import registry
-
     reg = registry()
     return [reg[e].output == "image" if e in reg else True for e in df["effect"]]
 
 
 def metric_tables(df) -> list:
     """[(effect, metric columns, rows)] for every non-image effect in the table: its spec's metrics."""
-    from ldbench.core.effects import registry
-
     out = []
     for name, spec in registry().items():
         rows = df[df["effect"] == name]
@@ -319,8 +319,6 @@ def terminal_table(df) -> str:
     (its spec's ``metrics``; PSNR/SSIM for an effect this version does not know) and the non-default
     parameters."""
     import pandas as pd
-
-    from ldbench.core.effects import registry
 
     if not len(df):
         return "(no rows)"
@@ -679,8 +677,6 @@ def write_grids(run_dir: Path, df, problems: list | None = None, damaged: list |
                                   + ", ".join(clash))
             grids.append(g)
         except Exception as e:  # noqa: BLE001 - report, do not lose the run
-            import logging
-
             logging.getLogger(__name__).debug("image grid failed", exc_info=True)  # the traceback with -v
             first = (str(e).strip().splitlines() or [""])[0][:300]
             problems.append(f"image grid {key[0]} {key[2]} {key[3]}: {type(e).__name__}: {first}")
@@ -724,8 +720,6 @@ def build_report(run_dir, df=None) -> dict:
     """Write every report file; returns ``{"index": Path, "summary": Path, "figures": [...],
     "grids": [...], "problems": [...], "damaged": [...]}`` (``damaged``: the problems that are image files of
     the run that cannot be read, :func:`damaged_images`). ``df`` defaults to the run directory's results."""
-    from ldbench.harness.records import read_results
-
     run_dir = Path(run_dir)
     raw = read_results(run_dir) if df is None else df
     df = prepare(raw)
