@@ -399,6 +399,7 @@ class Ldi(Method):
         """(H·W, 4) uint32 per pixel (row 0 at the bottom): crossings sum, max, ended rays, rays (untimed)."""
         w, h = view.width, view.height
         out = self.gpu.ctx.buffer(reserve=16 * w * h)
+        out.clear()  # a background pixel writes no statistics: it reads 0, not what the memory held
         scratch = self.gpu.ctx.texture((w, h), 4, dtype="f4")
         try:
             cs = self._gather_program(effect, stats=True)
