@@ -160,6 +160,8 @@ def test_commit_only_from_ldbench_own_repository(tmp_path, monkeypatch):
     monkeypatch.setenv("LDBENCH_COMMIT", "abc123")
     monkeypatch.setenv("LDBENCH_DIRTY", "1")
     assert records.git_info(inner) == {"commit": "abc123", "dirty": True, "branch": None}
+    # named, it wins over a repository's own .git too (a copied tree whose .git is stale)
+    assert records.git_info(tmp_path / "outer") == {"commit": "abc123", "dirty": True, "branch": None}
     # the default root is ldbench's own folder
     assert records.LDBENCH_ROOT == ROOT
 

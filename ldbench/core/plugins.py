@@ -294,9 +294,12 @@ def git_info(repo_dir=LDBENCH_ROOT) -> dict:
         ``commit`` (full hash; None before the first commit), ``dirty`` (True when
         ``git status --porcelain`` lists anything, untracked files included), ``branch`` (None on a
         detached HEAD). All None (reported as "unknown") when git is missing or ``repo_dir`` is not the
-        top level of a repository, unless ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them: a
-        copied working tree without ``.git`` (a remote GPU runner) can still record which commit it ran.
+        top level of a repository. ``LDBENCH_COMMIT`` (and ``LDBENCH_DIRTY`` = 0/1) name them whatever
+        ``.git`` says: a working tree copied to a remote GPU runner, without its history or with a stale
+        ``.git`` beside it, still records the commit it ran.
     """
+    if os.environ.get("LDBENCH_COMMIT"):
+        return git_info_from_env()
     top = _git(repo_dir, "rev-parse", "--show-toplevel")
     if top is None or not _same_dir(top.strip(), repo_dir):
         return git_info_from_env()
@@ -304,8 +307,6 @@ def git_info(repo_dir=LDBENCH_ROOT) -> dict:
     if status is None:
         return git_info_from_env()
     commit = _git(repo_dir, "rev-parse", "--verify", "-q", "HEAD")
-    if not commit and os.environ.get("LDBENCH_COMMIT"):  # a tree copied without its history
-        return git_info_from_env()
     branch = _git(repo_dir, "symbolic-ref", "-q", "--short", "HEAD")
     return {"commit": commit.strip() if commit else None, "dirty": bool(status.strip()),
             "branch": branch.strip() if branch else None}
