@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from ldbench.reports.reproduce import Claim, Reproduction
-from ldbench.reports.reproductions.aalund2015 import CI_AALUND, FIG8_D_MAX, SMALL_D_MAX
+from ldbench.reports.reproductions.aalund2015 import (CI_AALUND, FIG8_D_MAX, FIXED_HBAO_REASON, PAPER_BUILD_REASON,
+                                                     PIXEL_STEP_REASON, SMALL_D_MAX)
 
 _LDM = {"directions": 512, "resolution": 200}  # Fig. 8 caption: 512 LDMs of 200 × 200
 
@@ -55,9 +56,7 @@ REPRODUCTION = Reproduction(
     claims=(
         Claim("LDMs are faster than HBAO at large d_max", "ldm", "hbao-px", ("time_ms",), "less",
               where="Fig. 8; §5.1 'LDMs are also faster than HBAO for large d_max'",
-              reason="the paper's build draws each of the 512 maps through the hardware raster, one pass a map "
-                     "(its stage split: build against trace); the same claim on ldbench's default build, which "
-                     "stores the same lists by a compute raster, measures the LDMs' own cost on this GPU"),
+              reason=PAPER_BUILD_REASON),
         Claim("For small d_max the reverse: HBAO is faster than LDMs", "hbao-px-small", "ldm-small", ("time_ms",),
               "less", where="§5.1 'As d_max → 0, the reverse conclusion can be made'",
               published="stated in the text (no numbers)"),
@@ -65,7 +64,7 @@ REPRODUCTION = Reproduction(
               ("time_ms",), "less", where="Fig. 8; §5.1 'LDMs are also faster than HBAO for large d_max'",
               why="the claim above on ldbench's default build of the same LDMs (a compute raster with the "
                   "hardware's fill rule, an unsorted insert and a sort pass: the same lists, so the same AO; "
-                  "checked by the claim of ours that its image is the paper build's)"),
+                  "checked by the claim of ours that its image is the paper build's)", reason=PIXEL_STEP_REASON),
         Claim("ldbench's default build: for small d_max HBAO is faster than LDMs", "hbao-px-small",
               "ldm-default-small", ("time_ms",), "less", where="§5.1 'As d_max → 0, the reverse conclusion can be "
               "made'", published="stated in the text (no numbers)", why="as above, on the default build"),
@@ -84,7 +83,8 @@ REPRODUCTION = Reproduction(
         Claim("Fixed 8 × 8 HBAO (not the paper's): LDMs are faster at large d_max", "ldm", "hbao", ("time_ms",),
               "less", where="— (our default HBAO beside the paper's kind)",
               published="not in the paper", why="direction only; with a sample count that does not follow d_max, "
-              "HBAO's cost cannot grow with the kernel, so this row cannot test §5.1's reason", ours=True),
+              "HBAO's cost cannot grow with the kernel, so this row cannot test §5.1's reason", ours=True,
+              reason=FIXED_HBAO_REASON),
         Claim("Fixed 8 × 8 HBAO (not the paper's): LDMs resemble the reference better (PSNR and SSIM)", "ldm",
               "hbao", ("psnr", "ssim"), "better", where="— (our default HBAO beside the paper's kind)",
               published="not in the paper", scales=("paper",), ours=True),  # as above: 512 maps, not ci's 16
