@@ -299,3 +299,29 @@ def test_the_verdicts_page_counts_every_verdict_reproduce_writes():
     assert mod.verdict_counts(claims) == [1, 2, 1, 1, 1, 1]
     with pytest.raises(ValueError, match="no column"):
         mod.verdict_counts([{"verdict": "a verdict nobody wrote", "text": "x"}])
+
+
+def test_the_verdicts_page_takes_a_later_runs_entries_and_notes(tmp_path):
+    """reproduce_all.py page OUT1 OUT2: an entry of OUT2 replaces OUT1's, the others stay; a note is printed
+    under the header."""
+    import importlib.util
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "gpu" / "reproduce_all.py"
+    spec = importlib.util.spec_from_file_location("reproduce_all", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    keys = ("aalund2015-fig8", "aalund2015-fig9")
+    for run, verdict, which in (("r1", R.FAILS, keys), ("r2", R.HOLDS, keys[:1])):
+        out = tmp_path / run
+        (out).mkdir()
+        (out / "entries.json").write_text(json.dumps({"command": run, "started": "t", "budget_s": 1, "entries": [
+            {"key": k, "status": "ran", "seconds": 1.0} for k in which]}))
+        for k in which:
+            (out / k).mkdir()
+            (out / k / "reproduce.json").write_text(json.dumps({"title": k, "run": run, "claims": [
+                {"text": f"{k} claim", "verdict": verdict}]}))
+    text = mod.page([tmp_path / "r1", tmp_path / "r2"], ("the first run's rows name a stale commit",))
+    assert "- note: the first run's rows name a stale commit" in text
+    assert "| aalund2015-fig8 | ran | 1.0 | 1 | 0 |" in text and "| aalund2015-fig9 | ran | 1.0 | 0 | 1 |" in text

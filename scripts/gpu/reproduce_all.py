@@ -85,9 +85,9 @@ def _cell(s) -> str:
     return str(s if s not in (None, "") else "–").replace("|", "\\|").replace("\n", " ")
 
 
-def page(outs: list[Path]) -> str:
-    """The page of one run, or of several (runs of disjoint entries, e.g. one per device-time slot), in the
-    registry's order."""
+def page(outs: list[Path], notes: tuple[str, ...] = ()) -> str:
+    """The page of one run, or of several (a later run's entries replace an earlier one's), in the
+    registry's order; ``notes``: lines printed under the run's header (what the rows cannot say)."""
     metas = [json.loads((out / "entries.json").read_text()) for out in outs]
     found = {e["key"]: (out, e) for out, m in zip(outs, metas) for e in m["entries"]}
     order = [k for k in entry_keys() if k in found] + [k for k in found if k not in entry_keys()]
@@ -99,7 +99,7 @@ def page(outs: list[Path]) -> str:
              "# Paper reproductions: every entry in one run", "",
              *[f"- command: `{m['command']}`, started {m['started']}, budget {m['budget_s']:.0f} s" for m in metas],
              f"- device: {first.get('our_setup', 'unknown')}",
-             f"- run: {first.get('run', 'unknown')}", "",
+             f"- run: {first.get('run', 'unknown')}", *[f"- note: {n}" for n in notes], "",
              "| entry | status | s | " + " | ".join(h for h, _ in VERDICTS) + " |",
              "|---|---|---|" + "---|" * len(VERDICTS)]
     for e in meta["entries"]:
@@ -139,11 +139,12 @@ def main(argv=None) -> int:
     r.add_argument("--budget", type=float, default=1200.0, help="seconds for all entries together")
     r.add_argument("--mirror", help="a scene mirror holding sponza, sibenik, dragon")
     pg = sub.add_parser("page")
-    pg.add_argument("out", type=Path, nargs="+", help="one run's OUT, or several runs of disjoint entries")
+    pg.add_argument("out", type=Path, nargs="+", help="one run's OUT, or several (a later one's entries win)")
+    pg.add_argument("--note", action="append", default=[], help="a line under the header (repeatable)")
     a = ap.parse_args(argv)
     if a.cmd == "run":
         return run(a.out, a.keys or entry_keys(), a.scale, a.budget, a.mirror)
-    sys.stdout.write(page(a.out))
+    sys.stdout.write(page(a.out, tuple(a.note)))
     return 0
 
 
