@@ -29,15 +29,32 @@ docs/reference/reports.md, "Adding a table", and docs/how-to/reproduce-a-paper-t
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import json
 import math
+import pkgutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
-from ldbench.core.errors import LdbenchError
-from ldbench.harness.records import effect_d_max, effect_param
+from ldbench.core import scene_registry
+from ldbench.core.errors import Interrupted, LdbenchError
+from ldbench.core.files import atomic_write_text
+from ldbench.core.scenes import registered_needed
+from ldbench.harness.executors import run_jobs
+from ldbench.harness.records import effect_d_max, effect_param, read_results, structure_bytes
+from ldbench.harness.resources import TABLE_SUITE, table_key
+from ldbench.harness.rundir import is_run_dir
+from ldbench.harness.suite import load_suite, parse_size
+from ldbench.methods.base import get_method
+
+from . import reproductions
+from .figures.table import as_dict
+from .labels import fmt_value
+
+# One lazy import, on purpose: .report (in reproduce(), only when the HTML report is written) loads scipy
+# through its figures; the engine, `ldbench reproduce --list` and the entry modules stay without it.
 
 
 #: quantity → (our column, unit, higher is better, label)
@@ -163,13 +180,6 @@ def registry() -> dict[str, Reproduction]:
     always shown), then any table it does not name, by name: a new table is one new folder."""
     global _REGISTRY
     if _REGISTRY is None:
-        import importlib
-        import pkgutil
-
-        from ldbench.harness.resources import TABLE_SUITE, table_key
-
-        from . import reproductions
-
         found: dict[str, Reproduction] = {}
         for paper in sorted(pkgutil.iter_modules(reproductions.__path__), key=lambda m: m.name):
             if paper.name.startswith("_"):
@@ -202,8 +212,6 @@ _REGISTRY: dict | None = None
 def _tables(paper: ModuleType) -> list[str]:
     """The table folders (sub-packages) of a paper package: those its ``TABLES`` names, in that order, then
     the others by name. A name in ``TABLES`` without its folder is an error (a table renamed or removed)."""
-    import pkgutil
-
     names = sorted(m.name for m in pkgutil.iter_modules(paper.__path__) if m.ispkg and not m.name.startswith("_"))
     order = tuple(getattr(paper, "TABLES", ()))
     gone = [t for t in order if t not in names]
@@ -243,8 +251,6 @@ def _method(name) -> str:
     """The registered name of a method named by its name or an alias (as given when unknown), so that
     data written with an older name still finds its rows and overrides."""
     try:
-        from ldbench.methods.base import get_method
-
         return get_method(str(name)).name
     except Exception:  # noqa: BLE001 - unknown method (an old run): compare names as they are
         return str(name)
@@ -258,9 +264,6 @@ def _method_overrides(scale: dict, method) -> dict:
 def scale_suite(suite, scale: dict, size: str | None = None):
     """Apply a scale's overrides (size, spp, warmup, frames, method params, scene params) to a suite's
     jobs; duplicates created by the overrides are dropped."""
-    from ldbench.methods.base import get_method
-    from ldbench.harness.suite import parse_size
-
     jobs, seen = [], set()
     w_h = parse_size(size) if size else (parse_size(scale["size"]) if scale.get("size") else None)
     for j in suite.jobs:
@@ -320,8 +323,6 @@ def _with_defaults(r: dict, match: dict) -> dict:
 
 def _defaults(method) -> dict:
     try:
-        from ldbench.methods.base import get_method
-
         return get_method(str(method)).Params().to_dict()
     except Exception:  # noqa: BLE001 - unknown method (an old run)
         return {}
@@ -354,8 +355,6 @@ def _matches(r, m: dict) -> bool:
 
 def _current_names(method, params: dict) -> dict:
     """``params`` under the method's current (dotted) names; as given when the method or a name is unknown."""
-    from ldbench.methods.base import get_method
-
     try:
         return get_method(method).Params.upgrade(params)
     except LdbenchError:
@@ -374,8 +373,6 @@ def find_row(rows: list, match: dict):
 def _shown_params(r, match) -> dict:
     """The parameters worth printing: those the row was matched on and those off their defaults."""
     try:
-        from ldbench.methods.base import get_method
-
         cls = get_method(r["method"]).Params
         defaults = cls().to_dict()
     except Exception:  # noqa: BLE001 - unknown method in an old run: show what we have
@@ -471,12 +468,8 @@ def our_value(r, q: str):
     col = quantity(q)[0]
     v = r.get(col)
     if q == "structure_mb" and _float(v) is None and isinstance(r.get("memory"), dict):
-        from ldbench.harness.records import structure_bytes
-
         v = structure_bytes(r["memory"])
     if q.startswith(FAMILIES):
-        from .figures.table import as_dict
-
         d = as_dict(v) or {}
         names = q.split(":", 1)[1].split("+")
         vals = [_float(d.get(n)) for n in names]
@@ -695,8 +688,6 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     quantity), ``claims`` (with verdicts; ``paper`` false for a claim of ours), ``premises`` (no verdict),
     setup strings and notes.
     """
-    from .figures.table import as_dict
-
     scale = entry.scales.get(scale_name, {})
     recs = []
     for _, r in df.iterrows():
@@ -712,8 +703,6 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
         found[pr["id"]] = ours
         cfg = "no matching row in this run"
         if ours is not None:
-            from .labels import fmt_value
-
             d = effect_d_max(ours)
             shown = _shown_params(ours, m)
             cfg = (f"{ours.get('scene')}"
@@ -878,8 +867,6 @@ def format_markdown(res: dict) -> str:
 def suite_file(entry: Reproduction) -> Path:
     """The entry's suite: ``suite.toml`` in the table's folder (:attr:`Reproduction.folder`, which
     :func:`registry` sets; an installed package carries the file as package data)."""
-    from ldbench.harness.resources import TABLE_SUITE
-
     if entry.folder is None:
         raise ValueError(f"{entry.key} has no folder: only the entries of registry() know their suite")
     return entry.folder / TABLE_SUITE
@@ -906,9 +893,6 @@ def without_unfetched_scenes(suite, key: str = "") -> tuple:
     such scene saying which jobs did not run and how to fetch it). The other jobs run: their rows and
     claims are shown, the missing rows read 'not measured'. When no job is left: one
     :class:`LdbenchError` line naming what to fetch."""
-    from ldbench.core import scene_registry
-    from ldbench.core.scenes import registered_needed
-
     missing: dict = {}
     for i, j in enumerate(suite.jobs):
         name = registered_needed(j.scene)
@@ -929,15 +913,10 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
               progress: bool = True, report: bool = True) -> tuple[dict, Path]:
     """Run (or reuse) the entry's suite, evaluate it, write ``reproduce.md``/``.json``; returns
     (result dict, run directory)."""
-    from ldbench.harness.records import read_results
-
     entry = get_entry(key)
     if scale not in entry.scales:
         raise LdbenchError(f"unknown scale {scale!r} for {key} (known: {', '.join(entry.scales)})")
     if from_run is not None:
-        from ldbench.harness.rundir import is_run_dir
-        from ldbench.harness.suite import load_suite
-
         run_dir = Path(from_run)
         if out is not None:
             raise LdbenchError(f"--from-run evaluates {run_dir} where it is (its reproduce.md and .json): "
@@ -951,9 +930,6 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
             if want is not None and ran != want:
                 raise LdbenchError(f"--from-run: {run_dir} is a run of suite {ran!r}, not of {key}'s suite {want!r}")
     else:
-        from ldbench.harness.executors import run_jobs
-        from ldbench.harness.suite import load_suite
-
         path = suite_file(entry)
         if not path.is_file():
             raise LdbenchError(f"the suite of {key} is missing: {path}")
@@ -962,9 +938,6 @@ def reproduce(key: str, *, scale: str = "paper", size: str | None = None, out=No
         run_dir = Path(out) if out else Path("runs") / f"{key}-{scale}-{time.strftime('%Y%m%d-%H%M%S')}"
         run_jobs(suite, run_dir, progress=progress, report=False)
         df = read_results(run_dir)
-    from ldbench.core.errors import Interrupted
-    from ldbench.core.files import atomic_write_text
-
     try:
         res = evaluate(entry, df, scale)
         if from_run is None:
