@@ -6,6 +6,12 @@ from __future__ import annotations
 from ldbench.reports.reproduce import Claim, Reproduction
 from ldbench.reports.reproductions.archer2019 import ATRIUM, CI, CITY, PAPER, SETUP_NOTES
 
+#: Why the raycast's share can fall below 0.5 % on a GPU of today (measured by this entry's stage rows)
+_SHARE_REASON = ("the raycast gains more from this GPU than the frame does: against the paper's GTX 1060 the vpl "
+                 "stage (the raycast) is faster, while the stages that go through the hardware raster, gbuffer, "
+                 "rsm and the CDI capture (count+scan+fill), are slower, and the lighting about the same (the "
+                 "Table 1 Total rows' stage times beside the published ones); this GPU's raster is weak "
+                 "(docs/reference/methods/gbuffer.md)")
 _ONE_PERCENT = ("'approximately 1% of the total frametime' read as 0.5–2 % (a factor 2 either side of 1 %), i.e. "
                 "the frame is 50–200× the raycast; the paper's own 0.73 % (137×) and 0.92 % (109×) lie inside")
 
@@ -83,18 +89,18 @@ REPRODUCTION = Reproduction(
         Claim("Raycasting is about 1 % of the frame: the frame takes 50–200× the raycast (Atrium)", "atrium",
               "atrium-vpl", ("time_ms",), "ratio", ratio=(50.0, 200.0),
               where="Abstract; §4 'approximately 1% of the total frametime'",
-              published="20.6 / 0.15 ms = 137× (0.7 %)", why=_ONE_PERCENT),
+              published="20.6 / 0.15 ms = 137× (0.7 %)", why=_ONE_PERCENT, reason=_SHARE_REASON),
         Claim("Raycasting is about 1 % of the frame: the frame takes 50–200× the raycast (Rungholt)", "rungholt",
               "rungholt-vpl", ("time_ms",), "ratio", ratio=(50.0, 200.0), where="§4",
-              published="43.5 / 0.4 ms = 109× (0.9 %)", why=_ONE_PERCENT),
+              published="43.5 / 0.4 ms = 109× (0.9 %)", why=_ONE_PERCENT, reason=_SHARE_REASON),
         Claim("At the paper's VPL counts (2,000 lit, ~20,000 raycast) raycasting is about 1 % of the frame: "
               "50–200× (Atrium)", "atrium-2000", "atrium-vpl-20000", ("time_ms",), "ratio", ratio=(50.0, 200.0),
               where="§4 'reduced to 2000 and 8000 VPLs for the Atrium and Rungholt scenes respectively'; "
                     "'approximately 1% of the total frametime'",
-              published="20.6 / 0.15 ms = 137× (0.7 %)", why=_ONE_PERCENT),
+              published="20.6 / 0.15 ms = 137× (0.7 %)", why=_ONE_PERCENT, reason=_SHARE_REASON),
         Claim("At the paper's VPL counts (8,000 lit, ~20,000 raycast) raycasting is about 1 % of the frame: "
               "50–200× (Rungholt)", "rungholt-8000", "rungholt-vpl-20000", ("time_ms",), "ratio",
-              ratio=(50.0, 200.0), where="§4", published="43.5 / 0.4 ms = 109× (0.9 %)", why=_ONE_PERCENT),
+              ratio=(50.0, 200.0), where="§4", published="43.5 / 0.4 ms = 109× (0.9 %)", why=_ONE_PERCENT, reason=_SHARE_REASON),
         *(Claim(f"Raycasting (building the VPL buffer) is the fastest VPL rendering step ({name}): every other "
                 f"step of Table 1 takes longer", key, key, tuple(f"stage:{st}" for st in STEPS if st != "vpl"),
                 "greater", b_quantity="stage:vpl",
