@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 
 from ldbench.harness import records
+from ldbench.reports import reproduce as R
 from ldbench.reports.reproduce import (FAILS, HOLDS, INCONCLUSIVE, NOT_MEASURABLE, PREMISE, evaluate, get_entry)
 
 from test_reproduce_claims import _row
@@ -231,6 +232,27 @@ def test_fig10_at_a_cost_compares_the_same_splatted_area(tmp_path, small_t, a_t,
 def test_fig10_the_splatted_area_check_can_fail(tmp_path, small_px, a_px, verdict):
     rows = _fig10_rows(249.1, 221.4, small_px, a_px, device="cpu-software")  # a counter: a verdict on a CPU
     assert _claim_verdict(tmp_path, "aalund2015-fig10", SAME_AREA, rows) == verdict
+
+
+@pytest.mark.parametrize("small_px, verdict", [(1.78e8, HOLDS), (1.12e9, R.SETUP_UNMET)])
+def test_fig10_at_a_cost_is_judged_only_when_the_areas_match(tmp_path, small_px, verdict):
+    """'at a cost' requires the splat-area check: with the 4× splats' area on one side it compares fill, not
+    photons, and gets no verdict; the reason names the check and what it read."""
+    rows = _fig10_rows(249.1, 221.4, small_px, 1.55e8)
+    assert _claim_verdict(tmp_path, "aalund2015-fig10", AT_A_COST, rows) == verdict
+    records.write_results(rows, tmp_path / "r")
+    c = next(c for c in evaluate(FIG10, records.read_results(tmp_path / "r"))["claims"] if c["text"] == AT_A_COST)
+    assert (c["reason"] == "") == (verdict == HOLDS)
+    assert verdict == HOLDS or SAME_AREA in c["reason"] and R.FAILS in c["reason"]
+
+
+def test_every_required_claim_is_a_claim_of_its_entry():
+    from ldbench.reports.reproduce import registry
+
+    for e in registry().values():
+        texts = {c.text for c in e.claims}
+        for c in e.claims:
+            assert not c.requires or c.requires in texts, (e.key, c.text)
 
 
 def test_fig10_quality_claims_compare_one_change_each(tmp_path):

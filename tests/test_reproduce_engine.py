@@ -295,8 +295,8 @@ def test_the_verdicts_page_counts_every_verdict_reproduce_writes():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     claims = [{"verdict": v} for v in (R.HOLDS, R.FAILS, R.FAILS, R.INCONCLUSIVE, R.NOT_MEASURABLE, R.NOT_MEASURED,
-                                       R.NOT_AT_SCALE.format(scale="ci"))]
-    assert mod.verdict_counts(claims) == [1, 2, 1, 1, 1, 1]
+                                       R.NOT_AT_SCALE.format(scale="ci"), R.SETUP_UNMET)]
+    assert mod.verdict_counts(claims) == [1, 2, 1, 1, 1, 1, 1]
     with pytest.raises(ValueError, match="no column"):
         mod.verdict_counts([{"verdict": "a verdict nobody wrote", "text": "x"}])
 

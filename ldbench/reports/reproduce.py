@@ -98,6 +98,7 @@ INCONCLUSIVE = "inconclusive (difference within the timing noise)"
 NOT_MEASURABLE = "not measurable here"  # a time claim on cpu-software (wall clock on shared cores)
 NOT_AT_SCALE = "not comparable at scale {scale}"  # a claim whose rows only mean something at other scales
 PREMISE = "premise (no verdict)"  # a statement our set-up decides by construction: printed, never judged
+SETUP_UNMET = "not judged: its set-up check does not hold"  # Claim.requires read anything but HOLDS
 
 CPU_SOFTWARE = "cpu-software"
 TIME_QUANTITIES = ("time_ms", "rays_per_s")  # with every stage:NAME: the quantities that get the timing rules
@@ -126,6 +127,9 @@ class Claim:
     ``ours``: a claim that is not the paper's (the paper's comparison made against a baseline of ours, or a
     control of ours beside a paper claim); printed apart from the paper's claims, labelled.
 
+    ``requires``: the text of another claim of the entry that checks this claim's set-up (e.g. that two rows
+    compare like with like); unless that claim holds, this one reads :data:`SETUP_UNMET` instead of a verdict.
+
     As a *premise* (:attr:`Reproduction.premises`) the same record states what our set-up decides by
     construction: our numbers are printed beside the published ones, ``why`` says why they cannot
     contradict the paper, and no verdict is given.
@@ -146,6 +150,7 @@ class Claim:
     scales: tuple = ()
     reason: str = ""  # why it fails or is inconclusive on the machine measured (printed beside such a verdict)
     ours: bool = False  # not the paper's statement (e.g. the paper's comparison against our own baseline)
+    requires: str = ""  # the text of a claim of this entry that checks this one's set-up: judged only if it holds
 
 
 @dataclass(frozen=True)
@@ -586,6 +591,8 @@ def rule_text(c: Claim) -> str:
     out = f"{rule}. Window: {why}" if c.kind in ("ratio", "within") else f"{rule}. {why[0].upper()}{why[1:]}"
     if c.scales:
         out += f". Verdict only at scale {', '.join(c.scales)}"
+    if c.requires:
+        out += f". Judged only when '{c.requires}' holds"
     return out
 
 
@@ -674,6 +681,17 @@ def _judge(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
             "verdict": verdict, "rule": rule_text(c), "reason": reason, "paper": not c.ours}
 
 
+def _with_setup_checks(claims, judged: list[dict]) -> list[dict]:
+    """``judged`` with :data:`SETUP_UNMET` for each claim whose ``requires`` claim does not hold (a verdict
+    that only reports missing rows, :data:`NOT_MEASURED`, stays)."""
+    verdicts = {j["text"]: j["verdict"] for j in judged}
+    for c, j in zip(claims, judged):
+        if c.requires and j["verdict"] != NOT_MEASURED and verdicts.get(c.requires) != HOLDS:
+            j.update(verdict=SETUP_UNMET, reason=f"the set-up check '{c.requires}' reads: "
+                                                 f"{verdicts.get(c.requires, 'missing from the entry')}")
+    return judged
+
+
 def _premise(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
     """A premise: the published and measured sides as for a claim, ``why`` in place of a verdict."""
     j = _judge(c, found, pub_rows, scale_name)
@@ -724,7 +742,7 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
                              "iqr": (_fmt(_noise(ours, q), "rays_per_s" if q == "rays_per_s" else "time_ms")
                                      if ours is not None and _timed(q) else "–")})
     pub_rows = {pr["id"]: pr for pr in entry.rows}
-    claims_out = [_judge(c, found, pub_rows, scale_name) for c in entry.claims]
+    claims_out = _with_setup_checks(entry.claims, [_judge(c, found, pub_rows, scale_name) for c in entry.claims])
     premises_out = [_premise(c, found, pub_rows, scale_name) for c in entry.premises]
     ok = df[df["status"] == "ok"] if "status" in df else df
     r0 = ok.iloc[0] if len(ok) else (df.iloc[0] if len(df) else None)

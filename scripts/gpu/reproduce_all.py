@@ -24,7 +24,7 @@ from pathlib import Path
 #: The page's columns: (heading, the verdict's words as reproduce writes them, matched at their start).
 VERDICTS = (("holds", "holds"), ("fails", "does not hold"), ("inconclusive", "inconclusive"),
             ("not measurable here", "not measurable"), ("not measured", "not measured"),
-            ("not at this scale", "not comparable at scale"))
+            ("not at this scale", "not comparable at scale"), ("set-up unmet", "not judged"))
 
 
 def verdict_counts(claims) -> list[int]:
