@@ -154,10 +154,10 @@ def compare(hwb, cpb, eye, vp, clip_edges=None):
                          [(256, None, None), (1, None, None), (1, 5, None), (256, None, 1)])
 def test_compute_equals_hardware(gpu, hard, max_pixels, tile_capacity, clip_capacity):
     """Every view, rendered in sequence by one compute G-buffer (its per-frame clear), equals the hardware
-    pass. The floor and the near triangle cross the near plane: they are clipped, and their pieces go to
+    pass. The floor and the near triangle cross the near plane: they are clipped, and their polygons go to
     the tile raster, not to the hardware. max_pixels = 1 gives nearly every triangle to the tile raster of
     wide triangles, and a tile list of 5 entries then gives most of them to the hardware path, after frames
-    that filled a longer list; room for one piece sends the clipped triangles to the hardware whole."""
+    that filled a longer list; room for one polygon sends the other clipped triangles to the hardware."""
     geo, ref = hard
     sc = hard_scene()
     g = GBuffer(gpu, geo, gpu.resources(f"c{max_pixels}.{tile_capacity}.{clip_capacity}."), raster="compute",
@@ -169,19 +169,19 @@ def test_compute_equals_hardware(gpu, hard, max_pixels, tile_capacity, clip_capa
         cam = VIEWS[k]
         g.render(View(cam, W, W))
         compare(ref[k][0], g.read(), np.array(cam.origin), ref[k][1], near_clipped_edges(sc, ref[k][1], W, W))
-        large, (wide, tiles), pieces = g.large_triangles(), g.wide_triangles(), g.clipped_pieces()
+        large, (wide, tiles), polygons = g.large_triangles(), g.wide_triangles(), g.clipped_polygons()
         drawn = np.frombuffer(gpu.read(g.large, 4 * (8 + 3 * large)), np.uint32)[8::3] // 3
         assert len(set(drawn.tolist())) == large, "a triangle drawn twice by the hardware path"
         if i < 2:
-            needed = pieces
+            needed = polygons
         if clip_capacity is not None and i >= 2:
-            assert pieces == 1 and (large >= 1 or needed == 1)
+            assert polygons == 1 and (large >= 1 or needed == 1)
         elif max_pixels == 1 and g.tile_capacity > 5:
-            assert wide > geo.triangles // 2 and large == 0 and pieces >= 1
+            assert wide > geo.triangles // 2 and large == 0 and polygons >= 1
         elif max_pixels == 1:
             assert tiles <= 5 and geo.triangles // 2 < large <= geo.triangles  # each triangle drawn once
         else:
-            assert large == 0 and pieces >= 1  # the floor crosses the near plane: clipped, not drawn
+            assert large == 0 and polygons >= 1  # the floor crosses the near plane: clipped, not drawn
 
 
 def beyond_range_scene():
@@ -203,12 +203,12 @@ def beyond_range_scene():
 #: edge's line (the snapped vertices decide them), and depth ties, the two nearest hits within a relative 1e-5
 #: of the eye distance (measured: the nearest pair here that the raster swaps is 3e-6 apart)
 EDGE_PX, TIE_REL = 2.0 ** -8, 1e-5
-#: The depth keys of the pieces against the float64 truth's window depth, in steps of 2^-24, on the straight
-#: view: measured 2.0 (64²) and 2.3 (200 × 120) on llvmpipe; with the pieces' depth plane set up in float, as
-#: for small triangles, 13 and 36 (105 at 1024 × 768). Not on the oblique view, where the vertices' own
-#: float32 transform (coordinates of 2e4, rounded to 1e-3) moves the plane by hundreds of steps on either
-#: raster, the hardware's too.
-PIECE_Z_STEPS = 4.0
+#: The depth keys of the clipped polygons against the float64 truth's window depth, in steps of 2^-24, on the
+#: straight view: measured 1.4 (64²) and 1.8 (200 × 120) on llvmpipe, the float rounding of a window depth
+#: and of its interpolation. Not on the oblique view, where the vertices' own float32 transform
+#: (coordinates of 2e4, rounded to 1e-3) moves the plane by hundreds of steps on either raster, the
+#: hardware's too.
+POLYGON_Z_STEPS = 4.0
 
 
 @pytest.mark.parametrize("size", [(64, 64), (200, 120)])
@@ -226,7 +226,7 @@ def test_triangles_beyond_the_fixed_point_range_are_clipped(gpu, size):
     for k, cam in enumerate((sc.camera, Camera((0.1, -0.2, 0.3), (0.3, 0.2, -1.0), (0, 1, 0), 60.0))):
         view = View(cam, *size)
         g.render(view)
-        assert g.large_triangles() == 0 and g.clipped_pieces() >= 2
+        assert g.large_triangles() == 0 and g.clipped_polygons() >= 2
         assert g.skipped_tiles() > 0  # the fan's polygons leave tiles of their boxes out
         pos, nrm, _ = g.read()
         near_far = geo.near_far(np.array(cam.origin), cam.basis()[2])  # here near is 2: the scene is huge
@@ -236,7 +236,7 @@ def test_triangles_beyond_the_fixed_point_range_are_clipped(gpu, size):
             key = np.frombuffer(gpu.read(g.vis, 4 * w * h), np.uint32).view(np.float32).reshape(h, w)[::-1]
             ok = (mat >= 0) & (nrm[..., 3] == mat)
             steps = np.abs(key[ok] - window_depth(xp[ok], g.view_proj(view))) * 2.0 ** 24
-            assert steps.max() <= PIECE_Z_STEPS, f"depth keys {steps.max():.3g} steps of 2^-24 off"
+            assert steps.max() <= POLYGON_Z_STEPS, f"depth keys {steps.max():.3g} steps of 2^-24 off"
         c = np.c_[v.astype(np.float64), np.ones(len(v))] @ g.view_proj(view).T
         edge = pixel_edge_distance(c[f], *size) <= EDGE_PX
         cov = pos[..., 3] > 0.5

@@ -149,8 +149,8 @@ class GBuffer:
     depth texture, so the compute G-buffer has none. ``max_pixels``: a triangle whose viewport-clamped
     bounding box holds more pixel centres than this (or is wider or taller than 64 pixels) is rasterized in
     16 × 16 tiles by workgroups (``gbuffer/wide.glsl``) rather than by one invocation; triangles crossing
-    the near or far plane are clipped (``gbuffer/clip.glsl``) and their pieces rasterized by tiles; what finds
-    no room in the tile list or among ``clip_capacity`` pieces goes to the hardware (``gbuffer/large.glsl``)."""
+    the near or far plane are clipped (``gbuffer/clip.glsl``) and their polygons rasterized by tiles; what finds
+    no room in the tile list or among ``clip_capacity`` polygons goes to the hardware (``gbuffer/large.glsl``)."""
 
     def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
         if raster not in RASTERS:
@@ -177,7 +177,7 @@ class GBuffer:
         self.clip_capacity = CLIP_CAPACITY
         self.clip = res.buffer("gbuffer.clip", reserve=CLIP_HEADER_BYTES + CLIP_PIECE_BYTES * self.clip_capacity)
         self.clip_list = res.buffer("gbuffer.clip_list", reserve=CLIP_LIST_HEADER.nbytes + 4 * n)
-        # a list entry per wide triangle or piece
+        # a list entry per wide triangle or polygon
         self.wide = res.buffer("gbuffer.wide", reserve=WIDE_HEADER.nbytes + 16 * (n + self.clip_capacity))
         self.large = res.buffer("gbuffer.large", reserve=4 * (LARGE_CMD_WORDS + 3 * n))
         cmd = np.zeros(LARGE_CMD_WORDS, np.uint32)
@@ -259,8 +259,7 @@ class GBuffer:
 
     def compute_pass(self, p: int, vp: bytes):
         """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the wide
-        triangles, clips those that need it and lists their pieces, and lists the triangles it leaves to the
-        hardware."""
+        triangles, the triangles to clip, and the triangles it leaves to the hardware."""
         ctx, (w, h) = self.gpu.ctx, self._allocated_size()
         cs = self.raster_cs
         cs["view_proj"].write(vp)
@@ -277,8 +276,8 @@ class GBuffer:
         ctx.memory_barrier()
 
     def clip_pass(self, vp: bytes):
-        """The clipper: the triangles pass 0 listed to clip, cut into pieces listed for the tile raster (one
-        indirect dispatch)."""
+        """The clipper: the triangles pass 0 listed to clip, each recorded as a polygon listed for the tile raster
+        (one indirect dispatch)."""
         (w, h), cs = self._allocated_size(), self.clip_cs
         cs["view_proj"].write(vp)
         cs["vis_size"].value = (w, h)
@@ -368,7 +367,7 @@ class GBuffer:
             np.zeros(4, np.uint32)
         return int(listed[2::4].astype(np.int64).sum()) - int(head[0])
 
-    def clipped_pieces(self) -> int:
+    def clipped_polygons(self) -> int:
         """Clipped triangles (their polygons) the last compute frame recorded (a read-back; tests and the
         bench)."""
         return min(int(np.frombuffer(self.gpu.read(self.clip, 4), np.uint32)[0]), self.clip_capacity)

@@ -102,7 +102,7 @@ def main(argv=None):
                 split.setdefault(name, []).append(timed(gpu, fn))
         wide, tiles = g.wide_triangles()
         print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}: {wide} triangles and polygons in {tiles} "
-              f"tiles ({g.skipped_tiles()} skipped), {g.clipped_pieces()} polygons of clipped triangles, {g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
+              f"tiles ({g.skipped_tiles()} skipped), {g.clipped_polygons()} polygons of clipped triangles, {g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
         print("          " + differences(ref, g.read(), np.array(scene.camera.origin), g.view_proj(view)))
 
 

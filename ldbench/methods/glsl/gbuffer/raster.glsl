@@ -6,7 +6,7 @@
 //   tested here;
 // - wide: listed by pass 0 for the tile raster (gbuffer/wide_list.glsl, gbuffer/wide.glsl);
 // - crossing the near or far plane, or beyond the exact range: listed by pass 0 for the clipper
-//   (gbuffer/clip.glsl), which records its pieces in gc_piece (at most clip_capacity) and lists them for the
+//   (gbuffer/clip.glsl), which records its polygon in gc_piece (at most clip_capacity) and lists it for the
 //   tile raster;
 // - not finite: appended by pass 0 to gb_large, the index list of one indirect draw (gb_cmd, gb_cmd[0]
 //   counts the indices) that the hardware rasterizes in both passes (gbuffer/large.glsl); so are the
