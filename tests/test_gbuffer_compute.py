@@ -413,3 +413,35 @@ def test_positions_are_the_exact_pixel_centre_intersections(gpu, raster):
         assert max(worst) <= EXACT_REL, f"{raster}: position error {max(worst):.3g} of the eye distance"
     finally:
         res.release()
+
+
+#: x_ndc of the centres of pixel column 40 of a 64-pixel row, exact in binary
+COLUMN_40 = (40 + 0.5) / 32 - 1
+
+
+@pytest.mark.parametrize("left_first", [True, False])
+def test_clipped_triangles_share_an_edge_through_pixel_centres_by_the_fill_rule(gpu, left_first):
+    """Two floor triangles that cross the near plane share an edge in the plane x = -c z through the eye, so it
+    projects onto the centres of one pixel column: the fill rule gives each centre to one triangle, as on the
+    hardware, whichever comes first (a tie at equal depth would go to the smaller id)."""
+    c = COLUMN_40
+    p1, p2 = [-c * 1.0, -0.5, 1.0], [c * 4.0, -0.5, -4.0]  # behind the eye, in front: the shared edge
+    left = _tri("left", [p1, [-3.0, -0.5, -4.0], p2], (0.9, 0.2, 0.2))
+    right = _tri("right", [p1, p2, [3.0, -0.5, -4.0]], (0.2, 0.2, 0.9))
+    sc = Scene("gbuffer-shared-edge", [left, right] if left_first else [right, left],
+               Camera((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), (0, 1, 0), 90.0))
+    res = gpu.resources()
+    geo = SceneGeometry(gpu, sc, res)
+    hw = GBuffer(gpu, geo, gpu.resources("ehw."))
+    g = GBuffer(gpu, geo, gpu.resources("ec."), raster="compute")
+    view = View(sc.camera, W, W)
+    hw.render(view)
+    g.render(view)
+    h, cp = hw.read(), g.read()
+    assert g.clipped_polygons() == 2 and g.large_triangles() == 0
+    col = h[0][:, 40, 3] > 0.5
+    assert col.sum() > 10  # the floor fills the column's lower half
+    assert np.array_equal(h[2][:, 40][col], cp[2][:, 40][col]), "the edge's pixels went to the other triangle"
+    vp = hw.view_proj(view)
+    compare(h, cp, np.zeros(3), vp, near_clipped_edges(sc, vp, W, W))  # elsewhere, as for every clipped edge
+    res.release()
