@@ -325,3 +325,10 @@ def test_the_verdicts_page_takes_a_later_runs_entries_and_notes(tmp_path):
     text = mod.page([tmp_path / "r1", tmp_path / "r2"], ("the first run's rows name a stale commit",))
     assert "- note: the first run's rows name a stale commit" in text
     assert "| aalund2015-fig8 | ran | 1.0 | 1 | 0 |" in text and "| aalund2015-fig9 | ran | 1.0 | 0 | 1 |" in text
+
+
+def test_a_window_bound_keeps_the_digits_that_tell_it_apart():
+    """Three significant digits, four where three would move a bound by more than 0.25 %: a 0.995–1.005
+    window must not print as 0.995–1."""
+    assert (R._g(1.005), R._g(0.995), R._g(1.9375), R._g(104.0), R._g(1 / 1.2)) == ("1.005", "0.995", "1.94",
+                                                                                       "104", "0.833")

@@ -556,8 +556,14 @@ def _bounds(c: Claim) -> str:
     if c.kind == "within" and quantity(q)[1] == "rays/s":  # rates in M or G rays/s
         return f"{_fmt(lo, q)} – {'∞' if math.isinf(hi) else _fmt(hi, q)}"
     unit = "×" if c.kind == "ratio" else f" {quantity(c.quantities[0])[1]}".rstrip()
-    hi_s = "∞" if math.isinf(hi) else f"{hi:.3g}"
-    return f"{lo:.3g}–{hi_s}{unit}"
+    hi_s = "∞" if math.isinf(hi) else _g(hi)
+    return f"{_g(lo)}–{hi_s}{unit}"
+
+
+def _g(x: float) -> str:
+    """A window bound in 3 significant digits, or 4 where 3 would move it by more than 0.25 % (1.005 is not 1)."""
+    s = f"{x:.3g}"
+    return s if abs(float(s) - x) <= 2.5e-3 * abs(x) else f"{x:.4g}"
 
 
 #: The verdict rule of each claim kind (printed with every claim; docs/reference/claims.md, "Verdict rules").
