@@ -257,68 +257,43 @@ class GBuffer:
         self.clip.write(bytes(CLIP_HEADER_BYTES))
         self.clip_list.write(CLIP_LIST_HEADER.tobytes())
 
+    def _compute(self, cs, vp: bytes, run, **uniforms):
+        """One compute pass of the compute G-buffer: ``view_proj``, ``vis_size`` and ``uniforms`` set, every
+        buffer of the compute G-buffer bound (their binding points are distinct, and a program ignores those
+        it does not declare), ``run(cs)`` dispatched, then a barrier."""
+        cs["view_proj"].write(vp)
+        cs["vis_size"].value = self._allocated_size()
+        for name, value in uniforms.items():
+            cs[name].value = value
+        for buf, unit in ((self.geo.vbo, B.GBUF_VERTICES), (self.vis, B.GBUF_VIS), (self.large, B.GBUF_LARGE),
+                          (self.wide, B.GBUF_WIDE), (self.tiles, B.GBUF_TILES), (self.clip, B.GBUF_CLIP),
+                          (self.clip_list, B.GBUF_CLIP_LIST)):
+            buf.bind_to_storage_buffer(unit)
+        run(cs)
+        self.gpu.ctx.memory_barrier()
+
     def compute_pass(self, p: int, vp: bytes):
         """Pass ``p`` (0: depth keys, 1: triangle ids) of the compute raster; pass 0 lists the wide
         triangles, the triangles to clip, and the triangles it leaves to the hardware."""
-        ctx, (w, h) = self.gpu.ctx, self._allocated_size()
-        cs = self.raster_cs
-        cs["view_proj"].write(vp)
-        cs["vis_size"].value = (w, h)
-        cs["vis_pass"].value = p
-        cs["n_triangles"].value = self.geo.triangles
-        cs["max_pixels"].value = self.max_pixels
-        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
-        self.vis.bind_to_storage_buffer(B.GBUF_VIS)
-        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
-        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
-        self.clip_list.bind_to_storage_buffer(B.GBUF_CLIP_LIST)
-        cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT)))
-        ctx.memory_barrier()
+        self._compute(self.raster_cs, vp, lambda cs: cs.run(max(1, min(-(-self.geo.triangles // 64), GROUP_LIMIT))),
+                      vis_pass=p, n_triangles=self.geo.triangles, max_pixels=self.max_pixels)
 
     def clip_pass(self, vp: bytes):
         """The clipper: the triangles pass 0 listed to clip, each recorded as a polygon listed for the tile raster
         (one indirect dispatch)."""
-        (w, h), cs = self._allocated_size(), self.clip_cs
-        cs["view_proj"].write(vp)
-        cs["vis_size"].value = (w, h)
-        cs["clip_capacity"].value = self.clip_capacity
-        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
-        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
-        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
-        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
-        self.clip_list.bind_to_storage_buffer(B.GBUF_CLIP_LIST)
-        cs.run_indirect(self.clip_list, CLIP_LIST_GROUPS)
-        self.gpu.ctx.memory_barrier()
+        self._compute(self.clip_cs, vp, lambda cs: cs.run_indirect(self.clip_list, CLIP_LIST_GROUPS),
+                      clip_capacity=self.clip_capacity)
 
     def expand_pass(self, vp: bytes):
         """The tile list: the tiles of the wide triangles and polygons pass 0 and the clipper listed that hold
-        pixels of theirs (one indirect dispatch)."""
-        (w, h), cs = self._allocated_size(), self.expand_cs
-        cs["view_proj"].write(vp)
-        cs["vis_size"].value = (w, h)  # (max_pixels only sorts triangles, which pass 0 did)
-        cs["tile_capacity"].value = self.tile_capacity
-        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
-        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
-        self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
-        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
-        self.large.bind_to_storage_buffer(B.GBUF_LARGE)
-        cs.run_indirect(self.wide, WIDE_LIST_GROUPS)
-        self.gpu.ctx.memory_barrier()
+        pixels of theirs (one indirect dispatch; max_pixels only sorts triangles, which pass 0 did)."""
+        self._compute(self.expand_cs, vp, lambda cs: cs.run_indirect(self.wide, WIDE_LIST_GROUPS),
+                      tile_capacity=self.tile_capacity)
 
     def wide_pass(self, p: int, vp: bytes):
-        """Pass ``p`` of the tile raster of the wide triangles (one indirect dispatch)."""
-        (w, h), cs = self._allocated_size(), self.wide_cs
-        cs["view_proj"].write(vp)
-        cs["vis_size"].value = (w, h)
-        cs["vis_pass"].value = p  # (max_pixels only sorts triangles, which pass 0 did)
-        cs["tile_capacity"].value = self.tile_capacity
-        self.geo.vbo.bind_to_storage_buffer(B.GBUF_VERTICES)
-        self.vis.bind_to_storage_buffer(B.GBUF_VIS)
-        self.wide.bind_to_storage_buffer(B.GBUF_WIDE)
-        self.tiles.bind_to_storage_buffer(B.GBUF_TILES)
-        self.clip.bind_to_storage_buffer(B.GBUF_CLIP)
-        cs.run_indirect(self.wide, WIDE_TILE_GROUPS)
-        self.gpu.ctx.memory_barrier()
+        """Pass ``p`` of the tile raster of the wide triangles and polygons (one indirect dispatch)."""
+        self._compute(self.wide_cs, vp, lambda cs: cs.run_indirect(self.wide, WIDE_TILE_GROUPS),
+                      vis_pass=p, tile_capacity=self.tile_capacity)
 
     def large_pass(self, p: int, vp: bytes):
         """Pass ``p`` of the hardware's draw of the listed triangles (one indirect draw)."""
