@@ -21,10 +21,12 @@ import sys
 import time
 from pathlib import Path
 
-#: The page's columns: (heading, the verdict's words as reproduce writes them, matched at their start).
-VERDICTS = (("holds", "holds"), ("fails", "does not hold"), ("inconclusive", "inconclusive"),
-            ("not measurable here", "not measurable"), ("not measured", "not measured"),
-            ("not at this scale", "not comparable at scale"), ("set-up unmet", "not judged"))
+from ldbench.reports import reproduce as R
+
+#: The page's columns: (heading, the verdict reproduce writes, matched at its start: NOT_AT_SCALE names a scale).
+VERDICTS = (("holds", R.HOLDS), ("fails", R.FAILS), ("inconclusive", R.INCONCLUSIVE),
+            ("not measurable here", R.NOT_MEASURABLE), ("not measured", R.NOT_MEASURED),
+            ("not at this scale", R.NOT_AT_SCALE.split("{")[0]), ("set-up unmet", R.SETUP_UNMET))
 
 
 def verdict_counts(claims) -> list[int]:
@@ -45,8 +47,7 @@ def _ldbench(*args: str) -> list[str]:
 
 
 def entry_keys() -> list[str]:
-    from ldbench.reports.reproduce import registry
-    return list(registry())
+    return list(R.registry())
 
 
 def run(out: Path, keys: list[str], scale: str, budget: float, mirror: str | None) -> int:
