@@ -51,8 +51,8 @@ _TABLE = {
     "GBUF_WIDE": _b("ssbo", 4, "raster", "compute G-buffer: wide triangles, their tile counts and dispatches",
                     "GbufWide"),
     "GBUF_TILES": _b("ssbo", 5, "raster", "compute G-buffer: the wide triangles' tiles", "GbufTiles"),
-    "GBUF_CLIP": _b("ssbo", 6, "raster", "compute G-buffer: the clipped triangles' pieces, in clip space",
-                    "GbufClip"),
+    "GBUF_CLIP": _b("ssbo", 6, "raster", "compute G-buffer: the clipped triangles' polygons, set up for the "
+                    "tile raster", "GbufClip"),
     "GBUF_CLIP_LIST": _b("ssbo", 7, "raster", "compute G-buffer: the triangles to clip and their dispatch",
                          "GbufClipList"),
     # -- one-kernel utilities, each alone in its program

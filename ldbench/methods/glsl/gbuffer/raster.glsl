@@ -26,7 +26,6 @@ void gb_to_clip(uint t) {
     atomicMax(gcl_groups[0], min(i / 64u + 1u, 65535u));
 }
 
-
 void gb_triangle(uint t) {
     GbTri g;
     int kind = gb_setup(t, g);

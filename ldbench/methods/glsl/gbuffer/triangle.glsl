@@ -4,13 +4,14 @@
 //
 // The triangle is projected with view_proj. Outside one clip plane with all three vertices: nothing.
 // Crossing the near or far plane (or w <= 0 at a vertex), or a window coordinate beyond GB_WIDE_LIMIT
-// pixels: clipped (gbuffer/clip.glsl); not finite: left to the hardware. Otherwise window coordinates (c.xy / c.w, viewport transform) are
-// snapped to the hardware's sub-pixel grid, and a pixel centre is covered by the hardware's fill rule
-// (gbuffer/fill_rule.glsl): in int32 for small triangles, whose coordinate differences stay below 2^14, in
-// double for wide ones (exact below GB_WIDE_LIMIT). The window depth z = z_ndc / 2 + 1/2 is affine in window
-// coordinates; it is the plane through the three vertices at the pixel centre, through the snapped ones
-// with SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones (llvmpipe), as the hardware interpolates. The
-// depth is `precise`: a fragment is found again in pass 1 by its depth bits.
+// pixels: clipped (gbuffer/clip.glsl); not finite: left to the hardware. Otherwise window coordinates
+// (c.xy / c.w, viewport transform) are snapped to the hardware's sub-pixel grid, and a pixel centre is
+// covered by the hardware's fill rule (gbuffer/fill_rule.glsl): in int32 for small triangles, whose
+// coordinate differences stay below 2^14, in double for wide ones (exact below GB_WIDE_LIMIT). The window
+// depth z = z_ndc / 2 + 1/2 is affine in window coordinates; it is the plane through the three vertices at
+// the pixel centre, through the snapped ones with SPLAT_SNAPPED_PLANE (NVIDIA), else the given ones
+// (llvmpipe), as the hardware interpolates. The depth is `precise`: a fragment is found again in pass 1 by
+// its depth bits.
 #include "gbuffer/position.glsl"
 #include "gbuffer/fill_rule.glsl"
 #include "gbuffer/vis.glsl"

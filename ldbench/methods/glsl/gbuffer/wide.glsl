@@ -23,21 +23,18 @@ void main() {
     uint total = min(gw_tiles, tile_capacity);
     for (uint v = gl_WorkGroupID.x; v < total; v += gl_NumWorkGroups.x) {
         uvec2 e = gt_map[v];
-        if ((e.x & GB_PIECE) != 0u) {   // a clipped triangle's polygon
-            GbPiece r = gc_piece[e.x & ~GB_PIECE];
-            int tiles_x = (r.box.z - r.box.x + GB_TILE) / GB_TILE;
-            ivec2 px = r.box.xy + GB_TILE * ivec2(int(e.y) % tiles_x, int(e.y) / tiles_x)
-                     + ivec2(gl_LocalInvocationID.xy);
-            if (all(lessThanEqual(px, r.box.zw)) && gb_polygon_covers(r, px)) {
+        GbPiece r;
+        GbTri g;
+        bool piece = gb_listed(e.x, r, g);   // a clipped triangle's polygon, set up in its record
+        ivec2 px = gb_tile_origin(g.i0, g.i1, e.y) + ivec2(gl_LocalInvocationID.xy);
+        if (any(greaterThan(px, g.i1))) continue;
+        if (piece) {
+            if (gb_polygon_covers(r, px)) {
                 precise float z = r.plane.z + dot(r.dz.xy, vec2(px) + 0.5 - r.plane.xy);
                 vis_fragment(r.meta.x, px, z);
             }
-            continue;
+        } else if (sp_covers_wide(g.tri, px)) {
+            vis_fragment(e.x, px, gb_depth(g, px));
         }
-        GbTri g;
-        gb_setup(e.x, g);   // the set-up pass 0 listed it with
-        int tiles_x = (g.i1.x - g.i0.x + GB_TILE) / GB_TILE;
-        ivec2 px = g.i0 + GB_TILE * ivec2(int(e.y) % tiles_x, int(e.y) / tiles_x) + ivec2(gl_LocalInvocationID.xy);
-        if (all(lessThanEqual(px, g.i1)) && sp_covers_wide(g.tri, px)) vis_fragment(e.x, px, gb_depth(g, px));
     }
 }

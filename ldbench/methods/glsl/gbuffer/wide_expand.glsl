@@ -23,20 +23,11 @@ void main() {
     uint n = gw_triangles;
     for (uint s = gl_WorkGroupID.x; s < n; s += gl_NumWorkGroups.x) {
         uvec4 e = gw_list[s];
-        // the box and the edges of the listed triangle or polygon
-        GbTri g;
         GbPiece r;
-        bool piece = (e.x & GB_PIECE) != 0u;
-        if (piece) {
-            r = gc_piece[e.x & ~GB_PIECE];
-            g.i0 = r.box.xy;
-            g.i1 = r.box.zw;
-        } else {
-            gb_setup(e.x, g);   // as pass 0 set it up
-        }
-        int tiles_x = (g.i1.x - g.i0.x + GB_TILE) / GB_TILE;
+        GbTri g;
+        bool piece = gb_listed(e.x, r, g);   // the box and the edges of the listed triangle or polygon
         for (uint k = gl_LocalInvocationID.x; k < e.z; k += gl_WorkGroupSize.x) {
-            ivec2 lo = g.i0 + GB_TILE * ivec2(int(k) % tiles_x, int(k) / tiles_x);
+            ivec2 lo = gb_tile_origin(g.i0, g.i1, k);
             ivec2 hi = min(lo + GB_TILE - 1, g.i1);
             bool out_ = false;
             if (piece) {

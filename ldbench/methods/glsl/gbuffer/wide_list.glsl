@@ -20,6 +20,12 @@ layout(std430, binding = B_GBUF_WIDE) buffer GbufWide {
 };
 layout(std430, binding = B_GBUF_TILES) buffer GbufTiles { uvec2 gt_map[]; };   // per tile: (id, tile of the box)
 uniform uint tile_capacity;   // entries of gt_map
+
+// the first texel of tile k of the box i0 .. i1 (tiles row by row)
+ivec2 gb_tile_origin(ivec2 i0, ivec2 i1, uint k) {
+    int tiles_x = (i1.x - i0.x + GB_TILE) / GB_TILE;
+    return i0 + GB_TILE * ivec2(int(k) % tiles_x, int(k) / tiles_x);
+}
 struct GbPiece {
     vec4 plane;     // (x, y, z, 0): the depth plane's origin (window coordinates) and window depth there
     vec4 dz;        // (dz/dx, dz/dy, 0, 0)
@@ -37,3 +43,16 @@ layout(std430, binding = B_GBUF_CLIP_LIST) buffer GbufClipList {
     uint gcl_groups[3]; // the indirect dispatch of gbuffer/clip.glsl (x = min(groups, 65535), 1, 1)
     uint gcl_tri[];         // the triangles
 };
+
+// A listed entry (gw_list, gt_map): true for a polygon, its record in r and its box in g.i0, g.i1; false for a
+// wide triangle, set up in g as pass 0 set it up (gb_setup: gbuffer/triangle.glsl comes before this file).
+bool gb_listed(uint id, out GbPiece r, out GbTri g) {
+    if ((id & GB_PIECE) != 0u) {
+        r = gc_piece[id & ~GB_PIECE];
+        g.i0 = r.box.xy;
+        g.i1 = r.box.zw;
+        return true;
+    }
+    gb_setup(id, g);
+    return false;
+}
