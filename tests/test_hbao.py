@@ -236,7 +236,7 @@ def test_broken_horizon_search_fails(gpu, tmp_path):
 # The shader's falloff, checked on the floor/wall closed forms (module docstring): fine sampling and
 # no blur or bias, so that what remains is the integral with its weights ρ(r) and its cut-off r < d_max.
 FINE = dict(integral="cosine", steps=32, angle_bias=0.0, blur=False)
-RHO_IS_ONE = ("if (falloff_mode == 1) return 1.0 - (r * r) / (d_max * d_max);", "return 1.0;")
+RHO_IS_ONE = ("if (falloff_mode == 1) return 1.0 - r2 / (d_max * d_max);", "return 1.0;")
 NO_CUT_OFF = ("if (r2 >= d2max || r2 <= 0.0) continue;", "if (r2 <= 0.0) continue;")
 
 
@@ -380,3 +380,88 @@ def test_pixel_step_ao_matches_the_closed_form(gpu):
     r, _, pos = render(gpu, floor_wall_scene(), Effect("ao", 1.0, "step"), 192, integral="cosine",
                        **{**PIXEL_STEP, "steps": 64})
     check_floor_wall(floor_profile(r.image, pos), tol=0.012)
+
+
+def check_bias_only_removes_occlusion(gpu, method_cls=HBAO):
+    """The 2008 integral starts each direction's horizon at sin(min(t + bias, pi/2)), which never falls as the
+    bias grows, and a higher start only shrinks the running-max increments: AO is non-decreasing in
+    angle_bias at every pixel (same noise, no blur). Past t + bias = pi/2 the start must stay at 1: without
+    that clamp it falls again and the largest bias darkens sloped surfaces (cornell's floor and boxes seen
+    from its camera reach t > 30 degrees). Tolerance 1e-5: float rounding."""
+    from ldbench.core.scenes import load_scene
+
+    sc = load_scene("cornell")
+    eff = Effect("ao", 0.5, "step")
+    imgs = [render(gpu, sc, eff, 96, method_cls, integral="hbao", angle_bias=b, blur=False)[0].image[..., 0]
+            for b in (0.0, 20.0, 40.0, 60.0)]
+    for lo, hi in zip(imgs, imgs[1:]):
+        assert np.all(hi >= lo - 1e-5), f"a larger angle bias darkens {(hi < lo - 1e-5).sum()} pixels"
+
+
+def test_angle_bias_only_removes_occlusion(gpu):
+    check_bias_only_removes_occlusion(gpu)
+
+
+def test_an_unclamped_horizon_start_fails(gpu, tmp_path):
+    broken = broken_hbao(tmp_path, ("sin_t >= cos_bias ? 1.0 : ", ""))
+    with pytest.raises(AssertionError, match="darkens"):
+        check_bias_only_removes_occlusion(gpu, broken)
+
+
+def blur_numpy(ao, pos, nrm, eye, radius, sharpness):
+    """The blur's definition (blur.glsl's header), both axes (x then y, rows top-down), in float64: an
+    independent check."""
+    h, w = ao.shape
+    hit = pos[..., 3] > 0.5
+    ys, xs = np.nonzero(hit)
+    inv_tol = sharpness / np.maximum(np.linalg.norm(pos[ys, xs, :3] - eye, axis=-1), 1e-20)
+    k = 1.0 / (2.0 * (0.5 * (radius + 1)) ** 2)
+    img = ao.astype(np.float64)
+    for ax, ay in ((1, 0), (0, -1)):  # the second pass runs along GL's +y, which is up: -1 in top-down rows
+        acc, wsum = img[ys, xs].copy(), np.ones(len(ys))
+        for i in range(-radius, radius + 1):
+            if i == 0:
+                continue
+            qy, qx = ys + ay * i, xs + ax * i
+            ok = (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
+            ok[ok] &= hit[qy[ok], qx[ok]]
+            e = np.einsum("ij,ij->i", pos[qy[ok], qx[ok], :3] - pos[ys[ok], xs[ok], :3], nrm[ys[ok], xs[ok], :3])
+            wt = np.exp(-i * i * k - (e * inv_tol[ok]) ** 2)
+            acc[ok] += wt * img[qy[ok], qx[ok]]
+            wsum[ok] += wt
+        img = img.copy()
+        img[ys, xs] = np.clip(acc / wsum, 0.0, 1.0)
+    return img
+
+
+def check_blur_definition(gpu, method_cls=HBAO):
+    """The blurred image is the numpy blur of the unblurred one over the G-buffer, on cornell at 100 × 77
+    (partial workgroups at two borders) for blur radii 2 (the default) and 11: within 1e-5 (float32 against float64, exp of arguments of a few units; measured
+    3.2e-7 on llvmpipe)."""
+    from ldbench.core.scenes import load_scene
+
+    sc, eff = load_scene("cornell"), Effect("ao", 0.35, "step")
+    for radius in (2, 11):
+        out = {}
+        for blur in (False, True):
+            m = method_cls(HBAOParams(blur=blur, blur_radius=radius))
+            m.setup(gpu, sc)
+            out[blur] = m.frame(View(sc.camera, 100, 77), eff).resolve().image[..., 0]
+            pos, nrm, _ = m.gbuf.read()
+            m.release()
+        want = blur_numpy(out[False], pos, nrm, np.array(sc.camera.origin, np.float64), radius,
+                          HBAOParams().blur_sharpness)
+        d = np.abs(out[True] - want).max()
+        assert d < 1e-5, f"radius {radius}: the blur differs from its definition by {d:.3g}"
+
+
+def test_blur_is_its_definition(gpu):
+    check_blur_definition(gpu)
+
+
+@pytest.mark.parametrize("edit", [("ivec2 q = p + axis * i;", "ivec2 q = p + axis * (i + 1);"),
+                                  ("float w = exp(-float(i * i) * k - e * e);", "float w = exp(-float(i * i) * k);")],
+                         ids=["shifted-taps", "no-edge-term"])
+def test_a_broken_blur_fails(gpu, tmp_path, edit):
+    with pytest.raises(AssertionError, match="definition"):
+        check_blur_definition(gpu, broken_hbao(tmp_path, edit))

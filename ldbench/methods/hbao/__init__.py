@@ -12,8 +12,8 @@ Stages (all GPU; the screen-space passes are compute shaders):
              jittered start out to the projected radius of d_max (``d_max · focal / depth`` pixels,
              clamped to ``max_radius_px`` and to the image border in that direction); the horizon is the
              highest sample S whose 3D distance r = |S − P| is below d_max; then one of two integrals.
-``deinterleave`` (``access = "deinterleaved"`` only) ``deinterleave.glsl``: the view-space positions and
-             normals into 4×4 quarter-resolution layers, one per cell of the noise tile.
+``deinterleave`` (``access = "deinterleaved"`` only) ``deinterleave.glsl``: the view-space normals and
+             depths into 4×4 quarter-resolution layers, one per cell of the noise tile (16 bytes a texel).
 ``blur``     (``blur = true``) ``blur.glsl``: separable cross-bilateral blur (Gaussian in pixels × a
              tangent-plane distance term) that removes the 4×4 noise pattern without crossing depth edges.
 
@@ -23,8 +23,8 @@ Access (``access``)
     rotations of the noise tile, so at each step their reads scatter over a circle of the sample radius
     (up to ``max_radius_px``) on the full-resolution G-buffer; once that G-buffer no longer fits the GPU's
     cache (3840 × 2160: 265 MB of position and normal) nearly every read misses.
-``deinterleaved`` — the same image to float rounding, cache-friendly: a pre-pass copies the view-space
-    positions and normals into 4×4 layers, layer (p mod 4) holding pixel p at p / 4 (HBAO+'s deinterleaved
+``deinterleaved`` — the same image, cache-friendly: a pre-pass copies the view-space
+    normals and depths into 4×4 layers, layer (p mod 4) holding pixel p at p / 4 (HBAO+'s deinterleaved
     texturing), and the AO pass runs each workgroup on one layer, so its pixels share one rotation and jitter
     and a sample offset reads neighbouring texels of one layer. Unlike HBAO+, samples are not snapped to
     the layer: a sample at pixel q reads layer (q mod 4) (the same for the whole workgroup where the offset
@@ -96,7 +96,7 @@ ACCESSES = ("interleaved", "deinterleaved")
 DEFAULT_BIAS_DEG = {"hbao": 10.0, "cosine": 0.0}
 FALLOFF_MODE = {"step": 0, "quadratic": 1}
 NOISE_TILE = 4
-LAYER_TEXEL_BYTES = 32  # layers.glsl's HbaoTexel: view-space position and normal, a vec4 each
+LAYER_TEXEL_BYTES = 16  # layers.glsl: view-space normal and depth, one vec4
 
 
 @dataclass(frozen=True)
@@ -168,8 +168,10 @@ class HBAO(Method):
 
     def _set_constants(self, prog):
         p = self.params
-        _set(prog, directions=p.directions, steps=p.steps, angle_bias=math.radians(p.bias_degrees()),
-             max_radius_px=p.max_radius_px, sampling=SAMPLINGS.index(p.sampling), step_px=p.step_px)
+        bias = math.radians(p.bias_degrees())
+        _set(prog, directions=p.directions, steps=p.steps, angle_bias=bias, cos_bias=math.cos(bias),
+             sin_bias=math.sin(bias), max_radius_px=p.max_radius_px, sampling=SAMPLINGS.index(p.sampling),
+             step_px=p.step_px)
 
     def _allocate(self, w, h):
         self.ao = self.res.texture("ao", (w, h), 1, "f4")

@@ -33,7 +33,7 @@
 // Output: r = AO (1 = unoccluded; 1 on background); with COUNT_STEPS, r = the samples marched per pixel
 // (sum over directions), 0 where none; with GROUP_IDS, r = the index of the workgroup that ran the pixel.
 // DEINTERLEAVED 1 (`access = "deinterleaved"`): the same arithmetic on the same values in another order.
-//   deinterleave.glsl has copied the view-space positions and normals into 4x4 layers of a quarter of the
+//   deinterleave.glsl has copied the view-space depths and normals into 4x4 layers of a quarter of the
 //   image each (layers.glsl), layer (q & 3) holding pixel q at q >> 2, and invocation g here is pixel
 //   4 (g mod quarter) + g / quarter: every workgroup lies in one layer, so its pixels share p & 3 and thus
 //   the rotation and jitter, and a sample offset that is the same for all of them reads neighbouring texels
@@ -72,28 +72,32 @@ uniform int steps;              // samples per direction (fixed) or their cap (p
 uniform int sampling;           // 0 fixed, 1 pixel_step
 uniform float step_px;          // pixel_step: pixels between samples
 uniform float angle_bias;       // radians
+uniform float cos_bias;         // cos(angle_bias), sin(angle_bias)
+uniform float sin_bias;
+// A surface point is its pixel centre's view ray at the view-space depth z: one float a sample reads instead
+// of three (the G-buffer's position is that ray's hit, so the two agree to float rounding).
+vec3 view_point(ivec2 q, float z) { return vec3((vec2(q) + 0.5 - half_size) / focal_px, -1.0) * -z; }
+
 #if DEINTERLEAVED
 #include "layers.glsl"
 
-bool view_position(ivec2 q, out vec3 S) {
-    vec4 s = layers[layer_index(q)].position;
-    S = s.xyz;
-    return s.w >= 0.5;
+bool surface(ivec2 q, out vec3 S, out vec3 n) {   // false where no surface (background)
+    vec4 t = layers[layer_index(q)];
+    S = view_point(q, t.w);
+    n = t.xyz;
+    return t.w < 0.0;
 }
-
-vec3 view_normal(ivec2 q) { return layers[layer_index(q)].normal.xyz; }
 #else
-bool view_position(ivec2 q, out vec3 S) {   // false where no surface (background)
+bool surface(ivec2 q, out vec3 S, out vec3 n) {   // false where no surface (background)
     vec4 s = texelFetch(g_position, q, 0);
-    S = (view * vec4(s.xyz, 1.0)).xyz;
+    S = view_point(q, (view * vec4(s.xyz, 1.0)).z);
+    n = mat3(view) * texelFetch(g_normal, q, 0).xyz;
     return s.w >= 0.5;
 }
-
-vec3 view_normal(ivec2 q) { return mat3(view) * texelFetch(g_normal, q, 0).xyz; }
 #endif
 
-float rho(float r) {            // obscurance weight of an occluder at distance r (< d_max)
-    if (falloff_mode == 1) return 1.0 - (r * r) / (d_max * d_max);
+float rho(float r2) {           // obscurance weight of an occluder at squared distance r2 (< d_max^2)
+    if (falloff_mode == 1) return 1.0 - r2 / (d_max * d_max);
     return 1.0;
 }
 
@@ -117,8 +121,9 @@ void main() {
     return;
 #endif
     vec3 P;
-    if (!view_position(p, P)) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
-    vec3 n = normalize(view_normal(p));
+    vec3 n;
+    if (!surface(p, P, n)) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
+    n = normalize(n);
     float depth = -P.z;
     float radius = (falloff_mode == 2) ? max_radius_px : min(d_max * focal_px / depth, max_radius_px);
     if (radius < 1.0) { imageStore(out_ao, p, vec4(COUNT_STEPS == 1 ? 0.0 : 1.0)); return; }
@@ -145,17 +150,20 @@ void main() {
         vec3 d3 = vec3(dir, 0.0);
         vec3 o = normalize(d3 - dot(d3, v) * v);
         float nv = max(dot(n, v), 0.0), no = dot(n, o);
-        float nlen = sqrt(nv * nv + no * no);
-        float gamma = atan(no, max(nv, 1e-6));        // in [-pi/2, pi/2]
-        float theta_t = gamma + 0.5 * PI;             // the tangent plane, as an angle from v
 #if INTEGRAL == 0
         // tangent angle t: elevation above the image plane (view-space z towards the eye) of the
         // surface tangent whose projection points along dir (the 2008 implementation's T from the
-        // depth derivatives), i.e. T = cos(theta_t) v + sin(theta_t) o.
-        float t = asin(clamp(cos(theta_t) * v.z + sin(theta_t) * o.z, -1.0, 1.0));
-        float sin_h = sin(min(t + angle_bias, 0.5 * PI));
+        // depth derivatives), i.e. T = cos(theta_t) v + sin(theta_t) o with theta_t = gamma + pi/2 (below):
+        // sin t = cos(gamma) o.z - sin(gamma) v.z, and the horizon starts at
+        // sin(min(t + bias, pi/2)) = sin t cos(bias) + cos t sin(bias), or 1 where sin t >= cos(bias).
+        float nvc = max(nv, 1e-6), hyp = sqrt(nvc * nvc + no * no);
+        float sin_t = clamp((nvc * o.z - no * v.z) / hyp, -1.0, 1.0);
+        float sin_h = sin_t >= cos_bias ? 1.0 : sin_t * cos_bias + sqrt(1.0 - sin_t * sin_t) * sin_bias;
         float occ = 0.0;
 #else
+        float nlen = sqrt(nv * nv + no * no);
+        float gamma = atan(no, max(nv, 1e-6));        // in [-pi/2, pi/2]
+        float theta_t = gamma + 0.5 * PI;             // the tangent plane, as an angle from v
         float theta_h = max(theta_t - angle_bias, 0.0);
         float f_h = F(theta_h, gamma);
         float occ = 0.0;
@@ -164,16 +172,15 @@ void main() {
             vec2 q = pc + dir * (dq * (float(k) + rnd.y) + dq);
             ivec2 qi = ivec2(floor(q));
             if (any(lessThan(qi, ivec2(0))) || any(greaterThanEqual(qi, size))) break;
-            vec3 S;
-            if (!view_position(qi, S) || qi == p) continue;
+            vec3 S, n_s;
+            if (!surface(qi, S, n_s) || qi == p) continue;
 #if PLANE_FIT
             // The pixel's surface point lies on the ray through its centre, up to 0.7 px off the
             // marching line, hence off the slice; on sloped surfaces that reads as false occlusion.
             // Move it along its own tangent plane to the view ray through the exact sample point q.
-            vec3 n_s = view_normal(qi);
             vec3 ray = vec3((q - half_size) / focal_px, -1.0);
             float denom = dot(ray, n_s);
-            if (denom < -1e-4 * length(ray)) {        // not grazing
+            if (denom < 0.0 && denom * denom > 1e-8 * dot(ray, ray)) {   // not grazing: denom < -1e-4 |ray|
                 vec3 S2 = ray * (dot(S, n_s) / denom);
                 if (abs(S2.z - S.z) < 0.05 * -S.z) S = S2;
             }
@@ -181,18 +188,17 @@ void main() {
             vec3 D = S - P;
             float r2 = dot(D, D);
             if (r2 >= d2max || r2 <= 0.0) continue;
-            float r = sqrt(r2);
 #if INTEGRAL == 0
-            float sin_s = D.z / r;
+            float sin_s = D.z * inversesqrt(r2);
             if (sin_s > sin_h) {
-                occ += rho(r) * (sin_s - sin_h);
+                occ += rho(r2) * (sin_s - sin_h);
                 sin_h = sin_s;
             }
 #else
             float theta = clamp(atan(max(dot(D, o), 0.0), dot(D, v)), 0.0, PI);
             if (theta < theta_h) {
                 float f = F(theta, gamma);
-                occ += rho(r) * (f_h - f);
+                occ += rho(r2) * (f_h - f);
                 theta_h = theta;
                 f_h = f;
             }
