@@ -122,7 +122,11 @@ def test_closed_form_and_flux(gpu):
     (r,) = render(gpu, plates(), 48, directions=256, resolution=64, photons=48)
     c = r.counters
     assert c["power_emitted"] == pytest.approx(spot_flux(), rel=1e-3)
-    assert c["photons_hit"] == c["photons_emitted"] and c["power_hit"] == pytest.approx(c["power_emitted"])
+    # both powers are float32 atomic sums over the photons in whatever order the GPU runs them: each may be off
+    # by (n - 1) 2^-24 of the sum (1.1e-4 for 1804 photons; measured 1.1e-6 on an H100, 0 on llvmpipe), well
+    # below one lost photon's share (5.5e-4)
+    n = c["photons_emitted"]
+    assert c["photons_hit"] == n and c["power_hit"] == pytest.approx(c["power_emitted"], rel=(n - 1) * 2.0 ** -24)
     assert c["power_reflected"] == pytest.approx(RHO_E * c["power_hit"], rel=1e-5)
     pos = r.gbuf[0]
     sel = (pos[..., 3] > 0.5) & (np.abs(pos[..., 1] - H) < 1e-4) & (np.hypot(pos[..., 0], pos[..., 2]) < 0.9)
