@@ -205,6 +205,15 @@ def test_reproduce_md_carries_the_run_the_noise_and_a_reason(tmp_path):
         e = dataclasses.replace(fig8, claims=tuple(dataclasses.replace(c, reason=given) if i == 0 else c
                                                    for i, c in enumerate(fig8.claims)))
         assert evaluate(e, records.read_results(tmp_path))["claims"][0]["reason"] == shown
+    # a measured reason quotes this run's rows; one whose measurement is missing says which
+    measured = (lambda value: f"the LDM frame is {value('ldm', 'time_ms') / value('hbao-px', 'time_ms'):.2f}× HBAO's",
+                "the LDM frame is 1.25× HBAO's")
+    missing = (lambda value: f"{value('ldm', 'counter:fragments'):.0f} fragments",
+               "not explained: the measurement that would explain it is missing (counter:fragments of row ldm)")
+    for given, shown in (measured, missing):
+        e = dataclasses.replace(fig8, claims=tuple(dataclasses.replace(c, reason=given) if i == 0 else c
+                                                   for i, c in enumerate(fig8.claims)))
+        assert evaluate(e, records.read_results(tmp_path))["claims"][0]["reason"] == shown
 
 
 # ---------------------------------------------------------------- premises and claims of ours: printed apart

@@ -37,6 +37,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
+from typing import Callable
 
 from ldbench.core import scene_registry
 from ldbench.core.errors import Interrupted, LdbenchError
@@ -148,7 +149,9 @@ class Claim:
     b_quantity: str = ""
     why: str = ""
     scales: tuple = ()
-    reason: str = ""  # why it fails or is inconclusive on the machine measured (printed beside such a verdict)
+    # why it fails or is inconclusive on the machine measured (printed beside such a verdict); a callable takes
+    # value(row id, quantity) -> our number and returns the text, so that it quotes the run's own measurement
+    reason: str | Callable[[Callable[[str, str], float]], str] = ""
     ours: bool = False  # not the paper's statement (e.g. the paper's comparison against our own baseline)
     requires: str = ""  # the text of a claim of this entry that checks this one's set-up: judged only if it holds
 
@@ -602,6 +605,27 @@ def rule_text(c: Claim) -> str:
     return out
 
 
+class _Unmeasured(LookupError):
+    pass
+
+
+def _reason(c: Claim, found: dict) -> str:
+    """The claim's reason; a measured one (a callable) evaluated on our rows, or a line naming what it lacks."""
+    if not callable(c.reason):
+        return c.reason
+
+    def value(row_id: str, q: str) -> float:
+        v = our_value(found.get(row_id), q)
+        if v is None or not math.isfinite(v):
+            raise _Unmeasured(f"{q} of row {row_id}")
+        return v
+
+    try:
+        return c.reason(value)
+    except _Unmeasured as e:
+        return f"not explained: the measurement that would explain it is missing ({e})"
+
+
 def _judge(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
     """One claim on our rows (``found``: row id → our row or None): its published and measured sides,
     verdict, rule and reason."""
@@ -681,8 +705,8 @@ def _judge(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
         published += f" (holds if within {_bounds(c)})"
     reason = ""
     if verdict in (FAILS, INCONCLUSIVE):
-        reason = c.reason or ("the difference lies within the rows' timing noise (IQR)" if verdict == INCONCLUSIVE
-                              else "not explained yet")
+        reason = _reason(c, found) or ("the difference lies within the rows' timing noise (IQR)"
+                                       if verdict == INCONCLUSIVE else "not explained yet")
     return {"text": c.text, "where": c.where, "published": published, "ours": "; ".join(parts),
             "verdict": verdict, "rule": rule_text(c), "reason": reason, "paper": not c.ours}
 
@@ -705,6 +729,29 @@ def _premise(c: Claim, found: dict, pub_rows: dict, scale_name: str) -> dict:
             "verdict": PREMISE, "why": c.why}
 
 
+def _found(entry: Reproduction, df, scale_name: str) -> tuple[dict, dict]:
+    """Our row for each of ``entry``'s rows in the results table ``df`` (row id → row dict or None), and how
+    many rows matched each."""
+    scale = entry.scales.get(scale_name, {})
+    recs = []
+    for _, r in df.iterrows():
+        d = r.to_dict()
+        for c in ("params", "effect_params", "scene_params", "raw_ms", "memory", "stage_iqr"):
+            d[c] = as_dict(d.get(c))
+        recs.append(d)
+    found, matches = {}, {}
+    for pr in entry.rows:
+        found[pr["id"]], matches[pr["id"]] = find_row(recs, scale_match(pr["match"], scale))
+    return found, matches
+
+
+def measured_reasons(entry: Reproduction, df, scale_name: str = "paper") -> dict[str, str]:
+    """Each claim's measured reason (a callable ``reason``) evaluated on the rows of ``df`` whatever its
+    verdict, by claim text: what a reason would print, for checking that the run records what it quotes."""
+    found, _ = _found(entry, df, scale_name)
+    return {c.text: _reason(c, found) for c in entry.claims if callable(c.reason)}
+
+
 def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     """Published vs ours for every row and claim of ``entry`` on a results table ``df``.
 
@@ -713,18 +760,11 @@ def evaluate(entry: Reproduction, df, scale_name: str = "paper") -> dict:
     setup strings and notes.
     """
     scale = entry.scales.get(scale_name, {})
-    recs = []
-    for _, r in df.iterrows():
-        d = r.to_dict()
-        for c in ("params", "effect_params", "scene_params", "raw_ms", "memory", "stage_iqr"):
-            d[c] = as_dict(d.get(c))
-        recs.append(d)
-    found = {}
+    found, matches = _found(entry, df, scale_name)
     rows_out = []
     for pr in entry.rows:
         m = scale_match(pr["match"], scale)
-        ours, n = find_row(recs, m)
-        found[pr["id"]] = ours
+        ours, n = found[pr["id"]], matches[pr["id"]]
         cfg = "no matching row in this run"
         if ours is not None:
             d = effect_d_max(ours)
