@@ -21,7 +21,8 @@ BENCH = [("cornell", "ldm-ao", "ao"), ("cornell", "hbao", "ao"), ("atrium", "dir
 
 
 def _row(scene, method, effect, *, run_id="r1", ms=10.0, frames=15, jitter=0.02, seed=0, psnr=30.0,
-         ssim=0.95, sigma=0.002, ref_key=None, params=None, machine=GPU, status="ok", size=(64, 64)):
+         ssim=0.95, sigma=0.002, ref_key=None, params=None, machine=GPU, status="ok", size=(64, 64),
+         scene_params=None):
     rng = np.random.default_rng(seed)
     total = list(ms * (1.0 + jitter * rng.standard_normal(frames)))
     w, h = size
@@ -31,7 +32,8 @@ def _row(scene, method, effect, *, run_id="r1", ms=10.0, frames=15, jitter=0.02,
                 else {"effect": effect},
                 params=params if params is not None else {"directions": 64}, width=w, height=h,
                 warmup=2, **R.machine_columns(machine), ref_spp=256, ref_variant="llvm_ad_rgb",
-                ref_key=ref_key or f"ref-{scene}-{effect}", status=status)
+                ref_key=ref_key or f"ref-{scene}-{effect}", status=status,
+                **({"scene_params": scene_params} if scene_params is not None else {}))
     if status != "ok":
         return R.make_row(**base)
     return R.make_row(**base, **R.timing_fields({"total": total, "wall": total}),
@@ -402,6 +404,20 @@ def test_a_new_parameter_with_its_default_orphans_no_baseline_row(tmp_path, caps
                                        else full[b[1]]} for b in BENCH})
     rc, out, _ = _cli(capsys, gone, run)
     assert rc == 1 and "1 missing, 1 new" in out
+
+
+def test_a_new_scene_parameter_with_its_default_orphans_no_baseline_row(tmp_path, capsys):
+    """A baseline recorded before cornell had ``blocks`` (its scene_params lack it) matches a run that records
+    it at its default; the empty box (blocks false) is another configuration."""
+    base = _run(tmp_path, "base", {b: {"scene_params": {"subdivide": 0}} for b in BENCH if b[0] == "cornell"})
+    run = _run(tmp_path, "run", {b: {"scene_params": {"subdivide": 0, "blocks": True}} for b in BENCH
+                                 if b[0] == "cornell"})
+    rc, out, err = _cli(capsys, base, run)
+    assert rc == 0 and "3 matched, 0 missing, 0 new" in out, out + err
+    empty = _run(tmp_path, "empty", {b: {"scene_params": {"subdivide": 0, "blocks": False}} for b in BENCH
+                                     if b[0] == "cornell"})
+    rc, out, _ = _cli(capsys, base, empty)
+    assert rc == 1 and "2 missing, 2 new" in out, out
 
 
 def test_a_nan_baseline_is_said_and_fails_unless_allowed(tmp_path, capsys):

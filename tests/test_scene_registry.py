@@ -181,7 +181,7 @@ def test_not_fetched_scene_says_how_to_fetch_it(cache, capsys):
     assert main(["reference", "--scene", "sponza", "--effect", "ao", "--size", "8x8", "--spp", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "not fetched" in err and "ldbench scenes fetch sponza" in err
-    with pytest.raises(LdbenchError, match="takes no parameters"):
+    with pytest.raises(LdbenchError, match="takes only the parameter view"):
         load_scene("sponza", triangles=5)
 
 
@@ -205,6 +205,9 @@ def test_loading_gives_the_published_triangle_counts(mirror_cache, monkeypatch):
     assert sponza.triangle_count == 66447 - 9 and sponza.name == "sponza" and sponza.params == {}
     assert any("9 duplicate triangles removed" in w for w in sponza.warnings)
     assert [m.albedo for m in sponza.meshes] == [(0.7, 0.7, 0.7)]
+    corridor = load_scene("sponza:view=corridor")  # the same triangles seen from the -z arcade
+    assert corridor.params == {"view": "corridor"} and corridor.camera.origin == (-14.0, 1.7, -5.7)
+    assert corridor.triangle_count == sponza.triangle_count and corridor.content_hash() != sponza.content_hash()
     lo, hi = sponza.bounds()  # metres as modelled (SOURCE.txt bbox)
     assert np.allclose(lo, [-17.40276, -0.906688, -7.79851], atol=1e-4)
     assert np.allclose(hi, [17.41724, 15.65331, 7.801488], atol=1e-4)

@@ -208,8 +208,21 @@ def test_inline_params_and_string_values():
     a = load_scene("cornell:subdivide=2")
     b = load_scene("cornell", subdivide="2")
     assert a.triangle_count == b.triangle_count == 270
-    assert a.params == {"subdivide": 2}
+    assert a.params == {"subdivide": 2, "blocks": True}
     assert a.content_hash() == b.content_hash()
+
+
+def test_the_empty_cornell_box_and_registered_views():
+    """cornell:blocks=false is the box without its two blocks (10 of 30 triangles, another content hash); a
+    registered scene's view swaps its camera and is recorded in the scene's params; any other parameter of a
+    registered scene, or an unknown view, is one error line (checked before the scene's files are read)."""
+    full, empty = load_scene("cornell"), load_scene("cornell:blocks=false")
+    assert (full.triangle_count, empty.triangle_count) == (30, 10) and empty.params["blocks"] is False
+    assert full.content_hash() != empty.content_hash()
+    with pytest.raises(LdbenchError, match="takes only the parameter view"):
+        load_scene("sponza:triangles=5")
+    with pytest.raises(LdbenchError, match="has no view 'attic'.*views: corridor"):
+        load_scene("sponza:view=attic")
 
 
 @pytest.mark.parametrize("value", [20000, "20000", "20_000", 20000.0, "2e4", "20000.0", np.int64(20000)])
@@ -298,7 +311,7 @@ def test_list_scenes():
     assert set(rows) == {"cornell", "atrium", "hairball", "mesh", "teapot", "transparent_dragon", "city"}
     assert rows["atrium"]["parameters"] == {"triangles": 20000}
     assert rows["hairball"]["parameters"] == {"triangles": 20000, "seed": 0, "opacity": 1.0, "colours": 1}
-    assert rows["cornell"]["parameters"] == {"subdivide": 0}
+    assert rows["cornell"]["parameters"] == {"subdivide": 0, "blocks": True}
     assert rows["mesh"]["parameters"] == {"path": "", "albedo": [0.8, 0.8, 0.8]}
     assert all(r["description"] and "\n" not in r["description"] for r in rows.values())
     assert "triangle count" in rows["atrium"]["table"] and "2000 … 4000000" in rows["atrium"]["table"]

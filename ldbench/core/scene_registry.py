@@ -30,6 +30,7 @@ import tomllib
 import urllib.error
 import urllib.request
 import zipfile
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -67,6 +68,7 @@ class Entry:
     files: tuple
     warning: str = ""
     d_max: float | None = None  # the AO distance of an ad-hoc run without --d-max (ldbench.core.scenes.default_d_max)
+    views: dict = dataclasses.field(default_factory=dict)  # name -> Camera: other viewpoints (`NAME:view=...`)
 
 
 def _entry(name: str, d: dict) -> Entry:
@@ -85,7 +87,8 @@ def _entry(name: str, d: dict) -> Entry:
                      notes=" ".join(d.get("notes", "").split()), load=load,
                      camera=Camera(**cam) if cam else None, light=SpotLight(**d["light"]), files=files,
                      warning=d.get("warning", ""),
-                     d_max=None if d.get("d_max") is None else float(d["d_max"]))
+                     d_max=None if d.get("d_max") is None else float(d["d_max"]),
+                     views={k: Camera(**v) for k, v in d.get("views", {}).items()})
     except (KeyError, TypeError, ValueError, LdbenchError) as e:
         raise LdbenchError(f"scene registry {DATA}: bad entry {name!r}: {e}") from None
 

@@ -224,10 +224,11 @@ def _load_scene(spec, **params) -> Scene:
     head, colon, inline = spec.partition(":")
     registered = scene_registry.registry()
     if head in registered:
-        if params or colon:
-            given = ", ".join(params) or inline
-            raise LdbenchError(f"registered scene {head!r} takes no parameters (got {given})")
-        return build_registered(spec)
+        given = {**(_parse_inline_params(inline, spec) if colon else {}), **params}
+        if set(given) - {"view"}:
+            raise LdbenchError(f"registered scene {head!r} takes only the parameter view (got "
+                               f"{', '.join(sorted(set(given) - {'view'}))})")
+        return build_registered(head, view=str(given.get("view", "")))
     reg = builders()
     if head in reg:
         return build_scene(head, **{**_parse_inline_params(inline, spec), **params})

@@ -15,6 +15,7 @@ from .base import GREEN, RED, WHITE, SceneBuilder, SceneParams, part_mesh
 @dataclass(frozen=True)
 class CornellParams(SceneParams):
     subdivide: int = param(0, "every quad split into (s+1)² cells: 30 (s+1)² triangles", lo=0, hi=128)
+    blocks: bool = param(True, "the short and the tall block; false: the empty box (10 (s+1)² triangles)")
 
 
 class Cornell(SceneBuilder):
@@ -23,7 +24,8 @@ class Cornell(SceneBuilder):
     Geometry (metres): x ∈ [-1, 1] (red wall at x = -1 on the left, green wall at x = +1 on the
     right), floor y = 0, ceiling y = 2, back wall z = -1, front (z = +1) open. The blocks are those
     of Bitterli's / PBRT's Cornell box (short block 0.6 m high at (0.33, 0.37), tall block 1.2 m high
-    at (-0.34, -0.29), rotated about y); their hidden bottom faces are left out. 30 triangles;
+    at (-0.34, -0.29), rotated about y); their hidden bottom faces are left out (``blocks = false``: the
+    empty box, niessner2010 §7's). 30 triangles;
     ``subdivide`` = s splits every quad into (s+1)² cells, 30 (s+1)² triangles.
     Camera: (0, 1, 3.9) looking at (0, 1, 0), vertical fov 39.3077° (the classic Cornell camera's
     distance ratio). Light: a spot at (0, 1.95, 0) pointing straight down, cutoff 60°, beam 45°,
@@ -46,7 +48,7 @@ class Cornell(SceneBuilder):
         # (centre x, centre z, size x, height, size z, rotation about y in degrees): Bitterli's blocks.
         blocks = {"short_block": (0.328631, 0.374592, 0.595, 0.6, 0.604, 73.36),
                   "tall_block": (-0.335439, -0.291415, 0.607, 1.2, 0.598, 19.19)}
-        for name, (cx, cz, sx, h, sz, ang) in blocks.items():
+        for name, (cx, cz, sx, h, sz, ang) in (blocks.items() if p.blocks else ()):
             v, f = box((-sx / 2, 0, -sz / 2), (sx / 2, h, sz / 2), n, skip=("-y",))
             v = v @ rot_y(ang).T + np.array([cx, 0, cz])
             meshes.append(part_mesh(name, (v, f), WHITE))

@@ -1,5 +1,6 @@
 """Registered real scenes (``sponza``, ``sibenik``, ``dragon``, ...): built from their verified files in the
-scene cache as their entry in ``ldbench/core/scene_registry.toml`` says. They take no parameters."""
+scene cache as their entry in ``ldbench/core/scene_registry.toml`` says. Their one parameter is ``view``, one of
+the viewpoints their entry names besides its camera."""
 from __future__ import annotations
 
 from fnmatch import fnmatch
@@ -17,7 +18,7 @@ from .base import part_mesh
 from .mesh import object_in_box
 
 
-def build_registered(name: str, root=None) -> Scene:
+def build_registered(name: str, root=None, view: str = "") -> Scene:
     """A registered real scene, built from its files in the scene cache (``root``: another cache).
 
     The entry in ``ldbench/core/scene_registry.toml`` says how (``load.kind``): ``mesh`` (one file, one
@@ -25,9 +26,12 @@ def build_registered(name: str, root=None) -> Scene:
     in the ``mesh`` scene's box) or ``xml`` (a Mitsuba 3 file, camera from the file). ``load.scale``
     converts model units to metres (geometry and the file's camera); the spot light, and the camera
     unless the file gives it, are the entry's. Checksums are verified before anything is read; a scene
-    that is not fetched is one :class:`LdbenchError` line saying how to fetch it.
+    that is not fetched is one :class:`LdbenchError` line saying how to fetch it. ``view``: one of the entry's
+    ``views`` instead of its camera (the scene's ``params`` then hold it).
     """
     entry = scene_registry.get(name)
+    if view and view not in entry.views:
+        raise LdbenchError(f"registered scene {name!r} has no view {view!r} (views: {', '.join(entry.views) or 'none'})")
     folder = scene_registry.verified_root(name, root)
     ld, camera = entry.load, entry.camera
     s = float(ld.get("scale", 1.0))
@@ -57,7 +61,10 @@ def build_registered(name: str, root=None) -> Scene:
         c = sc.camera
         camera = camera or Camera(tuple(np.multiply(c.origin, s)), tuple(np.multiply(c.target, s)), c.up, c.fov_y)
         warnings += sc.warnings
+    if view:
+        camera = entry.views[view]
     if camera is None:  # only a Mitsuba file brings its own camera
         raise LdbenchError(f"scene registry: entry {name!r} of kind {ld['kind']!r} needs a [camera]")
-    return Scene(name, meshes, camera, [entry.light], params={}, source=f"registry:{name}", warnings=warnings)
+    return Scene(name, meshes, camera, [entry.light], params={"view": view} if view else {},
+                 source=f"registry:{name}", warnings=warnings)
 

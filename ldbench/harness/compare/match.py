@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from ldbench.core.errors import LdbenchError
+from ldbench.core.scenes import builders
 from ldbench.harness.records import check_columns, read_results
 from ldbench.methods.base import canonical_name, get_method
 from ldbench.reports.labels import effect_text
@@ -105,8 +106,8 @@ def row_value(row, col):
 def row_key(row, keys) -> tuple:
     out = []
     for k in keys:
-        if k == "scene_params":
-            out.append(canonical(row_value(row, k) or {}))
+        if k == "scene_params":  # defaults dropped, as for params: a new scene parameter orphans no baseline row
+            out.append(canonical(canonical_scene_params(row_value(row, "scene"), row_value(row, k) or {})))
         elif k == "method":  # an adapter's earlier name (e.g. ldm-ao) matches its current one
             out.append(canonical(canonical_name(str(row_value(row, k)))))
         elif k == "params":  # defaults dropped, old names mapped: a new parameter orphans no baseline row
@@ -137,6 +138,17 @@ def canonical_params(method, params: dict) -> dict:
             continue
         out[name] = value
     return out
+
+
+def canonical_scene_params(scene, params: dict) -> dict:
+    """``params`` of a built-in scene as the match key sees them: every value equal to the scene builder's
+    current default dropped (a row recorded before a scene parameter existed matches one recorded after).
+    Other scenes' parameters (a registered scene's view) are returned as given."""
+    cls = builders().get(str(scene)) if isinstance(params, dict) else None
+    if cls is None:
+        return params
+    defaults = cls.Params().to_dict()
+    return {k: v for k, v in params.items() if not (k in defaults and canonical(v) == canonical(defaults[k]))}
 
 
 def index_rows(df, keys, what) -> dict:

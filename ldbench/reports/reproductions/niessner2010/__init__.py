@@ -20,4 +20,4 @@ window claims on one row.
 from __future__ import annotations
 
 #: The order of the tables in `ldbench reproduce --list` (a table folder not named here follows, by name)
-TABLES = ("table1", "fig7", "rays", "sec7")
+TABLES = ("table1", "fig7", "rays", "sec7", "views")
