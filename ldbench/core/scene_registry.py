@@ -30,8 +30,7 @@ import tomllib
 import urllib.error
 import urllib.request
 import zipfile
-import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import LdbenchError
@@ -68,7 +67,7 @@ class Entry:
     files: tuple
     warning: str = ""
     d_max: float | None = None  # the AO distance of an ad-hoc run without --d-max (ldbench.core.scenes.default_d_max)
-    views: dict = dataclasses.field(default_factory=dict)  # name -> Camera: other viewpoints (`NAME:view=...`)
+    views: dict = field(default_factory=dict)  # name -> Camera: other viewpoints (`NAME:view=...`)
 
 
 def _entry(name: str, d: dict) -> Entry:

@@ -31,7 +31,8 @@ def build_registered(name: str, root=None, view: str = "") -> Scene:
     """
     entry = scene_registry.get(name)
     if view and view not in entry.views:
-        raise LdbenchError(f"registered scene {name!r} has no view {view!r} (views: {', '.join(entry.views) or 'none'})")
+        raise LdbenchError(f"registered scene {name!r} has no view {view!r} "
+                           f"(views: {', '.join(entry.views) or 'none'})")
     folder = scene_registry.verified_root(name, root)
     ld, camera = entry.load, entry.camera
     s = float(ld.get("scale", 1.0))
