@@ -130,10 +130,15 @@ def canonical_params(method, params: dict) -> dict:
         defaults = cls.Params().to_dict()
     except (LdbenchError, TypeError):
         return params
-    renamed = getattr(cls.Params, "renamed", None) or {}
+    return _without_defaults(params, defaults, getattr(cls.Params, "renamed", None) or {})
+
+
+def _without_defaults(params: dict, defaults: dict, renamed: dict | None = None) -> dict:
+    """``params`` under their current names (``renamed``: old name -> current), every value equal to its
+    default dropped."""
     out = {}
     for name, value in params.items():
-        name = renamed.get(name, name)
+        name = (renamed or {}).get(name, name)
         if name in defaults and canonical(value) == canonical(defaults[name]):
             continue
         out[name] = value
@@ -147,8 +152,7 @@ def canonical_scene_params(scene, params: dict) -> dict:
     cls = builders().get(str(scene)) if isinstance(params, dict) else None
     if cls is None:
         return params
-    defaults = cls.Params().to_dict()
-    return {k: v for k, v in params.items() if not (k in defaults and canonical(v) == canonical(defaults[k]))}
+    return _without_defaults(params, cls.Params().to_dict())
 
 
 def index_rows(df, keys, what) -> dict:
