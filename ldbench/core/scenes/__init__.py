@@ -224,7 +224,7 @@ def _load_scene(spec, **params) -> Scene:
     head, colon, inline = spec.partition(":")
     registered = scene_registry.registry()
     if head in registered:
-        given = {**(_parse_inline_params(inline, spec) if colon else {}), **params}
+        given = {**_parse_inline_params(inline, spec), **params}
         if set(given) - {"view"}:
             raise LdbenchError(f"registered scene {head!r} takes only the parameter view (got "
                                f"{', '.join(sorted(set(given) - {'view'}))})")

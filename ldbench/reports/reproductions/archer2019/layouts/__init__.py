@@ -68,7 +68,7 @@ REPRODUCTION = Reproduction(
               why="the words' own bounds: 'slower to build' puts the arrays' capture above the lists' (1×) and "
                   "'up to twice as long', two rasterizations against one, caps it at 2×; the capture is the "
                   "arrays' count + scan + fill (no sort) against the lists' build",
-              reason=lambda v: _capture_reason(v)),
+              reason=_capture_reason),
     ),
     scales={"paper": {},
             "ci": {"size": "32x32", "warmup": 0, "frames": 3,

@@ -102,7 +102,7 @@ REPRODUCTION = Reproduction(
               # Paper scale only: §4 says so of scenes where "Rungholt has more than 20× the number of
               # triangles" in 169 CDIs of 64², because its "fragment list lengths ... are typically only
               # slightly longer"; ci compares 16,000 against 4,000 triangles (4×) in maps of 32².
-              scales=("paper",), reason=lambda v: _size_reason(v)),
+              scales=("paper",), reason=_size_reason),
     ),
     scales={"paper": {}, "ci": CI},
     notes=SETUP_NOTES + (

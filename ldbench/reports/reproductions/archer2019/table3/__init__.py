@@ -55,7 +55,7 @@ REPRODUCTION = Reproduction(
               ("time_ms",), "ratio", ratio=(5.0, 20.0), where="§4 'approximately 10× slower'",
               published="20.2 / 2.1 ms = 9.6×",
               why="'approximately 10× slower': 10× within a factor 2 (5–20×); the paper's 9.6× lies inside",
-              reason=lambda v: _random_reason(v)),
+              reason=_random_reason),
         Claim("Geometric complexity has little impact on raycasting (Rungholt vs Atrium, 2048²)", "rungholt-2048",
               "atrium-2048", ("time_ms",), "ratio", ratio=(1 / 1.2, 1.2),
               where="§4 'the Rungholt scene being no more than 10% slower to raycast than the Atrium'",

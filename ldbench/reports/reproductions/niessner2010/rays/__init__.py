@@ -47,7 +47,7 @@ REPRODUCTION = Reproduction(
               why="'over 200 M' and 'over 50 M' are lower bounds, so their ratio 4× is no bound; the window keeps "
                   "the claim's direction with at least half its size (≥ 2×) and no upper limit; the rates "
                   "themselves are the two claims below",
-              reason=lambda v: _kind_reason(v)),
+              reason=_kind_reason),
         Claim("Over 200 million glossy rays/s with low-resolution LDIs", "glossy-128", "glossy-128",
               ("rays_per_s",), "within", ratio=(200e6, math.inf),
               where="§8 'Using low resolution LDIs allows us to cast over 200 million glossy ... rays/s'",
