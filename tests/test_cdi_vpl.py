@@ -122,6 +122,19 @@ def test_nearest_direction_lookups_equal_the_scan(gpu, cornell, rays_case, direc
     np.testing.assert_array_equal(fast, scan)
 
 
+@pytest.mark.parametrize("preset", [None, "paper"])
+def test_binary_search_finds_the_linear_walks_entry(gpu, cornell, rays_case, preset):
+    """trace.search = binary bisects the sorted list for the entry the paper's linear walk steps to, along
+    and against each direction (diffuse rays take both): the same distance for every ray, for the default
+    assembly and the paper's (count and fill, sorted after)."""
+    e, batch, _ = rays_case
+    kw = dict(directions=48, resolution=32, **({"preset": preset} if preset else {}))
+    linear = run(gpu, cornell, e, batch, **kw).arrays["t"]
+    binary = run(gpu, cornell, e, batch, **{"trace.search": "binary"}, **kw).arrays["t"]
+    assert np.isfinite(linear).mean() > 0.5 and np.isinf(linear).any()   # hits and misses (inf) both tested
+    np.testing.assert_array_equal(binary, linear)
+
+
 @pytest.fixture(scope="module")
 def lit(gpu, cornell):
     """One indirect frame of cornell kept open for inspection (range from the CDI, 64² RSM)."""

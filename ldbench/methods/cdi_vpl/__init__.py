@@ -23,7 +23,7 @@ sort for longer lists (counted: ``sort_overflow_lists``). ``cdi = "static"`` bui
 
 **Rays** (``rays_tracer``, ``cdi_trace.glsl``): the deep image of the nearest direction, the one pixel
 holding the ray's origin, its list stepped to the first fragment beyond the origin (backwards for rays
-against the direction); distances along that direction; self-intersection skipped with a receiver-plane
+against the direction; ``trace.search = "binary"`` bisects the list for the same fragment); distances along that direction; self-intersection skipped with a receiver-plane
 test (see the GLSL).
 
 **VPLs** (§3.2; ``vpl_range``: the harness's VPLs and rays, :mod:`ldbench.core.effects.vpl_range`; ``indirect``:
@@ -80,6 +80,9 @@ class CdiTrace(ParamsBase):
     lookup: str = param("auto", "nearest direction of a ray: from the (theta, phi) grid (stacks_slices) or a "
                         "cube table of candidates (eqsp), or a scan of all directions", choices=("auto", "scan"),
                         paper="closest matching direction")
+    search: str = param("linear", "search of a ray's list: stepped from the near end (linear) or bisected "
+                        "(binary; the same entry, the list being sorted)", choices=("linear", "binary"),
+                        paper="linear ('a binary search was found to be slower')")
 
 
 @dataclass(frozen=True)
@@ -212,6 +215,8 @@ class CdiVpl(Method):
             d["CDI_GRID_LOOKUP"] = 1
         elif self._lookup == "table":
             d["CDI_TABLE_LOOKUP"] = 1
+        if self.params.trace.search == "binary":
+            d["CDI_BINARY_SEARCH"] = 1
         return d
 
     def _choose_lookup(self):

@@ -9,6 +9,9 @@
 // ldm_layers). Read through the layered-structure interface (layered/layered.glsl); linear arrays are walked
 // backwards for sigma < 0.
 //
+// The search (trace.search): the paper's "linear stepwise search", or a binary search of the sorted array
+// ("a binary search was found to be slower", §3.2), which must find the same entry.
+//
 // Self-intersection (ours; the paper does not say): x's own surface is in x's list, at the depth where its
 // tangent plane (normal n, dot(n, sigma v) > 0) crosses the column of the fragment's sample: at the texel
 // centre, t_c = -(δ_u n·u + δ_w n·w) / cos, for a build that samples texel centres (brute force); anywhere
@@ -95,6 +98,24 @@ float cdi_trace(uint k, float sigma, vec3 x, vec3 n) {
     float thr = (-(delta.x * nu + delta.y * nw) + cdi_spread * 0.5 * texel * (abs(nu) + abs(nw))) / cos_t
                 + cdi_bias;
     uint list = ls_list(k, px, ol_size);
+#if defined(CDI_BINARY_SEARCH)
+    // trace.search = binary (linear arrays only): the same answer as the walks below, since the list ascends
+    // in depth and the tests are monotone in it. sigma > 0: the first entry with t > thr (lower bound);
+    // sigma < 0: the last entry with zx - depth > thr.
+    uint b = la_begin(list), e = la_end(list), lo = b, hi = e;
+    if (sigma > 0.0) {
+        while (lo < hi) {
+            uint mid = (lo + hi) >> 1;
+            if (la_depth[mid] - zx > thr) hi = mid; else lo = mid + 1u;
+        }
+        return lo < e ? max(la_depth[lo] - zx, 0.0) : -1.0;
+    }
+    while (lo < hi) {
+        uint mid = (lo + hi) >> 1;
+        if (zx - la_depth[mid] > thr) lo = mid + 1u; else hi = mid;
+    }
+    return lo > b ? max(zx - la_depth[lo - 1u], 0.0) : -1.0;
+#else
     if (sigma > 0.0) {
         uint bound = ls_bound(), steps = 0u;
         for (uint i = ls_first(list); i != LS_END && steps < bound; i = ls_next(list, i), ++steps) {
@@ -119,6 +140,7 @@ float cdi_trace(uint k, float sigma, vec3 x, vec3 n) {
         best = max(t, 0.0);
     }
     return best;
+#endif
 #endif
 }
 #endif
