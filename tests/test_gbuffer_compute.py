@@ -20,7 +20,7 @@ from ldbench.core.effects import Effect
 from ldbench.core.errors import LdbenchError
 from ldbench.core.scene import Camera, Mesh, Scene
 from ldbench.methods.base import View
-from ldbench.methods.gbuffer import GBuffer, SceneGeometry
+from ldbench.methods.gbuffer import VIS64_EXTENSIONS, GBuffer, SceneGeometry
 from ldbench.methods.hbao import HBAO, HBAOParams
 from ldbench.methods.ldm import Ldm, LdmParams
 
@@ -233,7 +233,7 @@ def test_triangles_beyond_the_fixed_point_range_are_clipped(gpu, size):
         xp, mat, tie = exact_hits(sc, cam, *size, ties=TIE_REL, depths=near_far)
         if k == 0:
             w, h = size
-            key = np.frombuffer(gpu.read(g.vis, 4 * w * h), np.uint32).view(np.float32).reshape(h, w)[::-1]
+            key = g.depth_keys().view(np.float32)[::-1]
             ok = (mat >= 0) & (nrm[..., 3] == mat)
             steps = np.abs(key[ok] - window_depth(xp[ok], g.view_proj(view))) * 2.0 ** 24
             assert steps.max() <= POLYGON_Z_STEPS, f"depth keys {steps.max():.3g} steps of 2^-24 off"
@@ -252,6 +252,41 @@ def test_triangles_beyond_the_fixed_point_range_are_clipped(gpu, size):
 CLIPPED_Z_STEPS = 3.0
 
 
+def _has_vis64(gpu) -> bool:
+    return VIS64_EXTENSIONS <= set(gpu.ctx.extensions)
+
+
+@pytest.mark.parametrize("max_pixels", [256, 1])
+def test_one_pass_visibility_equals_two_passes(gpu, hard, max_pixels):
+    """The one-pass visibility buffer (a 64-bit atomicMin of depth key << 32 | triangle id; NVIDIA) gives the
+    two 32-bit passes' textures and depth keys bit for bit: the per-triangle raster, the clipper's polygons,
+    the tile raster (max_pixels = 1: nearly every triangle) and the coincident triangles' tie (the smaller id
+    wins in both). llvmpipe has no 64-bit atomics: there the next test runs instead."""
+    if not _has_vis64(gpu):
+        pytest.skip("this GL context has no 64-bit atomics (GL_NV_shader_atomic_int64)")
+    geo = hard[0]
+    one = GBuffer(gpu, geo, gpu.resources(f"v64.{max_pixels}."), raster="compute", max_pixels=max_pixels)
+    two = GBuffer(gpu, geo, gpu.resources(f"v32.{max_pixels}."), raster="compute", max_pixels=max_pixels,
+                  vis64=False)
+    assert one.vis64 and one.passes == (0,) and two.passes == (0, 1)
+    for cam in VIEWS:
+        for g in (one, two):
+            g.render(View(cam, W, W))
+        for a, b in zip(one.read(), two.read()):
+            np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(one.depth_keys(), two.depth_keys())
+
+
+def test_one_pass_visibility_refused_without_64_bit_atomics(gpu, hard):
+    """Where the context lacks the 64-bit atomics (llvmpipe), the default is the two passes and asking for
+    the one pass is refused with the missing extension named."""
+    if _has_vis64(gpu):
+        pytest.skip("this GL context has 64-bit atomics: the test above runs instead")
+    assert not GBuffer(gpu, hard[0], gpu.resources("auto64."), raster="compute").vis64
+    with pytest.raises(LdbenchError, match="GL_NV_shader_atomic_int64"):
+        GBuffer(gpu, hard[0], gpu.resources("no64."), raster="compute", vis64=True)
+
+
 def test_clipped_triangles_get_the_exact_window_depth(gpu, hard):
     """The depth keys of the triangles that cross the near plane (the floor, the small near triangle) are the
     window depths of the float64 truth's hits."""
@@ -267,7 +302,7 @@ def test_clipped_triangles_get_the_exact_window_depth(gpu, hard):
         clipped = np.unique(mid[(d.min(1) < 0) & (d.max(1) >= 0)])
         xp, mat = exact_hits(sc, cam, W, W, depths=geo.near_far(np.array(cam.origin), cam.basis()[2]))
         _, nrm, _ = g.read()
-        key = np.frombuffer(gpu.read(g.vis, 4 * W * W), np.uint32).view(np.float32).reshape(W, W)[::-1]
+        key = g.depth_keys().view(np.float32)[::-1]
         ok = np.isin(mat, clipped) & (nrm[..., 3] == mat)
         assert ok.sum() > 100
         steps = np.abs(key[ok] - window_depth(xp[ok], vp)) * 2.0 ** 24

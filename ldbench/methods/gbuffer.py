@@ -137,6 +137,8 @@ def gbuffer_param(default: str = "compute"):
 
 
 GROUP_LIMIT = 65535
+#: what the one-pass visibility buffer (each fragment's depth key and triangle id in one 64-bit atomicMin) needs
+VIS64_EXTENSIONS = frozenset({"GL_ARB_gpu_shader_int64", "GL_NV_shader_atomic_int64"})
 
 
 class GBuffer:
@@ -150,9 +152,13 @@ class GBuffer:
     bounding box holds more pixel centres than this (or is wider or taller than 64 pixels) is rasterized in
     16 × 16 tiles by workgroups (``gbuffer/wide.glsl``) rather than by one invocation; triangles crossing
     the near or far plane are clipped (``gbuffer/clip.glsl``) and their polygons rasterized by tiles; what finds
-    no room in the tile list or among ``clip_capacity`` polygons goes to the hardware (``gbuffer/large.glsl``)."""
+    no room in the tile list or among ``clip_capacity`` polygons goes to the hardware (``gbuffer/large.glsl``).
+    ``vis64``: the visibility buffer as one 64-bit word a pixel (depth key, triangle id) written by one
+    ``atomicMin`` in one pass, instead of two 32-bit passes (depth keys, then ids); the same textures. None
+    (the default): where the context has :data:`VIS64_EXTENSIONS` (NVIDIA; not llvmpipe)."""
 
-    def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256):
+    def __init__(self, gpu, geometry: SceneGeometry, res, raster: str = "hardware", max_pixels: int = 256,
+                 vis64: bool | None = None):
         if raster not in RASTERS:
             raise LdbenchError(f"G-buffer raster {raster!r} is not one of {', '.join(RASTERS)}")
         if not 1 <= int(max_pixels) <= 64 * 64:
@@ -166,10 +172,16 @@ class GBuffer:
             return
         from ldbench.methods.structures.splat import fill_rule, rule_defines
 
-        rule = rule_defines(fill_rule(gpu))  # the per-triangle and the tile raster share it
+        has64 = VIS64_EXTENSIONS <= set(gpu.ctx.extensions)
+        if vis64 and not has64:
+            raise LdbenchError(f"the one-pass visibility buffer needs {' and '.join(sorted(VIS64_EXTENSIONS))}, "
+                               "which this GL context lacks")
+        self.vis64 = has64 if vis64 is None else bool(vis64)
+        one = {"GB_VIS64": 1} if self.vis64 else {}
+        rule = {**rule_defines(fill_rule(gpu)), **one}  # the per-triangle and the tile raster share it
         self.raster_cs = gpu.compute(GLSL_DIR / "gbuffer/raster.glsl", rule)
-        self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl")
-        self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl")
+        self.resolve_cs = gpu.compute(GLSL_DIR / "gbuffer/resolve.glsl", one)
+        self.large_prog = gpu.program(GLSL_DIR / "gbuffer/large.glsl", one)
         self.wide_cs = gpu.compute(GLSL_DIR / "gbuffer/wide.glsl", rule)
         self.expand_cs = gpu.compute(GLSL_DIR / "gbuffer/wide_expand.glsl", rule)
         n = geometry.triangles
@@ -204,6 +216,20 @@ class GBuffer:
             self.fbo = self.gpu.ctx.empty_framebuffer((w, h))  # the hardware path's, attachment-less
         self.size = (w, h)
 
+    @property
+    def passes(self) -> tuple[int, ...]:
+        """The compute raster's passes: (0,) with the one-pass visibility buffer, else (0, 1) (depth keys,
+        then triangle ids)."""
+        return (0,) if self.vis64 else (0, 1)
+
+    def depth_keys(self) -> np.ndarray:
+        """The visibility buffer's depth keys, H×W uint32 with row 0 at the bottom (the float bits of the
+        window depth; 0xFFFFFFFF where nothing was drawn), whichever layout (a read-back; tests)."""
+        w, h = self._allocated_size()
+        if self.vis64:
+            return np.frombuffer(self.gpu.read(self.vis, 8 * w * h), np.uint32)[1::2].reshape(h, w)
+        return np.frombuffer(self.gpu.read(self.vis, 4 * w * h), np.uint32).reshape(h, w)
+
     def _allocated_size(self) -> tuple[int, int]:
         """(w, h) of the targets, which :meth:`render` allocates before it runs any pass."""
         assert self.size is not None, "a G-buffer pass ran before render() allocated the targets"
@@ -224,7 +250,7 @@ class GBuffer:
         if self.raster == "compute":
             vp = mat_bytes(self.view_proj(view))
             self.clear()
-            for p in (0, 1):
+            for p in self.passes:
                 self.compute_pass(p, vp)
                 if p == 0:
                     self.clip_pass(vp)
@@ -264,7 +290,8 @@ class GBuffer:
         cs["view_proj"].write(vp)
         cs["vis_size"].value = self._allocated_size()
         for name, value in uniforms.items():
-            cs[name].value = value
+            if name != "vis_pass" or not self.vis64:   # one pass: no vis_pass
+                cs[name].value = value
         for buf, unit in ((self.geo.vbo, B.GBUF_VERTICES), (self.vis, B.GBUF_VIS), (self.large, B.GBUF_LARGE),
                           (self.wide, B.GBUF_WIDE), (self.tiles, B.GBUF_TILES), (self.clip, B.GBUF_CLIP),
                           (self.clip_list, B.GBUF_CLIP_LIST)):
@@ -301,7 +328,8 @@ class GBuffer:
         prog = self.large_prog
         prog["view_proj"].write(vp)
         prog["vis_size"].value = (w, h)
-        prog["vis_pass"].value = p
+        if not self.vis64:
+            prog["vis_pass"].value = p
         self.fbo.use()
         self.fbo.viewport = (0, 0, w, h)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)

@@ -77,7 +77,9 @@ def configs(only: set) -> list[tuple[str, str, Any]]:
 
     out: list = []
     if "gbuffer" in only:
-        out += [("gbuffer", raster, raster) for raster in ("compute", "hardware")]
+        # compute: its default (one 64-bit pass where the GPU has the atomics); "compute two-pass": the 32-bit form
+        out += [("gbuffer", cfg, kw) for cfg, kw in (("compute", {"raster": "compute"}), ("compute two-pass",
+                {"raster": "compute", "vis64": False}), ("hardware", {"raster": "hardware"}))]
     if "gtao" in only:
         out += [("gtao", f"{preset} {mode}", lambda preset=preset, kw=kw: GTAO(GTAOParams.from_dict(
             {"preset": preset, **kw}))) for preset in GTAO_PRESETS for mode, kw in GTAO_MODES.items()]
@@ -196,7 +198,7 @@ def run(args) -> None:
     rows = Rows(csv_path)
     for kind, cfg, make in configs(only):
         if kind == "gbuffer":
-            gbuf = GBuffer(gpu, geo, gpu.resources(f"bench.{cfg}."), raster=make)
+            gbuf = GBuffer(gpu, geo, gpu.resources(f"bench.{cfg}."), **make)
         else:
             method = make()
             method.setup(gpu, scene)

@@ -1,7 +1,8 @@
 """G-buffer timing (docs/reference/methods/gbuffer.md): the hardware pass and the compute G-buffer (ldbench/methods/gbuffer.py) on
 atrium at 260,000 triangles and 800 × 800, each the median of 20 frames by GL timer query (wall clock
 around glFinish on llvmpipe), with the compute G-buffer's per-pass split and, untimed, how far its
-textures are from the hardware's on this GPU.
+textures are from the hardware's on this GPU; where the GPU has 64-bit atomics, the compute G-buffer both in
+its one 64-bit pass (the default there) and in two 32-bit passes.
 
     python scripts/gpu/gbuffer_bench.py [--dry] [--max-pixels 64,256,1024] [--frames 20] [--size 800|3840x2160]
 
@@ -18,7 +19,7 @@ import numpy as np
 from ldbench.core.gpu import Gpu
 from ldbench.core.scenes import load_scene
 from ldbench.methods.base import View
-from ldbench.methods.gbuffer import GBuffer, SceneGeometry, mat_bytes
+from ldbench.methods.gbuffer import VIS64_EXTENSIONS, GBuffer, SceneGeometry, mat_bytes
 
 
 def timed(gpu, fn) -> float:
@@ -41,7 +42,7 @@ def timed(gpu, fn) -> float:
 def passes(g: GBuffer, view, vp):
     """The compute G-buffer's passes in render's order, as (name, callable)."""
     out = [("clear", g.clear)]
-    for p in (0, 1):
+    for p in g.passes:
         out += [(f"compute{p}", lambda p=p: g.compute_pass(p, vp))]
         out += [("clip", lambda: g.clip_pass(vp)), ("expand", lambda: g.expand_pass(vp))] if p == 0 else []
         out += [(f"wide{p}", lambda p=p: g.wide_pass(p, vp)), (f"hardware{p}", lambda p=p: g.large_pass(p, vp))]
@@ -90,9 +91,11 @@ def main(argv=None):
     t = [timed(gpu, lambda: hw.render(view)) for _ in range(frames)]
     print(f"hardware  {np.median(t):8.3f} ms")
     ref = [x.copy() for x in hw.read()]
-    for mp in [int(x) for x in a.max_pixels.split(",") if x] or [None]:
+    forms = [(mp, v64) for mp in [int(x) for x in a.max_pixels.split(",") if x] or [None]
+             for v64 in ((None, False) if VIS64_EXTENSIONS <= set(gpu.ctx.extensions) else (None,))]
+    for mp, v64 in forms:
         kw = {} if mp is None else {"max_pixels": mp}
-        g = GBuffer(gpu, geo, gpu.resources(f"c{mp}."), raster="compute", **kw)
+        g = GBuffer(gpu, geo, gpu.resources(f"c{mp}.{v64}."), raster="compute", vis64=v64, **kw)
         g.render(view)
         t = [timed(gpu, lambda: g.render(view)) for _ in range(frames)]
         vp = mat_bytes(g.view_proj(view))
@@ -101,7 +104,8 @@ def main(argv=None):
             for name, fn in passes(g, view, vp):
                 split.setdefault(name, []).append(timed(gpu, fn))
         wide, tiles = g.wide_triangles()
-        print(f"compute   {np.median(t):8.3f} ms  (max_pixels {g.max_pixels}: {wide} triangles and polygons in {tiles} "
+        print(f"compute   {np.median(t):8.3f} ms  ({'one 64-bit pass' if g.vis64 else 'two 32-bit passes'}, "
+              f"max_pixels {g.max_pixels}: {wide} triangles and polygons in {tiles} "
               f"tiles ({g.skipped_tiles()} skipped), {g.clipped_polygons()} polygons of clipped triangles, {g.large_triangles()} to the hardware)  " + "  ".join(f"{k} {np.median(v):.3f}" for k, v in split.items()))
         print("          " + differences(ref, g.read(), np.array(scene.camera.origin), g.view_proj(view)))
 

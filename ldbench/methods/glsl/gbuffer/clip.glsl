@@ -13,6 +13,7 @@
 // A pass of its own, an invocation per listed triangle: the clipper's arrays stay out of the registers of
 // the per-triangle raster, which runs on every triangle. A point on a clipped edge is interpolated from the
 // edge's inside vertex towards its outside one, so two triangles sharing that edge get the same point.
+#include "gbuffer/vis_ext.glsl"
 layout(local_size_x = 64) in;
 #include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"

@@ -3,6 +3,7 @@
 // list by one indirect draw into an attachment-less framebuffer; every fragment goes through the same
 // visibility-buffer step as a computed one (gbuffer/vis.glsl) with the hardware's window depth.
 #extension GL_ARB_ES3_1_compatibility : enable
+#include "gbuffer/vis_ext.glsl"
 #if defined(VERTEX_SHADER)
 uniform mat4 view_proj;
 in vec3 in_position;

@@ -12,7 +12,9 @@
 //   counts the indices) that the hardware rasterizes in both passes (gbuffer/large.glsl); so are the
 //   triangles the clipper or the tile list find no room for.
 //
+// GB_VIS64: one pass, each fragment's depth key and id in one 64-bit atomic (gbuffer/vis.glsl).
 // Defines: LS_SUBPIXEL_BITS, SPLAT_TOP / BOTTOM / LEFT / RIGHT, SPLAT_SNAPPED_PLANE (the probe's rule).
+#include "gbuffer/vis_ext.glsl"
 layout(local_size_x = 64) in;
 #include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"
@@ -30,7 +32,9 @@ void gb_triangle(uint t) {
     GbTri g;
     int kind = gb_setup(t, g);
     if (kind == GB_HARDWARE || kind == GB_WIDE || kind == GB_CLIP) {
+#if !defined(GB_VIS64)
         if (vis_pass != 0) return;   // pass 0 listed it; pass 1 draws the same lists again
+#endif
         if (kind == GB_CLIP) gb_to_clip(t);
         else if (kind == GB_HARDWARE) gb_to_hardware(t);
         else gb_to_wide(t, g);

@@ -3,6 +3,7 @@
 // (gbuffer/gbuffer.glsl), same formats and meaning: world position (w = 1), the geometric normal flipped to the
 // camera's side (w = material id), albedo; a pixel no triangle covers is 0 in all three, as the hardware
 // pass's clear leaves it. The position is gbuffer/position.glsl's, as the hardware pass's.
+#include "gbuffer/vis_ext.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = B_ALBEDO) readonly buffer Albedo { vec4 albedo[]; };
 #include "gbuffer/position.glsl"
@@ -16,7 +17,7 @@ uniform vec3 eye;
 void main() {
     ivec2 px = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(px, vis_size))) return;
-    uint t = gv_vis[uint(vis_size.x * vis_size.y + px.y * vis_size.x + px.x)];
+    uint t = vis_triangle(uint(px.y * vis_size.x + px.x));
     if (t == 0xFFFFFFFFu) {
         imageStore(gb_position, px, vec4(0.0));
         imageStore(gb_normal, px, vec4(0.0));

@@ -3,6 +3,7 @@
 // the fill rule in double (exact) and written to the visibility buffer as the per-triangle raster does,
 // in both passes (vis_pass 0, 1). A clipped triangle's polygon (gbuffer/clip.glsl) is read from its record
 // and writes the clipped triangle's id.
+#include "gbuffer/vis_ext.glsl"
 layout(local_size_x = 16, local_size_y = 16) in;
 #include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"

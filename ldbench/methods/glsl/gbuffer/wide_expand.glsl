@@ -5,6 +5,7 @@
 // fills few of its box's tiles. Exact: an edge function is affine, and a tile's pixel centres lie in the
 // rectangle of its corner pixels' centres, so its largest value over the tile is at one of those four. A
 // triangle with a tile beyond tile_capacity goes to the hardware path, once.
+#include "gbuffer/vis_ext.glsl"
 layout(local_size_x = 256) in;
 #include "gbuffer/triangle.glsl"
 #include "gbuffer/wide_list.glsl"
