@@ -339,7 +339,8 @@ def test_fig8_on_real_scenes_ci_end_to_end(tmp_path, capsys):
 def test_views_ci_end_to_end(tmp_path):
     """niessner2010-views at the ci scale (Sponza from the shared mirror): both rows measured; the crossings
     claim (device independent) holds, rays in the corridor crossing fewer LDI pixels than in the empty box
-    (measured 4.45 against 11.10 on llvmpipe); the rate claim is a time claim, not measurable on a CPU."""
+    (measured 4.45 against 11.10 on llvmpipe); the rate claim is a time claim, not measurable on a CPU and
+    measured on a GPU (where at this tiny scale it may go either way: on an H100 the box was faster)."""
     from ldbench.harness.cli import main
 
     out = tmp_path / "r"
@@ -348,7 +349,11 @@ def test_views_ci_end_to_end(tmp_path):
     res = json.loads((out / "reproduce.json").read_text())
     assert all(r["ours_value"] is not None for r in res["rows"]), res["rows"]
     verdicts = [c["verdict"] for c in res["claims"]]
-    assert verdicts[1] == "holds" and verdicts[0] in ("not measurable here", "holds"), verdicts
+    assert verdicts[1] == "holds", verdicts
+    if res["device"] == "cpu-software":
+        assert verdicts[0] == "not measurable here", verdicts
+    else:
+        assert verdicts[0] in ("holds", "does not hold on this machine", "inconclusive"), verdicts
 
 
 def _staged(method, d, t, stages, counters, iqr=0.1):
