@@ -24,18 +24,21 @@ _T3_ROWS.append({"id": "atrium-2048-binary", "label": "2048², Atrium raycast, b
                  "paper_setup": "§3.2: a binary search in place of the linear stepwise search (no time published)",
                  "match": {"scene": "atrium", "scene_params": ATRIUM, "method": "cdi-vpl", "effect": "vpl_range",
                            "rsm": 2048, "params": {"cdi": "static", "range": "cdi", "trace.search": "binary"}},
-                 "time_ms": None, "counter:mean_list_length": None})
+                 "time_ms": None, "counter:mean_list_length": None, "counter:max_list_length": None})
 
 
 def _search_reason(v) -> str:
-    """Whether bisecting a list can beat stepping it: the CDI's mean list length (of the lists that hold a
-    fragment) against the two searches' times."""
+    """Which search is faster, from the CDI's list lengths (mean and longest of the lists that hold fragments)
+    and the two searches' times: a warp of 32 rays waits for its longest walk."""
     lin, bis = v("atrium-2048", "time_ms"), v("atrium-2048-binary", "time_ms")
-    n = v("atrium-2048-binary", "counter:mean_list_length")
-    return (f"a list that holds fragments holds {n:.2f} on average: the linear walk reads about half of one, "
-            f"contiguous, where the binary search reads about log2 of its length, each read depending on the one "
-            f"before; measured {lin:.3g} ms linear against {bis:.3g} ms binary ({bis / lin:.2f}×)")
-
+    n, longest = v("atrium-2048-binary", "counter:mean_list_length"), v("atrium-2048-binary", "counter:max_list_length")
+    reads = math.floor(math.log2(max(longest, 1))) + 1
+    why = ("here the long lists' walks cost more than the bisection's dependent reads" if bis < lin else
+           "here the short walks' reads, one after another in memory, cost less than the bisection's dependent ones")
+    return (f"a list that holds fragments holds {n:.2f} on average and up to {longest:.0f}: the linear search "
+            f"steps about half of a list, the binary search reads at most {reads} entries of the longest, each "
+            f"depending on the one before, and a warp of 32 rays waits for its longest walk; measured "
+            f"{bis:.3g} ms binary against {lin:.3g} ms linear ({bis / lin:.2f}×): {why}")
 
 
 def _random_reason(v) -> str:
